@@ -1,0 +1,67 @@
+#include "cli_support.h"
+
+#include <atomic>
+#include <csignal>
+#include <iostream>
+
+#include "arscout/db/errors.h"
+#include "commands.h"
+
+namespace arscout::cli {
+namespace {
+
+std::atomic<bool> g_stop{false};
+int g_exit_code = kExitOk;
+
+extern "C" void on_stop_signal(int) { g_stop = true; }
+
+int exit_code_for(db::ErrorCode code) {
+  switch (code) {
+    case db::ErrorCode::kConflict: return kExitConflict;
+    case db::ErrorCode::kNotFound:
+    case db::ErrorCode::kUnknownBlob: return kExitNotFound;
+    case db::ErrorCode::kUnavailable: return kExitUnavailable;
+    case db::ErrorCode::kInternal: return kExitError;
+    default: return kExitUsage;
+  }
+}
+
+int guarded(const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const db::StoreError& e) {
+    std::cerr << "arscout: error (" << db::to_string(e.code())
+              << "): " << e.what() << "\n";
+    return exit_code_for(e.code());
+  } catch (const std::exception& e) {
+    std::cerr << "arscout: error: " << e.what() << "\n";
+    return kExitError;
+  }
+}
+
+}  // namespace
+
+void run_command(const std::function<int()>& body) {
+  g_exit_code = guarded(body);
+}
+
+int last_exit_code() { return g_exit_code; }
+
+db::Json parse_json_argument(const std::string& text, const std::string& what) {
+  try {
+    return db::Json::parse(text);
+  } catch (const db::Json::parse_error& e) {
+    throw db::StoreError(db::ErrorCode::kInvalidJson,
+                         what + " is not valid JSON (at byte " +
+                             std::to_string(e.byte) + "): " + e.what());
+  }
+}
+
+void install_stop_handlers() {
+  std::signal(SIGINT, on_stop_signal);
+  std::signal(SIGTERM, on_stop_signal);
+}
+
+bool stop_requested() { return g_stop; }
+
+}  // namespace arscout::cli

@@ -1,0 +1,21 @@
+// Subcommand families of the arscout executable.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace arscout::cli {
+
+// Exit codes shared by every subcommand (documented in docs/cli.md).
+enum ExitCode : int {
+  kExitOk = 0,
+  kExitError = 1,      // any failure not listed below
+  kExitUsage = 2,      // bad arguments or input
+  kExitConflict = 3,   // a version conflict
+  kExitNotFound = 4,   // no such document or blob
+  kExitUnavailable = 5 // the database cannot be opened or reached
+};
+
+void add_db_commands(CLI::App& app);
+void add_demo_command(CLI::App& app);
+
+}  // namespace arscout::cli

@@ -1,0 +1,49 @@
+// arscout: one executable, subcommands per concern (see --help).
+#include <CLI/CLI.hpp>
+#include <spdlog/cfg/helpers.h>
+#include <spdlog/sinks/stdout_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "cli_support.h"
+#include "commands.h"
+
+namespace {
+
+// Logs go to stderr as "time level key=value ..." lines; quiet (warnings and
+// errors only) unless --log-level or ARSCOUT_LOG asks for more.
+void configure_logging(const std::string& level) {
+  auto logger = spdlog::stderr_logger_mt("arscout");
+  logger->set_pattern("%Y-%m-%dT%H:%M:%S.%e level=%l %v");
+  spdlog::set_default_logger(logger);
+  spdlog::set_level(spdlog::level::warn);
+  if (const char* env = std::getenv("ARSCOUT_LOG")) spdlog::cfg::helpers::load_levels(env);
+  if (!level.empty()) spdlog::set_level(spdlog::level::from_str(level));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "arscout: interactive, collaborative 3D reconstruction of urban sites.\n"
+      "Scouts upload geotagged photos into a shared document store; the\n"
+      "engine reconstructs each site incrementally and writes models back."};
+  app.require_subcommand(1);
+  std::string log_level;
+  app.add_option("--log-level", log_level,
+                 "trace|debug|info|warn|error|off (default warn; env ARSCOUT_LOG)")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
+  app.parse_complete_callback([&] { configure_logging(log_level); });
+  arscout::cli::add_db_commands(app);
+  arscout::cli::add_demo_command(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return arscout::cli::kExitUsage;
+  }
+  return arscout::cli::last_exit_code();
+}

@@ -1,0 +1,68 @@
+// Store implemented once over SQL; a backend supplies sessions, locking and
+// change wake-ups (see SqliteStore and PostgresStore).
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "arscout/db/store.h"
+#include "change_signal.h"
+#include "sql_query.h"
+#include "sql_session.h"
+
+namespace arscout::db::internal {
+
+class SqlStore : public Store {
+ public:
+  std::vector<Document> query(const Query& query) override;
+  std::optional<Document> get(std::string_view path) override;
+  std::vector<Document> get_subtree(std::string_view path,
+                                    int max_depth) override;
+  std::vector<Document> list_children(std::string_view path) override;
+  std::vector<WriteResult> batch(const std::vector<WriteOp>& ops) override;
+
+  std::string put_blob(std::istream& in) override;
+  using Store::put_blob;
+  std::optional<BlobInfo> blob_info(std::string_view sha256) override;
+  void read_blob(std::string_view sha256, std::ostream& out,
+                 std::int64_t offset, std::int64_t length) override;
+  std::size_t collect_garbage(std::chrono::seconds min_age) override;
+
+  std::vector<Change> changes(std::int64_t since, std::string_view pattern,
+                              std::size_t limit) override;
+  std::int64_t last_seq() override;
+  void wait_for_change(std::int64_t after,
+                       std::chrono::milliseconds timeout) override;
+  StoreStats stats() override;
+  std::vector<int> schema_versions() override;
+
+ protected:
+  SqlStore(Dialect dialect, OpenOptions options);
+
+  using SessionFn = std::function<void(SqlSession&)>;
+  // Runs fn on a session outside any explicit transaction.
+  virtual void with_read(const SessionFn& fn) = 0;
+  // Runs fn in a transaction holding the store's write lock, and commits; on
+  // an exception rolls back and rethrows. Transient failures (lost
+  // connection, busy database) become StoreError(kUnavailable).
+  virtual void with_write(const SessionFn& fn) = 0;
+  // Runs fn in a transaction that excludes other migrators (the tables may
+  // not exist yet, so the write lock is not available).
+  virtual void with_migration_lock(const SessionFn& fn) = 0;
+  // Called after a commit that appended changes up to seq.
+  virtual void committed(std::int64_t seq) { signal_.publish(seq); }
+
+  // Creates or upgrades the schema; called by the backend's constructor.
+  void migrate(const std::string& backend_name);
+
+  Dialect dialect_;
+  OpenOptions options_;
+  ChangeSignal signal_;
+
+ private:
+  std::vector<Document> read_documents(const SqlStatement& statement);
+  void stage_chunk(const std::string& upload_id, std::int64_t index,
+                   std::string_view bytes);
+};
+
+}  // namespace arscout::db::internal

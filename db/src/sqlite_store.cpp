@@ -1,0 +1,217 @@
+// SQLite backend: one file in WAL mode, one writer connection (writes are
+// serialised by SQLite anyway) and a pool of reader connections, which WAL
+// lets run beside the writer. Other processes on the same file are found by
+// polling the log (Store::subscribe's poll interval).
+#include <sqlite3.h>
+
+#include <mutex>
+#include <unordered_map>
+
+#include <spdlog/spdlog.h>
+
+#include "backends.h"
+#include "sql_store.h"
+
+namespace arscout::db::internal {
+namespace {
+
+constexpr int kBusyTimeoutMs = 15000;
+
+[[noreturn]] void fail(sqlite3* db, const std::string& what) {
+  int code = sqlite3_extended_errcode(db);
+  int primary = code & 0xff;
+  ErrorCode ec = (primary == SQLITE_BUSY || primary == SQLITE_LOCKED ||
+                  primary == SQLITE_CANTOPEN || primary == SQLITE_NOTADB ||
+                  primary == SQLITE_READONLY || primary == SQLITE_FULL ||
+                  primary == SQLITE_IOERR || primary == SQLITE_CORRUPT)
+                     ? ErrorCode::kUnavailable
+                     : ErrorCode::kInternal;
+  throw StoreError(ec, what + ": " + sqlite3_errmsg(db));
+}
+
+class Connection : public SqlSession {
+ public:
+  explicit Connection(const std::string& path) {
+    int rc = sqlite3_open_v2(
+        path.c_str(), &db_,
+        SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
+        nullptr);
+    if (rc != SQLITE_OK) {
+      std::string msg = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(rc);
+      sqlite3_close(db_);
+      throw StoreError(ErrorCode::kUnavailable,
+                       "cannot open SQLite database '" + path + "': " + msg);
+    }
+    sqlite3_busy_timeout(db_, kBusyTimeoutMs);
+    sqlite3_extended_result_codes(db_, 1);
+  }
+  ~Connection() override {
+    for (auto& [sql, stmt] : cache_) sqlite3_finalize(stmt);
+    sqlite3_close(db_);
+  }
+
+  std::vector<SqlRow> query(const SqlStatement& st) override {
+    sqlite3_stmt* stmt = prepare(st);
+    std::vector<SqlRow> rows;
+    int rc;
+    while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
+      int n = sqlite3_column_count(stmt);
+      SqlRow row(n);
+      for (int i = 0; i < n; ++i) {
+        if (sqlite3_column_type(stmt, i) == SQLITE_NULL) continue;
+        const void* p = sqlite3_column_blob(stmt, i);
+        int len = sqlite3_column_bytes(stmt, i);
+        row[i] = std::string(static_cast<const char*>(p), len);
+      }
+      rows.push_back(std::move(row));
+    }
+    finish(stmt, rc, st.sql);
+    return rows;
+  }
+
+  std::int64_t execute(const SqlStatement& st) override {
+    sqlite3_stmt* stmt = prepare(st);
+    int rc = sqlite3_step(stmt);
+    finish(stmt, rc, st.sql);
+    return sqlite3_changes(db_);
+  }
+
+  void execute_script(std::string_view sql) override {
+    std::string text(sql);
+    char* err = nullptr;
+    if (sqlite3_exec(db_, text.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
+      std::string msg = err ? err : "unknown error";
+      sqlite3_free(err);
+      int primary = sqlite3_extended_errcode(db_) & 0xff;
+      throw StoreError(primary == SQLITE_BUSY || primary == SQLITE_READONLY ||
+                               primary == SQLITE_FULL || primary == SQLITE_IOERR ||
+                               primary == SQLITE_NOTADB
+                           ? ErrorCode::kUnavailable
+                           : ErrorCode::kInternal,
+                       "SQLite: " + msg);
+    }
+  }
+
+ private:
+  sqlite3_stmt* prepare(const SqlStatement& st) {
+    sqlite3_stmt*& stmt = cache_[st.sql];
+    if (stmt == nullptr &&
+        sqlite3_prepare_v3(db_, st.sql.c_str(), -1, SQLITE_PREPARE_PERSISTENT,
+                           &stmt, nullptr) != SQLITE_OK) {
+      cache_.erase(st.sql);
+      fail(db_, "preparing SQL");
+    }
+    for (std::size_t i = 0; i < st.params.size(); ++i) bind(stmt, i + 1, st.params[i]);
+    return stmt;
+  }
+
+  void bind(sqlite3_stmt* stmt, std::size_t index, const SqlParam& p) {
+    int i = static_cast<int>(index), rc = SQLITE_OK;
+    if (auto v = std::get_if<std::int64_t>(&p)) rc = sqlite3_bind_int64(stmt, i, *v);
+    else if (auto v = std::get_if<double>(&p)) rc = sqlite3_bind_double(stmt, i, *v);
+    else if (auto v = std::get_if<std::string>(&p))
+      rc = sqlite3_bind_text(stmt, i, v->data(), static_cast<int>(v->size()),
+                             SQLITE_STATIC);
+    else if (auto v = std::get_if<SqlBytes>(&p))
+      rc = sqlite3_bind_blob(stmt, i, v->data.data(),
+                             static_cast<int>(v->data.size()), SQLITE_STATIC);
+    else rc = sqlite3_bind_null(stmt, i);
+    if (rc != SQLITE_OK) fail(db_, "binding a parameter");
+  }
+
+  void finish(sqlite3_stmt* stmt, int rc, const std::string& sql) {
+    sqlite3_reset(stmt);
+    sqlite3_clear_bindings(stmt);
+    if (rc != SQLITE_DONE && rc != SQLITE_ROW)
+      fail(db_, "SQLite statement failed (" + sql.substr(0, 60) + ")");
+  }
+
+  sqlite3* db_ = nullptr;
+  std::unordered_map<std::string, sqlite3_stmt*> cache_;
+};
+
+class SqliteStore : public SqlStore {
+ public:
+  SqliteStore(const std::string& path, const OpenOptions& options)
+      : SqlStore(Dialect::kSqlite, options), path_(path) {
+    writer_ = std::make_unique<Connection>(path_);
+    // WAL lets readers run beside the writer; NORMAL syncs at checkpoints,
+    // which in WAL mode keeps the file consistent after any crash of the
+    // process (a power cut may lose the last commits, not corrupt).
+    writer_->execute_script("PRAGMA journal_mode=WAL");
+    writer_->execute_script("PRAGMA synchronous=NORMAL");
+    if (options.migrate) migrate("sqlite");
+    if (schema_versions().empty())
+      throw StoreError(ErrorCode::kUnavailable,
+                       "SQLite database '" + path_ +
+                           "' is not initialised (run 'arscout db init')");
+  }
+
+  std::string backend() const override { return "sqlite"; }
+
+ protected:
+  void with_read(const SessionFn& fn) override {
+    std::unique_ptr<Connection> conn = acquire_reader();
+    try {
+      fn(*conn);
+    } catch (...) {
+      release_reader(std::move(conn));
+      throw;
+    }
+    release_reader(std::move(conn));
+  }
+
+  void with_write(const SessionFn& fn) override {
+    std::lock_guard lock(write_mu_);
+    // IMMEDIATE takes the file's write lock now, so our reads inside the
+    // transaction see every earlier commit, also from other processes.
+    writer_->execute_script("BEGIN IMMEDIATE");
+    try {
+      fn(*writer_);
+      writer_->execute_script("COMMIT");
+    } catch (...) {
+      try {
+        writer_->execute_script("ROLLBACK");
+      } catch (const StoreError& e) {
+        spdlog::error("event=sqlite_rollback_failed error=\"{}\"", e.what());
+      }
+      throw;
+    }
+  }
+
+  void with_migration_lock(const SessionFn& fn) override { with_write(fn); }
+
+ private:
+  std::unique_ptr<Connection> acquire_reader() {
+    {
+      std::lock_guard lock(pool_mu_);
+      if (!readers_.empty()) {
+        auto conn = std::move(readers_.back());
+        readers_.pop_back();
+        return conn;
+      }
+    }
+    return std::make_unique<Connection>(path_);
+  }
+
+  void release_reader(std::unique_ptr<Connection> conn) {
+    std::lock_guard lock(pool_mu_);
+    if (readers_.size() < static_cast<std::size_t>(options_.pool_size))
+      readers_.push_back(std::move(conn));
+  }
+
+  std::string path_;
+  std::mutex write_mu_;
+  std::unique_ptr<Connection> writer_;
+  std::mutex pool_mu_;
+  std::vector<std::unique_ptr<Connection>> readers_;
+};
+
+}  // namespace
+
+std::unique_ptr<Store> open_sqlite(const std::string& path,
+                                   const OpenOptions& options) {
+  return std::make_unique<SqliteStore>(path, options);
+}
+
+}  // namespace arscout::db::internal

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package arscout needs to build, test and run.
+# Idempotent: re-running it only refreshes the package lists and confirms
+# that everything is present.
+set -euo pipefail
+
+packages=(
+  # toolchain
+  build-essential cmake ninja-build pkg-config git clang-format
+  # libraries
+  libopencv-dev libeigen3-dev libceres-dev
+  libsqlite3-dev sqlite3 libpqxx-dev libpq-dev
+  libgeographiclib-dev libboost-dev nlohmann-json3-dev libexiv2-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libspdlog-dev
+  libssl-dev
+  # PostgreSQL server for the PostgreSQL backend tests and deployments
+  postgresql-15 postgresql-client-15
+  # runuser (util-linux) starts the throwaway test server as 'postgres'
+  util-linux procps
+)
+
+sudo_cmd=()
+if [ "$(id -u)" -ne 0 ]; then
+  sudo_cmd=(sudo)
+fi
+
+export DEBIAN_FRONTEND=noninteractive
+"${sudo_cmd[@]}" apt-get update
+"${sudo_cmd[@]}" apt-get install -y --no-install-recommends "${packages[@]}"
