@@ -166,7 +166,7 @@ void SqlStore::migrate(const std::string& backend_name) {
                            std::to_string(migrations.back().version) + ")");
     for (const Migration& m : migrations) {
       if (m.version <= current) continue;
-      spdlog::info("event=migrate backend={} version={} file={}",
+      spdlog::debug("event=migrate backend={} version={} file={}",
                    backend_name, m.version, m.name);
       s.execute_script(m.sql);
       s.execute(make_sql(dialect_,

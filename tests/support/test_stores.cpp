@@ -1,0 +1,87 @@
+#include "test_stores.h"
+
+#include <libpq-fe.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+namespace arscout::testing {
+namespace {
+
+std::string random_suffix() {
+  static std::atomic<int> counter{0};
+  std::random_device rd;
+  return std::to_string(getpid()) + "_" + std::to_string(counter++) + "_" +
+         std::to_string(rd() % 100000);
+}
+
+}  // namespace
+
+bool in_ci() {
+  const char* ci = std::getenv("CI");
+  return ci != nullptr && std::string(ci) == "true";
+}
+
+std::string make_temp_dir(const std::string& tag) {
+  auto dir = std::filesystem::temp_directory_path() /
+             ("arscout-" + tag + "-" + random_suffix());
+  std::filesystem::create_directories(dir);
+  return dir.string();
+}
+
+std::string fresh_sqlite_url() {
+  return "sqlite:" + make_temp_dir("sqlite") + "/store.db";
+}
+
+std::optional<std::string> postgres_admin_url() {
+  if (const char* url = std::getenv("ARSCOUT_TEST_PG_URL")) return url;
+  const char* file = std::getenv("ARSCOUT_TEST_PG_URL_FILE");
+  if (file == nullptr) return std::nullopt;
+  std::ifstream in(file);
+  std::string url;
+  if (!(in >> url) || url.empty()) return std::nullopt;
+  return url;
+}
+
+std::optional<std::string> fresh_postgres_url(std::string* why) {
+  auto admin = postgres_admin_url();
+  if (!admin) {
+    *why =
+        "no PostgreSQL test server (run through ctest, which starts one, or "
+        "set ARSCOUT_TEST_PG_URL)";
+    return std::nullopt;
+  }
+  std::string name = "t_" + random_suffix();
+  PGconn* conn = PQconnectdb(admin->c_str());
+  if (PQstatus(conn) != CONNECTION_OK) {
+    *why = "cannot reach the PostgreSQL test server at " + *admin + ": " +
+           PQerrorMessage(conn);
+    PQfinish(conn);
+    return std::nullopt;
+  }
+  PGresult* res = PQexec(conn, ("CREATE DATABASE " + name).c_str());
+  bool ok = PQresultStatus(res) == PGRES_COMMAND_OK;
+  if (!ok) *why = std::string("CREATE DATABASE failed: ") + PQerrorMessage(conn);
+  PQclear(res);
+  PQfinish(conn);
+  if (!ok) return std::nullopt;
+  auto slash = admin->rfind('/');
+  return admin->substr(0, slash + 1) + name;
+}
+
+std::optional<std::string> fresh_store_url(const std::string& backend,
+                                           std::string* why) {
+  if (backend == "sqlite") return fresh_sqlite_url();
+  return fresh_postgres_url(why);
+}
+
+std::string helper_path(const std::string& name) {
+  std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe");
+  return (self.parent_path() / name).string();
+}
+
+}  // namespace arscout::testing
