@@ -171,25 +171,44 @@ class PostgresStore : public SqlStore {
   }
 
  private:
+  // Opens a transaction of type Tx on a pooled connection. A pooled
+  // connection that died while idle fails at BEGIN, before anything of ours
+  // was sent, so it is dropped and the next one tried.
+  template <typename Tx>
+  std::unique_ptr<Tx> begin(PooledConnection& pc) {
+    for (int attempt = 0;; ++attempt) {
+      pc = acquire();
+      try {
+        return std::make_unique<Tx>(*pc.conn);
+      } catch (const pqxx::broken_connection&) {
+        if (attempt >= options_.pool_size) rethrow_pqxx("PostgreSQL begin");
+      }
+    }
+  }
+
   template <typename Tx>
   void run(const SessionFn& fn, const char* what) {
-    PooledConnection pc = acquire();
+    PooledConnection pc;
+    std::unique_ptr<Tx> txp = begin<Tx>(pc);
     try {
-      Tx tx(*pc.conn);
+      Tx& tx = *txp;
       PgSession session(*pc.conn, tx, pc.prepared);
       fn(session);
       tx.commit();
     } catch (const StoreError&) {
+      txp.reset();  // rolls back
       release(std::move(pc));
       throw;
     } catch (const pqxx::failure&) {
-      bool usable = pc.conn->is_open();
-      if (usable) release(std::move(pc));
+      txp.reset();
+      release(std::move(pc));  // dropped there unless still open
       rethrow_pqxx(std::string("PostgreSQL ") + what);
     } catch (...) {
+      txp.reset();
       release(std::move(pc));
       throw;
     }
+    txp.reset();
     release(std::move(pc));
   }
 

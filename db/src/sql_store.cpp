@@ -198,6 +198,21 @@ std::vector<Document> SqlStore::query(const Query& q) {
       [&](const Document& d) { return matches_query(q, d); }, q.limit);
 }
 
+std::string SqlStore::explain(const Query& q) {
+  validate_query(q);
+  DocumentFilter filter = filter_for_query(q);
+  filter.limit = q.limit;
+  SqlStatement st = document_page(dialect_, filter);
+  const bool sqlite = dialect_ == Dialect::kSqlite;
+  st.sql = (sqlite ? "EXPLAIN QUERY PLAN " : "EXPLAIN ") + st.sql;
+  std::string plan;
+  with_read([&](SqlSession& s) {
+    for (const SqlRow& row : s.query(st))
+      plan += row[sqlite ? 3 : 0].value_or("") + "\n";
+  });
+  return plan;
+}
+
 std::optional<Document> SqlStore::get(std::string_view path) {
   validate_path(path);
   auto docs = read_documents(make_sql(

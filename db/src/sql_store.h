@@ -15,6 +15,7 @@ namespace arscout::db::internal {
 class SqlStore : public Store {
  public:
   std::vector<Document> query(const Query& query) override;
+  std::string explain(const Query& query) override;
   std::optional<Document> get(std::string_view path) override;
   std::vector<Document> get_subtree(std::string_view path,
                                     int max_depth) override;

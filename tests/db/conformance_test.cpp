@@ -7,6 +7,7 @@
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <libpq-fe.h>
 
 #include "arscout/db/store.h"
 #include "test_stores.h"
@@ -536,6 +537,73 @@ TEST(StoreOpen, RejectsAFileThatIsNotADatabase) {
   } catch (const StoreError& e) {
     EXPECT_EQ(e.code(), ErrorCode::kUnavailable);
   }
+}
+
+}  // namespace
+}  // namespace arscout::db
+
+namespace arscout::db {
+namespace {
+
+// PostgreSQL-only behaviour: index use and surviving lost connections.
+class PostgresStore : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ARSCOUT_FRESH_STORE_OR_SKIP(url_, "postgresql");
+    store_ = Store::open(url_);
+  }
+  // Runs one statement as the fixture's superuser (test plumbing only).
+  void admin(const std::string& sql) {
+    PGconn* conn = PQconnectdb(url_.c_str());
+    PGresult* res = PQexec(conn, sql.c_str());
+    ExecStatusType st = PQresultStatus(res);
+    EXPECT_TRUE(st == PGRES_COMMAND_OK || st == PGRES_TUPLES_OK)
+        << PQerrorMessage(conn);
+    PQclear(res);
+    PQfinish(conn);
+  }
+  std::string url_;
+  std::unique_ptr<Store> store_;
+};
+
+TEST_F(PostgresStore, RadiusQueryIsServedByThePositionIndex) {
+  std::vector<WriteOp> ops;
+  for (int i = 0; i < 4000; ++i)
+    ops.push_back(WriteOp::put(
+        "/captures/c" + std::to_string(i), "capture",
+        Json{{"gps", {{"lat", -60 + (i % 200) * 0.6}, {"lon", -170 + i * 0.085}}}}));
+  store_->batch(ops);
+  admin("ANALYZE documents");
+  Query q;
+  q.pattern = "/captures/*";
+  q.near = GeoRadius{10.0, 20.0, 1000};
+  std::string plan = store_->explain(q);
+  EXPECT_NE(plan.find("documents_by_position"), std::string::npos) << plan;
+  EXPECT_EQ(plan.find("Seq Scan"), std::string::npos) << plan;
+}
+
+TEST_F(PostgresStore, RecoversFromKilledConnectionsAndSubscribersCatchUp) {
+  std::atomic<std::int64_t> seen{0};
+  std::atomic<int> count{0};
+  auto sub = store_->subscribe("/**", 0, [&](const Change& c) {
+    seen = c.seq;
+    ++count;
+  });
+  for (int i = 0; i < 5; ++i)
+    store_->put("/k/" + std::to_string(i), "doc", Json::object());
+  // Kill every other connection to this database, the pool's and LISTEN's.
+  admin("SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE "
+        "datname = current_database() AND pid <> pg_backend_pid()");
+  // Dead pooled connections are replaced without the caller noticing.
+  for (int i = 5; i < 10; ++i)
+    EXPECT_NO_THROW(
+        store_->put("/k/" + std::to_string(i), "doc", Json::object()));
+  EXPECT_EQ(store_->get_subtree("/k", 1).size(), 10u);
+  auto deadline = std::chrono::steady_clock::now() + 15s;
+  while (count < 10 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(10ms);
+  EXPECT_EQ(count.load(), 10);
+  EXPECT_EQ(seen.load(), store_->last_seq());
 }
 
 }  // namespace

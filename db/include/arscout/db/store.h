@@ -104,6 +104,9 @@ class Store {
   virtual std::vector<Document> list_children(std::string_view path) = 0;
   // Documents matching every condition of the query, ordered by path.
   virtual std::vector<Document> query(const Query& query) = 0;
+  // The database's plan for the index scan behind query(), one line per
+  // step (EXPLAIN / EXPLAIN QUERY PLAN), for operators and tests.
+  virtual std::string explain(const Query& query) = 0;
 
   // Applies one write. Throws ConflictError when expected_version does not
   // hold, StoreError(kNotFound) when patching or deleting nothing.
