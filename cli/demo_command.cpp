@@ -47,11 +47,13 @@ int run_demo(const DemoArgs& a) {
                   {"cx", 1632.0}, {"cy", 1224.0}});
 
   // Two scouts upload concurrently, each photo a blob plus a capture document.
+  // Capture ids carry the run, so the demo can run again on the same file.
+  const std::string run = std::to_string(store->last_seq());
   auto scout = [&](const std::string& name, double lat0, double lon0) {
     for (int i = 0; i < 4; ++i) {
       std::string image = "demo image of " + name + " #" + std::to_string(i);
       db::WriteOp op = db::WriteOp::put(
-          "/captures/" + name + "-" + std::to_string(i), "capture",
+          "/captures/" + name + "-" + run + "-" + std::to_string(i), "capture",
           capture_attrs(name, lat0 + i * 2e-5, lon0 + i * 3e-5, 3.5), 0);
       op.blobs = db::BlobRefs{{"image", store->put_blob(image)}};
       op.author = name;
@@ -63,14 +65,17 @@ int run_demo(const DemoArgs& a) {
   alice.join();
   bob.join();
 
-  store->batch({db::WriteOp::put("/sites/graz-1", "site",
-                                 Json{{"name", "graz-1"},
-                                      {"gps", {{"lat", 47.0707}, {"lon", 15.4395}}},
-                                      {"state", "collecting"}}),
-                db::WriteOp::patch("/captures/alice-0", Json{{"site", "graz-1"}})});
+  auto site = store->batch(
+      {db::WriteOp::put("/sites/graz-1", "site",
+                        Json{{"name", "graz-1"},
+                             {"gps", {{"lat", 47.0707}, {"lon", 15.4395}}},
+                             {"state", "collecting"}}),
+       db::WriteOp::patch("/captures/alice-" + run + "-0",
+                          Json{{"site", "graz-1"}})});
 
-  try {
-    store->patch("/sites/graz-1", Json{{"state", "stale"}}, 5);
+  try {  // a planner editing from a stale copy of the site is refused
+    store->patch("/sites/graz-1", Json{{"state", "stale"}},
+                 site.front().version - 1);
   } catch (const db::ConflictError& e) {
     std::lock_guard lock(print_mu);
     std::cout << "refused as expected: " << e.what() << "\n";
