@@ -5,6 +5,14 @@
 namespace arscout::db::internal {
 namespace {
 
+// "?N" or "$N". (Appending, rather than "?" + to_string(n), also avoids a
+// GCC 12 -O3 -Wrestrict false positive.)
+std::string placeholder(Dialect dialect, std::size_t n) {
+  std::string out(1, dialect == Dialect::kSqlite ? '?' : '$');
+  out += std::to_string(n);
+  return out;
+}
+
 // Appends parameters and returns their placeholders in the dialect's form.
 class Builder {
  public:
@@ -12,8 +20,7 @@ class Builder {
 
   std::string param(SqlParam value) {
     params_.push_back(std::move(value));
-    return (dialect_ == Dialect::kSqlite ? "?" : "$") +
-           std::to_string(params_.size());
+    return placeholder(dialect_, params_.size());
   }
   void where(const std::string& condition) {
     sql_ += (first_ ? " WHERE " : " AND ") + condition;
@@ -74,7 +81,7 @@ SqlStatement make_sql(Dialect dialect, std::string_view sql,
       out.sql.push_back(c);
       continue;
     }
-    out.sql += (dialect == Dialect::kSqlite ? "?" : "$") + std::to_string(++n);
+    out.sql += placeholder(dialect, ++n);
   }
   return out;
 }

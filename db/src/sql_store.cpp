@@ -106,6 +106,10 @@ class SqlWriteTxn : public WriteTxn {
                 .empty();
   }
 
+  // The seq position, to rewind to when a batch is abandoned.
+  std::int64_t position() const { return seq_; }
+  void rewind(std::int64_t position) { seq_ = position; }
+
   // Writes the counter back; returns the last seq handed out.
   std::int64_t finish() {
     if (seq_ == first_seq_) return seq_;
@@ -130,6 +134,14 @@ class SqlWriteTxn : public WriteTxn {
   std::int64_t first_seq_ = 0;
 };
 
+constexpr std::size_t kMaxGroupBatches = 64;
+
+// Errors about the request itself, raised before it wrote anything: the
+// transaction around it is still healthy.
+bool is_request_error(ErrorCode code) {
+  return code != ErrorCode::kUnavailable && code != ErrorCode::kInternal;
+}
+
 void require_valid_hash(std::string_view sha256) {
   if (!is_sha256_hex(sha256))
     throw StoreError(ErrorCode::kInvalidArgument,
@@ -146,7 +158,9 @@ std::int64_t to_int(const SqlValue& value) {
 
 SqlStore::SqlStore(Dialect dialect, OpenOptions options)
     : dialect_(dialect), options_(std::move(options)) {
-  poll_interval_ = options_.poll_interval;
+  using std::chrono::milliseconds;
+  poll_interval_ = options_.poll_interval.value_or(
+      dialect == Dialect::kSqlite ? milliseconds(20) : milliseconds(500));
 }
 
 void SqlStore::migrate(const std::string& backend_name) {
@@ -255,15 +269,79 @@ std::vector<Document> SqlStore::list_children(std::string_view path) {
 
 std::vector<WriteResult> SqlStore::batch(const std::vector<WriteOp>& ops) {
   if (ops.empty()) return {};
-  std::vector<WriteResult> results;
+  // Group commit: while one caller commits, the others queue; the next
+  // leader commits everything queued in one transaction. Under load this
+  // turns N lock hand-offs and fsyncs into one.
+  PendingBatch me{&ops, {}, nullptr, false};
+  std::unique_lock lock(group_mu_);
+  queue_.push_back(&me);
+  while (!me.done) {
+    if (committing_) {
+      group_cv_.wait(lock);
+      continue;
+    }
+    committing_ = true;
+    std::vector<PendingBatch*> group;
+    while (!queue_.empty() && group.size() < kMaxGroupBatches) {
+      group.push_back(queue_.front());
+      queue_.pop_front();
+    }
+    lock.unlock();
+    commit_group(group);
+    lock.lock();
+    committing_ = false;
+    group_cv_.notify_all();
+  }
+  if (me.error) std::rethrow_exception(me.error);
+  return std::move(me.results);
+}
+
+void SqlStore::commit_group(const std::vector<PendingBatch*>& group) {
+  try {
+    committed(apply_group(group));
+  } catch (const StoreError&) {
+    if (group.size() == 1) {
+      group[0]->error = std::current_exception();
+    } else {
+      for (PendingBatch* b : group) {
+        b->results.clear();
+        b->error = nullptr;
+        try {
+          committed(apply_group({b}));
+        } catch (const StoreError&) {
+          b->error = std::current_exception();
+        }
+      }
+    }
+  }
+  for (PendingBatch* b : group) b->done = true;
+}
+
+std::int64_t SqlStore::apply_group(const std::vector<PendingBatch*>& group) {
   std::int64_t last = 0;
   with_write([&](SqlSession& s) {
     SqlWriteTxn txn(s, dialect_);
-    results = apply_ops(txn, ops, options_.default_author);
+    for (PendingBatch* b : group) {
+      // A single op fails before it writes anything; a longer batch may
+      // fail half-way and needs a savepoint to undo its earlier ops.
+      const bool fenced = b->ops->size() > 1 && group.size() > 1;
+      const std::int64_t mark = txn.position();
+      if (fenced) s.execute_script("SAVEPOINT batch");
+      try {
+        b->results = apply_ops(txn, *b->ops, options_.default_author);
+        if (fenced) s.execute_script("RELEASE SAVEPOINT batch");
+      } catch (const StoreError& e) {
+        if (!is_request_error(e.code())) throw;  // the database failed
+        if (!fenced && b->ops->size() > 1) throw;  // alone: roll back all
+        if (fenced) s.execute_script("ROLLBACK TO SAVEPOINT batch");
+        txn.rewind(mark);
+        b->results.clear();
+        b->error = std::current_exception();
+      }
+    }
     last = txn.finish();
   });
-  committed(last);
-  return results;
+  return last;
 }
 
 void SqlStore::stage_chunk(const std::string& upload_id, std::int64_t index,

@@ -2,7 +2,11 @@
 // change wake-ups (see SqliteStore and PostgresStore).
 #pragma once
 
+#include <condition_variable>
+#include <deque>
+#include <exception>
 #include <functional>
+#include <mutex>
 #include <string>
 
 #include "arscout/db/store.h"
@@ -61,9 +65,29 @@ class SqlStore : public Store {
   ChangeSignal signal_;
 
  private:
+  // One caller's batch waiting for, or taking part in, a group commit.
+  struct PendingBatch {
+    const std::vector<WriteOp>* ops;
+    std::vector<WriteResult> results;
+    std::exception_ptr error;
+    bool done = false;
+  };
+  // Commits the batches in one transaction: one lock, one WAL flush. Each
+  // batch still succeeds or fails on its own (a savepoint fences a multi-op
+  // batch). If the transaction fails as a whole, each batch is retried in a
+  // transaction of its own, so no caller gets another caller's error.
+  void commit_group(const std::vector<PendingBatch*>& group);
+  // Applies the batches in one write transaction; returns the last seq.
+  std::int64_t apply_group(const std::vector<PendingBatch*>& group);
+
   std::vector<Document> read_documents(const SqlStatement& statement);
   void stage_chunk(const std::string& upload_id, std::int64_t index,
                    std::string_view bytes);
+
+  std::mutex group_mu_;
+  std::condition_variable group_cv_;
+  std::deque<PendingBatch*> queue_;
+  bool committing_ = false;
 };
 
 }  // namespace arscout::db::internal

@@ -164,6 +164,46 @@ TEST_P(StoreConformance, BatchIsAllOrNothing) {
   EXPECT_EQ(store_->stats().documents, 2);
 }
 
+// Concurrent callers are committed together (group commit); each batch must
+// still win or lose on its own, losers leaving no trace.
+TEST_P(StoreConformance, ConcurrentBatchesSucceedOrFailIndependently) {
+  constexpr int kThreads = 8, kRounds = 30;
+  for (int round = 0; round < kRounds; ++round) {
+    std::string shared = "/race/" + std::to_string(round);
+    std::atomic<int> winners{0}, conflicts{0};
+    std::vector<std::thread> threads;
+    for (int t = 0; t < kThreads; ++t) {
+      threads.emplace_back([&, t] {
+        std::string own = shared + "-t" + std::to_string(t);
+        std::vector<WriteOp> ops = {
+            WriteOp::put(own, "doc", Json{{"t", t}}),
+            WriteOp::put(shared, "doc", Json{{"winner", t}}, 0)};
+        // Every other thread also writes a lone document that must land.
+        if (t % 2 == 0) store_->put(own + "-solo", "doc", Json::object());
+        try {
+          store_->batch(ops);
+          ++winners;
+        } catch (const ConflictError&) {
+          ++conflicts;
+        }
+      });
+    }
+    for (auto& th : threads) th.join();
+    ASSERT_EQ(winners.load(), 1) << "round " << round;
+    ASSERT_EQ(conflicts.load(), kThreads - 1);
+    int winner = store_->get(shared)->attrs["winner"];
+    for (int t = 0; t < kThreads; ++t) {
+      std::string own = shared + "-t" + std::to_string(t);
+      EXPECT_EQ(store_->get(own).has_value(), t == winner) << own;
+      EXPECT_EQ(store_->get(own + "-solo").has_value(), t % 2 == 0);
+    }
+  }
+  auto log = store_->changes(0, "/**", 100000);
+  EXPECT_EQ(log.size(), static_cast<std::size_t>(kRounds * (2 + kThreads / 2)));
+  for (std::size_t i = 0; i < log.size(); ++i)
+    ASSERT_EQ(log[i].seq, static_cast<std::int64_t>(i + 1));
+}
+
 TEST_P(StoreConformance, SubtreeAndChildrenRespectDepth) {
   for (const char* p : {"/sites", "/sites/s1", "/sites/s1/model",
                         "/sites/s1/model/sparse", "/sites/s2", "/sitesX",

@@ -41,11 +41,14 @@ namespace arscout::db {
 struct OpenOptions {
   // Author recorded for writes that name none.
   std::string default_author = "arscout";
-  // Connections for concurrent reads (SQLite) or for everything (PostgreSQL).
-  int pool_size = 4;
-  // How often a subscriber looks at the log when no wake-up arrives: catches
-  // writes by other processes on a SQLite file, and lost notifications.
-  std::chrono::milliseconds poll_interval{50};
+  // Idle connections kept for reads (SQLite) or for everything
+  // (PostgreSQL); more are opened while more threads are busy.
+  int pool_size = 8;
+  // How often a subscriber looks at the log when no wake-up arrives. On
+  // SQLite it is how writes by other processes are found (default 20 ms);
+  // on PostgreSQL LISTEN/NOTIFY wakes subscribers and the poll is only a
+  // safety net (default 500 ms).
+  std::optional<std::chrono::milliseconds> poll_interval;
   // Apply pending schema migrations on open (a fresh database is initialised).
   bool migrate = true;
 };
