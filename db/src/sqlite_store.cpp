@@ -4,7 +4,9 @@
 // polling the log (Store::subscribe's poll interval).
 #include <sqlite3.h>
 
+#include <chrono>
 #include <mutex>
+#include <thread>
 #include <unordered_map>
 
 #include <spdlog/spdlog.h>
@@ -135,10 +137,9 @@ class SqliteStore : public SqlStore {
   SqliteStore(const std::string& path, const OpenOptions& options)
       : SqlStore(Dialect::kSqlite, options), path_(path) {
     writer_ = std::make_unique<Connection>(path_);
-    // WAL lets readers run beside the writer; NORMAL syncs at checkpoints,
-    // which in WAL mode keeps the file consistent after any crash of the
-    // process (a power cut may lose the last commits, not corrupt).
-    writer_->execute_script("PRAGMA journal_mode=WAL");
+    enable_wal();
+    // NORMAL syncs at checkpoints, which in WAL mode keeps the file
+    // consistent after any crash (a power cut may lose the last commits).
     writer_->execute_script("PRAGMA synchronous=NORMAL");
     if (options.migrate) migrate("sqlite");
     if (schema_versions().empty())
@@ -148,6 +149,27 @@ class SqliteStore : public SqlStore {
   }
 
   std::string backend() const override { return "sqlite"; }
+
+  // WAL lets readers run beside the writer. Switching a new file to WAL
+  // needs an exclusive lock, and when several processes open the same new
+  // file at once SQLite answers SQLITE_BUSY without consulting the busy
+  // handler (to avoid a deadlock), so the switch is retried here.
+  void enable_wal() {
+    auto deadline = std::chrono::steady_clock::now() +
+                    std::chrono::milliseconds(kBusyTimeoutMs);
+    for (auto pause = std::chrono::milliseconds(1);;
+         pause = std::min(pause * 2, std::chrono::milliseconds(100))) {
+      try {
+        writer_->execute_script("PRAGMA journal_mode=WAL");
+        return;
+      } catch (const StoreError& e) {
+        if (e.code() != ErrorCode::kUnavailable ||
+            std::chrono::steady_clock::now() > deadline)
+          throw;
+        std::this_thread::sleep_for(pause);
+      }
+    }
+  }
 
  protected:
   void with_read(const SessionFn& fn) override {
