@@ -52,6 +52,14 @@ CLI::App* add(CLI::App& parent, const std::string& name,
   return cmd;
 }
 
+// Options every writing command takes.
+void add_write_options(CLI::App& cmd, DbArgs& a) {
+  cmd.add_option("--expect-version", a.expect_version,
+                 "fail with a conflict unless the document is at this "
+                 "version (0: must not exist)");
+  cmd.add_option("--author", a.author, "writer identity to record");
+}
+
 void add_init(CLI::App& dbc, DbArgs& a) {
   auto* cmd = add(dbc, "init",
                   "create the store (or apply pending schema migrations)", a);
@@ -74,10 +82,7 @@ void add_put(CLI::App& dbc, DbArgs& a) {
   cmd->add_option("path", a.path, "document path, e.g. /sites/s-1")->required();
   cmd->add_option("json", a.json, "attributes, a JSON object")->required();
   cmd->add_option("--kind", a.kind, "document kind")->capture_default_str();
-  cmd->add_option("--expect-version", a.expect_version,
-                  "fail with a conflict unless the document is at this "
-                  "version (0: must not exist)");
-  cmd->add_option("--author", a.author, "writer identity to record");
+  add_write_options(*cmd, a);
   cmd->callback([&a] {
     run_command([&] {
       Json attrs = parse_json_argument(a.json, "the document's attributes");
@@ -92,9 +97,7 @@ void add_patch(CLI::App& dbc, DbArgs& a) {
   auto* cmd = add(dbc, "patch", "apply a JSON merge patch (RFC 7386)", a);
   cmd->add_option("path", a.path, "document path")->required();
   cmd->add_option("json", a.json, "merge patch, a JSON object")->required();
-  cmd->add_option("--expect-version", a.expect_version,
-                  "fail with a conflict unless the document is at this version");
-  cmd->add_option("--author", a.author, "writer identity to record");
+  add_write_options(*cmd, a);
   cmd->callback([&a] {
     run_command([&] {
       Json patch = parse_json_argument(a.json, "the merge patch");
@@ -108,9 +111,7 @@ void add_patch(CLI::App& dbc, DbArgs& a) {
 void add_rm(CLI::App& dbc, DbArgs& a) {
   auto* cmd = add(dbc, "rm", "delete a document (a tombstone in the log)", a);
   cmd->add_option("path", a.path, "document path")->required();
-  cmd->add_option("--expect-version", a.expect_version,
-                  "fail with a conflict unless the document is at this version");
-  cmd->add_option("--author", a.author, "writer identity to record");
+  add_write_options(*cmd, a);
   cmd->callback([&a] {
     run_command([&] {
       auto store = open_store(a);

@@ -28,6 +28,7 @@
 
 #include "arscout/db/store.h"
 #include "test_stores.h"
+#include "tool_process.h"
 
 extern char** environ;
 
@@ -417,75 +418,9 @@ INSTANTIATE_TEST_SUITE_P(Backends, ConcurrencyTest,
 
 // ------------------------------------------------------------ processes
 
-std::string describe_status(int status) {
-  if (WIFEXITED(status)) return "exit " + std::to_string(WEXITSTATUS(status));
-  if (WIFSIGNALED(status)) return "signal " + std::to_string(WTERMSIG(status));
-  return "status " + std::to_string(status);
-}
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-// store_tool in a process of its own, output to a log file; killed if the
-// test ends before it does.
-class ToolProcess {
- public:
-  ToolProcess(std::vector<std::string> args, const std::string& log) {
-    args.insert(args.begin(), testing::helper_path("store_tool"));
-    std::vector<char*> argv;
-    for (std::string& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(),
-                                     O_WRONLY | O_CREAT | O_APPEND, 0644);
-    posix_spawn_file_actions_adddup2(&actions, 1, 2);
-    int rc =
-        posix_spawn(&pid_, argv[0], &actions, nullptr, argv.data(), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    if (rc != 0)
-      throw std::system_error(rc, std::generic_category(),
-                              "spawning " + args[0]);
-  }
-  ~ToolProcess() { kill_now(); }
-  ToolProcess(const ToolProcess&) = delete;
-  ToolProcess& operator=(const ToolProcess&) = delete;
-
-  // The wait status once it exits; nullopt if it runs past the timeout.
-  std::optional<int> wait_for(std::chrono::milliseconds timeout) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    while (!status_) {
-      int status = 0;
-      if (waitpid(pid_, &status, WNOHANG) == pid_) {
-        status_ = status;
-      } else if (std::chrono::steady_clock::now() >= deadline) {
-        break;
-      } else {
-        std::this_thread::sleep_for(10ms);
-      }
-    }
-    return status_;
-  }
-
-  // SIGKILL unless it already ended; returns the wait status.
-  int kill_now() {
-    if (!status_) {
-      ::kill(pid_, SIGKILL);
-      int status = 0;
-      waitpid(pid_, &status, 0);
-      status_ = status;
-    }
-    return *status_;
-  }
-
- private:
-  pid_t pid_ = -1;
-  std::optional<int> status_;
-};
+using testing::describe_status;
+using testing::slurp;
+using testing::ToolProcess;
 
 // The "OP PATH VERSION SEQ" lines store_tool write leaves behind.
 std::vector<Accepted> read_results(const std::string& file) {
@@ -577,6 +512,7 @@ TEST(ConcurrencyProcesses, TwoSqliteProcessesShareOneFile) {
     results.push_back(tag + ".results");
     logs.push_back(tag + ".log");
     procs.push_back(std::make_unique<ToolProcess>(
+        "store_tool",
         std::vector<std::string>{
             "write", url, "--prefix", "/own/p" + std::to_string(p), "--count",
             std::to_string(kWritesPerProcess), "--counters",
@@ -633,6 +569,7 @@ TEST(ConcurrencyProcesses, ProcessesCreateOneSqliteFileTogether) {
       logs.push_back(dir + "/r" + std::to_string(round) + "-p" +
                      std::to_string(p) + ".log");
       procs.push_back(std::make_unique<ToolProcess>(
+          "store_tool",
           std::vector<std::string>{
               "write", url, "--prefix", "/p" + std::to_string(p), "--count",
               "1", "--open-at-us", std::to_string(open_at.count())},

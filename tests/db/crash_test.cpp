@@ -29,6 +29,7 @@
 
 #include "arscout/db/store.h"
 #include "test_stores.h"
+#include "tool_process.h"
 
 extern char** environ;
 
@@ -46,77 +47,9 @@ constexpr const char* kPattern = "/data/**";
 constexpr const char* kSubscriber = "crashy";
 constexpr std::size_t kWholeLog = 100'000'000;
 
-std::string describe_status(int status) {
-  if (WIFEXITED(status)) return "exit " + std::to_string(WEXITSTATUS(status));
-  if (WIFSIGNALED(status)) return "signal " + std::to_string(WTERMSIG(status));
-  return "status " + std::to_string(status);
-}
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-// store_tool in a process of its own, output to a log file; killed if the
-// test ends before it does.
-class ToolProcess {
- public:
-  ToolProcess(std::vector<std::string> args, const std::string& log) {
-    args.insert(args.begin(), testing::helper_path("store_tool"));
-    std::vector<char*> argv;
-    for (std::string& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(),
-                                     O_WRONLY | O_CREAT | O_APPEND, 0644);
-    posix_spawn_file_actions_adddup2(&actions, 1, 2);
-    int rc =
-        posix_spawn(&pid_, argv[0], &actions, nullptr, argv.data(), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    if (rc != 0)
-      throw std::system_error(rc, std::generic_category(),
-                              "spawning " + args[0]);
-  }
-  ~ToolProcess() { kill_now(); }
-  ToolProcess(const ToolProcess&) = delete;
-  ToolProcess& operator=(const ToolProcess&) = delete;
-
-  // The wait status once it exits; nullopt if it runs past the timeout.
-  std::optional<int> wait_for(std::chrono::milliseconds timeout) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    while (!status_) {
-      int status = 0;
-      if (waitpid(pid_, &status, WNOHANG) == pid_) {
-        status_ = status;
-      } else if (std::chrono::steady_clock::now() >= deadline) {
-        break;
-      } else {
-        std::this_thread::sleep_for(10ms);
-      }
-    }
-    return status_;
-  }
-
-  bool running() { return !wait_for(0ms); }
-
-  // SIGKILL unless it already ended; returns the wait status.
-  int kill_now() {
-    if (!status_) {
-      ::kill(pid_, SIGKILL);
-      int status = 0;
-      waitpid(pid_, &status, 0);
-      status_ = status;
-    }
-    return *status_;
-  }
-
- private:
-  pid_t pid_ = -1;
-  std::optional<int> status_;
-};
+using testing::describe_status;
+using testing::slurp;
+using testing::ToolProcess;
 
 // One life of the subscriber: the checkpoint it started from and the seqs it
 // handled, as its "start N" line and the seq lines after it.
@@ -230,7 +163,8 @@ class CrashTest : public ::testing::TestWithParam<std::string> {
       args.push_back("--until");
       args.push_back(std::to_string(*until));
     }
-    return std::make_unique<ToolProcess>(args, dir_ + "/subscriber.log");
+    return std::make_unique<ToolProcess>("store_tool", args,
+                                         dir_ + "/subscriber.log");
   }
 
   // Waits until the subscriber's output holds `count` seqs; false when it
@@ -253,7 +187,8 @@ class CrashTest : public ::testing::TestWithParam<std::string> {
 
 TEST_P(CrashTest, KilledSubscriberResumesFromItsCheckpointWithoutGaps) {
   // Paced so that the writer is still producing while the kills land.
-  ToolProcess writer({"write", url_, "--prefix", "/data/w", "--count",
+  ToolProcess writer("store_tool",
+                     {"write", url_, "--prefix", "/data/w", "--count",
                       std::to_string(kWrites), "--pause-us", "1000"},
                      dir_ + "/writer.log");
   std::mt19937 random(std::random_device{}());
