@@ -17,12 +17,17 @@ extern "C" void on_stop_signal(int) { g_stop = true; }
 
 int exit_code_for(db::ErrorCode code) {
   switch (code) {
-    case db::ErrorCode::kConflict: return kExitConflict;
+    case db::ErrorCode::kConflict:
+      return kExitConflict;
     case db::ErrorCode::kNotFound:
-    case db::ErrorCode::kUnknownBlob: return kExitNotFound;
-    case db::ErrorCode::kUnavailable: return kExitUnavailable;
-    case db::ErrorCode::kInternal: return kExitError;
-    default: return kExitUsage;
+    case db::ErrorCode::kUnknownBlob:
+      return kExitNotFound;
+    case db::ErrorCode::kUnavailable:
+      return kExitUnavailable;
+    case db::ErrorCode::kInternal:
+      return kExitError;
+    default:
+      return kExitUsage;
   }
 }
 

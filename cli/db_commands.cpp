@@ -38,16 +38,15 @@ std::optional<std::int64_t> expected(const DbArgs& a) {
 }
 
 void print_result(const db::WriteResult& r) {
-  std::cout << Json{{"path", r.path}, {"version", r.version}, {"seq", r.seq}}
-                   .dump()
-            << std::endl;
+  std::cout
+      << Json{{"path", r.path}, {"version", r.version}, {"seq", r.seq}}.dump()
+      << std::endl;
 }
 
 CLI::App* add(CLI::App& parent, const std::string& name,
               const std::string& help, DbArgs& a) {
   CLI::App* cmd = parent.add_subcommand(name, help);
-  cmd->add_option("url", a.url,
-                  "database URL: sqlite:FILE or postgresql://...")
+  cmd->add_option("url", a.url, "database URL: sqlite:FILE or postgresql://...")
       ->required();
   return cmd;
 }
@@ -68,7 +67,8 @@ void add_init(CLI::App& dbc, DbArgs& a) {
       auto store = open_store(a);
       auto versions = store->schema_versions();
       std::cout << Json{{"backend", store->backend()},
-                        {"schema_version", versions.empty() ? 0 : versions.back()},
+                        {"schema_version",
+                         versions.empty() ? 0 : versions.back()},
                         {"last_seq", store->last_seq()}}
                        .dump()
                 << std::endl;
@@ -78,7 +78,8 @@ void add_init(CLI::App& dbc, DbArgs& a) {
 }
 
 void add_put(CLI::App& dbc, DbArgs& a) {
-  auto* cmd = add(dbc, "put", "write a document's attributes (a JSON object)", a);
+  auto* cmd =
+      add(dbc, "put", "write a document's attributes (a JSON object)", a);
   cmd->add_option("path", a.path, "document path, e.g. /sites/s-1")->required();
   cmd->add_option("json", a.json, "attributes, a JSON object")->required();
   cmd->add_option("--kind", a.kind, "document kind")->capture_default_str();
@@ -156,7 +157,8 @@ void add_ls(CLI::App& dbc, DbArgs& a) {
                   a);
   cmd->add_option("pattern", a.pattern, "path pattern, e.g. /captures/*")
       ->required();
-  cmd->add_option("--limit", a.limit, "at most this many")->capture_default_str();
+  cmd->add_option("--limit", a.limit, "at most this many")
+      ->capture_default_str();
   cmd->callback([&a] {
     run_command([&] {
       auto store = open_store(a);
@@ -172,14 +174,15 @@ void add_ls(CLI::App& dbc, DbArgs& a) {
 }
 
 void add_changes(CLI::App& dbc, DbArgs& a) {
-  auto* cmd = add(dbc, "changes",
-                  "print change-log entries after --since, one JSON line each",
-                  a);
+  auto* cmd =
+      add(dbc, "changes",
+          "print change-log entries after --since, one JSON line each", a);
   cmd->add_option("--since", a.since, "print changes with seq > this")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--pattern", a.pattern, "only paths matching this pattern")
       ->capture_default_str();
-  cmd->add_option("--limit", a.limit, "at most this many")->capture_default_str();
+  cmd->add_option("--limit", a.limit, "at most this many")
+      ->capture_default_str();
   cmd->callback([&a] {
     run_command([&] {
       auto store = open_store(a);
@@ -211,17 +214,16 @@ void add_tail(CLI::App& dbc, DbArgs& a) {
       while (!stop_requested() && sub->error().empty())
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
       sub->stop();
-      if (!sub->error().empty())
-        throw std::runtime_error(sub->error());
+      if (!sub->error().empty()) throw std::runtime_error(sub->error());
       return kExitOk;
     });
   });
 }
 
 void add_gc(CLI::App& dbc, DbArgs& a) {
-  auto* cmd = add(dbc, "gc",
-                  "delete blobs no document refers to (older than --min-age)",
-                  a);
+  auto* cmd =
+      add(dbc, "gc",
+          "delete blobs no document refers to (older than --min-age)", a);
   cmd->add_option("--min-age", a.gc_min_age_s,
                   "grace period in seconds for freshly stored blobs")
       ->capture_default_str()
@@ -238,7 +240,8 @@ void add_gc(CLI::App& dbc, DbArgs& a) {
 }
 
 void add_stats(CLI::App& dbc, DbArgs& a) {
-  auto* cmd = add(dbc, "stats", "print counts of documents, blobs and the log", a);
+  auto* cmd =
+      add(dbc, "stats", "print counts of documents, blobs and the log", a);
   cmd->callback([&a] {
     run_command([&] {
       auto store = open_store(a);

@@ -24,8 +24,12 @@ Json capture_attrs(const std::string& scout, double lat, double lon,
               {"camera", "/cameras/phone-1"},
               {"status", "stored"},
               {"gps",
-               {{"lat", lat}, {"lon", lon}, {"alt", 353.0}, {"h_acc", h_acc},
-                {"v_acc", h_acc * 2}, {"satellites", 8}}}};
+               {{"lat", lat},
+                {"lon", lon},
+                {"alt", 353.0},
+                {"h_acc", h_acc},
+                {"v_acc", h_acc * 2},
+                {"satellites", 8}}}};
 }
 
 int run_demo(const DemoArgs& a) {
@@ -34,17 +38,22 @@ int run_demo(const DemoArgs& a) {
             << "), log at seq " << store->last_seq() << "\n";
 
   std::mutex print_mu;
-  auto feed = store->subscribe("/**", store->last_seq(), [&](const db::Change& c) {
-    std::lock_guard lock(print_mu);
-    std::cout << "  feed: seq=" << c.seq << " " << to_string(c.op) << " "
-              << c.path << " v" << c.version << " by " << c.author << "\n";
-  });
+  auto feed =
+      store->subscribe("/**", store->last_seq(), [&](const db::Change& c) {
+        std::lock_guard lock(print_mu);
+        std::cout << "  feed: seq=" << c.seq << " " << to_string(c.op) << " "
+                  << c.path << " v" << c.version << " by " << c.author << "\n";
+      });
 
-  store->put("/scouts/alice", "scout", Json{{"name", "Alice"}, {"role", "scout"}});
+  store->put("/scouts/alice", "scout",
+             Json{{"name", "Alice"}, {"role", "scout"}});
   store->put("/scouts/bob", "scout", Json{{"name", "Bob"}, {"role", "scout"}});
   store->put("/cameras/phone-1", "camera",
-             Json{{"source", "exif"}, {"fx", 2800.0}, {"fy", 2800.0},
-                  {"cx", 1632.0}, {"cy", 1224.0}});
+             Json{{"source", "exif"},
+                  {"fx", 2800.0},
+                  {"fy", 2800.0},
+                  {"cx", 1632.0},
+                  {"cy", 1224.0}});
 
   // Two scouts upload concurrently, each photo a blob plus a capture document.
   // Capture ids carry the run, so the demo can run again on the same file.

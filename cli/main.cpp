@@ -1,8 +1,8 @@
 // arscout: one executable, subcommands per concern (see --help).
-#include <CLI/CLI.hpp>
 #include <spdlog/cfg/helpers.h>
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
 
 #include "cli_support.h"
 #include "commands.h"
@@ -16,7 +16,8 @@ void configure_logging(const std::string& level) {
   logger->set_pattern("%Y-%m-%dT%H:%M:%S.%e level=%l %v");
   spdlog::set_default_logger(logger);
   spdlog::set_level(spdlog::level::warn);
-  if (const char* env = std::getenv("ARSCOUT_LOG")) spdlog::cfg::helpers::load_levels(env);
+  if (const char* env = std::getenv("ARSCOUT_LOG"))
+    spdlog::cfg::helpers::load_levels(env);
   if (!level.empty()) spdlog::set_level(spdlog::level::from_str(level));
 }
 
@@ -29,9 +30,11 @@ int main(int argc, char** argv) {
       "engine reconstructs each site incrementally and writes models back."};
   app.require_subcommand(1);
   std::string log_level;
-  app.add_option("--log-level", log_level,
-                 "trace|debug|info|warn|error|off (default warn; env ARSCOUT_LOG)")
-      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
+  app.add_option(
+         "--log-level", log_level,
+         "trace|debug|info|warn|error|off (default warn; env ARSCOUT_LOG)")
+      ->check(
+          CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
   app.parse_complete_callback([&] { configure_logging(log_level); });
   arscout::cli::add_db_commands(app);
   arscout::cli::add_demo_command(app);

@@ -20,9 +20,12 @@ std::string rfc3339_utc(std::int64_t us) {
 
 const char* to_string(OpType op) {
   switch (op) {
-    case OpType::kPut: return "put";
-    case OpType::kPatch: return "patch";
-    case OpType::kDelete: return "delete";
+    case OpType::kPut:
+      return "put";
+    case OpType::kPatch:
+      return "patch";
+    case OpType::kDelete:
+      return "delete";
   }
   return "put";
 }

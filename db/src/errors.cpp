@@ -4,16 +4,26 @@ namespace arscout::db {
 
 const char* to_string(ErrorCode code) {
   switch (code) {
-    case ErrorCode::kInvalidPath: return "invalid_path";
-    case ErrorCode::kInvalidDocument: return "invalid_document";
-    case ErrorCode::kInvalidJson: return "invalid_json";
-    case ErrorCode::kTooLarge: return "too_large";
-    case ErrorCode::kConflict: return "conflict";
-    case ErrorCode::kNotFound: return "not_found";
-    case ErrorCode::kUnknownBlob: return "unknown_blob";
-    case ErrorCode::kInvalidArgument: return "invalid_argument";
-    case ErrorCode::kUnavailable: return "unavailable";
-    case ErrorCode::kInternal: return "internal";
+    case ErrorCode::kInvalidPath:
+      return "invalid_path";
+    case ErrorCode::kInvalidDocument:
+      return "invalid_document";
+    case ErrorCode::kInvalidJson:
+      return "invalid_json";
+    case ErrorCode::kTooLarge:
+      return "too_large";
+    case ErrorCode::kConflict:
+      return "conflict";
+    case ErrorCode::kNotFound:
+      return "not_found";
+    case ErrorCode::kUnknownBlob:
+      return "unknown_blob";
+    case ErrorCode::kInvalidArgument:
+      return "invalid_argument";
+    case ErrorCode::kUnavailable:
+      return "unavailable";
+    case ErrorCode::kInternal:
+      return "internal";
   }
   return "internal";
 }

@@ -14,10 +14,9 @@ std::vector<Migration> migrations_for(std::string_view backend) {
     out.push_back(Migration{std::atoi(std::string(file.name).c_str()),
                             std::string(file.name), file.sql});
   }
-  std::sort(out.begin(), out.end(),
-            [](const Migration& a, const Migration& b) {
-              return a.version < b.version;
-            });
+  std::sort(out.begin(), out.end(), [](const Migration& a, const Migration& b) {
+    return a.version < b.version;
+  });
   return out;
 }
 

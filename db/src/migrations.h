@@ -9,8 +9,8 @@
 namespace arscout::db::internal {
 
 struct Migration {
-  int version;        // NNNN from the file name
-  std::string name;   // the file name
+  int version;       // NNNN from the file name
+  std::string name;  // the file name
   std::string_view sql;
 };
 

@@ -14,9 +14,9 @@ bool is_segment_char(char c) {
                        const std::string& why) {
   std::string shown(text.substr(0, 80));
   if (text.size() > 80) shown += "...";
-  throw StoreError(ErrorCode::kInvalidPath,
-                   std::string("invalid ") + std::string(what) + " '" + shown +
-                       "': " + why);
+  throw StoreError(
+      ErrorCode::kInvalidPath,
+      std::string("invalid ") + std::string(what) + " '" + shown + "': " + why);
 }
 
 // Checks the shape shared by paths and patterns; `wildcard_ok` lets "*" and a
@@ -47,16 +47,17 @@ void validate(std::string_view text, std::string_view what, bool root_ok,
         fail(what, text, "'**' may only be the last segment");
       continue;
     }
-    if (s == "." || s == "..") fail(what, text, pos + " is '" + std::string(s) + "'");
+    if (s == "." || s == "..")
+      fail(what, text, pos + " is '" + std::string(s) + "'");
     if (s.size() > kMaxSegmentLength)
       fail(what, text,
            pos + " is longer than " + std::to_string(kMaxSegmentLength));
     for (char c : s) {
       if (!is_segment_char(c)) {
-        std::string shown = (c >= 0x20 && c < 0x7f)
-                                ? std::string("'") + c + "'"
-                                : "byte " + std::to_string(
-                                                static_cast<unsigned char>(c));
+        std::string shown =
+            (c >= 0x20 && c < 0x7f)
+                ? std::string("'") + c + "'"
+                : "byte " + std::to_string(static_cast<unsigned char>(c));
         fail(what, text,
              pos + " contains " + shown + " (allowed: A-Z a-z 0-9 . _ -)");
       }
@@ -99,7 +100,9 @@ std::vector<std::string_view> split_path(std::string_view path) {
   }
 }
 
-std::size_t path_depth(std::string_view path) { return split_path(path).size(); }
+std::size_t path_depth(std::string_view path) {
+  return split_path(path).size();
+}
 
 std::string parent_path(std::string_view path) {
   std::size_t slash = path.rfind('/');

@@ -12,8 +12,8 @@
 #include <thread>
 #include <unordered_set>
 
-#include <pqxx/pqxx>
 #include <spdlog/spdlog.h>
+#include <pqxx/pqxx>
 
 #include "backends.h"
 #include "sha256.h"
@@ -42,8 +42,10 @@ std::string redact(const std::string& url) {
     throw;
   } catch (const pqxx::in_doubt_error& e) {
     throw StoreError(ErrorCode::kUnavailable,
-                     context + ": connection lost during commit; the write "
-                               "may or may not have been applied: " + e.what());
+                     context +
+                         ": connection lost during commit; the write "
+                         "may or may not have been applied: " +
+                         e.what());
   } catch (const pqxx::broken_connection& e) {
     throw StoreError(ErrorCode::kUnavailable,
                      context + ": PostgreSQL connection lost: " + e.what());
@@ -98,13 +100,17 @@ class PgSession : public SqlSession {
     std::vector<pqxx::binarystring> keep;  // binary params must outlive exec
     keep.reserve(st.params.size());
     for (const SqlParam& p : st.params) {
-      if (auto v = std::get_if<std::int64_t>(&p)) call(*v);
-      else if (auto v = std::get_if<double>(&p)) call(*v);
-      else if (auto v = std::get_if<std::string>(&p)) call(*v);
+      if (auto v = std::get_if<std::int64_t>(&p))
+        call(*v);
+      else if (auto v = std::get_if<double>(&p))
+        call(*v);
+      else if (auto v = std::get_if<std::string>(&p))
+        call(*v);
       else if (auto v = std::get_if<SqlBytes>(&p)) {
         keep.emplace_back(v->data.data(), v->data.size());
         call(keep.back());
-      } else call();
+      } else
+        call();
     }
     return call.exec();
   }
@@ -140,9 +146,8 @@ class PostgresStore : public SqlStore {
 
   void wait_for_change(std::int64_t after,
                        std::chrono::milliseconds timeout) override {
-    std::call_once(listener_started_, [this] {
-      listener_ = std::thread([this] { listen(); });
-    });
+    std::call_once(listener_started_,
+                   [this] { listener_ = std::thread([this] { listen(); }); });
     SqlStore::wait_for_change(after, timeout);
   }
 
@@ -159,7 +164,9 @@ class PostgresStore : public SqlStore {
     }
   }
 
-  void with_write(const SessionFn& fn) override { run<pqxx::work>(fn, "write"); }
+  void with_write(const SessionFn& fn) override {
+    run<pqxx::work>(fn, "write");
+  }
 
   void with_migration_lock(const SessionFn& fn) override {
     run<pqxx::work>(
@@ -236,9 +243,9 @@ class PostgresStore : public SqlStore {
     try {
       return std::make_unique<pqxx::connection>(url_);
     } catch (const std::exception& e) {
-      throw StoreError(ErrorCode::kUnavailable,
-                       "cannot connect to PostgreSQL at " + redact(url_) +
-                           ": " + e.what());
+      throw StoreError(
+          ErrorCode::kUnavailable,
+          "cannot connect to PostgreSQL at " + redact(url_) + ": " + e.what());
     }
   }
 

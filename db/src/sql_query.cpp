@@ -65,7 +65,8 @@ std::string equality_condition(Builder& b, Dialect dialect,
     return lhs + " = " + b.param(std::int64_t{value.get<bool>() ? 1 : 0});
   if (value.is_number_integer())
     return lhs + " = " + b.param(value.get<std::int64_t>());
-  if (value.is_number_float()) return lhs + " = " + b.param(value.get<double>());
+  if (value.is_number_float())
+    return lhs + " = " + b.param(value.get<double>());
   return "";
 }
 

@@ -26,18 +26,17 @@ Document decode_document(const SqlRow& row) {
 }
 
 Change decode_change(const SqlRow& row) {
-  return Change{to_int(row[0]),      row[1].value_or(""),
-                op_from_string(row[2].value_or("")), to_int(row[3]),
-                row[4].value_or(""), row[5].value_or(""),
-                to_int(row[6])};
+  return Change{
+      to_int(row[0]), row[1].value_or(""), op_from_string(row[2].value_or("")),
+      to_int(row[3]), row[4].value_or(""), row[5].value_or(""),
+      to_int(row[6])};
 }
 
 // WriteTxn over a session that holds the write lock. The seq counter row is
 // read once and written back by finish().
 class SqlWriteTxn : public WriteTxn {
  public:
-  SqlWriteTxn(SqlSession& session, Dialect dialect)
-      : s_(session), d_(dialect) {
+  SqlWriteTxn(SqlSession& session, Dialect dialect) : s_(session), d_(dialect) {
     // On PostgreSQL the row lock is the store's write lock (see the schema).
     auto rows = s_.query(make_sql(
         d_, d_ == Dialect::kPostgres
@@ -51,11 +50,11 @@ class SqlWriteTxn : public WriteTxn {
 
   std::optional<Document> load_row(const std::string& path,
                                    bool* deleted) override {
-    auto rows = s_.query(make_sql(
-        d_,
-        std::string("SELECT ") + document_columns(d_) +
-            ", deleted FROM documents WHERE path = ?",
-        {path}));
+    auto rows =
+        s_.query(make_sql(d_,
+                          std::string("SELECT ") + document_columns(d_) +
+                              ", deleted FROM documents WHERE path = ?",
+                          {path}));
     if (rows.empty()) return std::nullopt;
     *deleted = to_int(rows[0][9]) != 0;
     return decode_document(rows[0]);
@@ -82,9 +81,9 @@ class SqlWriteTxn : public WriteTxn {
          static_cast<std::int64_t>(path_depth(doc.path)), doc.kind,
          deleted ? std::string("{}") : doc.attrs.dump(),
          blob_refs_to_text(doc.blobs), doc.version, doc.seq, doc.created_us,
-         doc.updated_us, doc.author, std::int64_t{deleted ? 1 : 0}, lat,
-         lon}));
-    s_.execute(make_sql(d_, "DELETE FROM blob_refs WHERE path = ?", {doc.path}));
+         doc.updated_us, doc.author, std::int64_t{deleted ? 1 : 0}, lat, lon}));
+    s_.execute(
+        make_sql(d_, "DELETE FROM blob_refs WHERE path = ?", {doc.path}));
     for (const auto& [name, hash] : doc.blobs)
       s_.execute(make_sql(d_,
                           "INSERT INTO blob_refs (path, sha256) VALUES (?, ?) "
@@ -96,8 +95,8 @@ class SqlWriteTxn : public WriteTxn {
     s_.execute(make_sql(d_,
                         "INSERT INTO changes (seq, path, op, version, kind, "
                         "author, time_us) VALUES (?, ?, ?, ?, ?, ?, ?)",
-                        {c.seq, c.path, std::string(to_string(c.op)),
-                         c.version, c.kind, c.author, c.time_us}));
+                        {c.seq, c.path, std::string(to_string(c.op)), c.version,
+                         c.kind, c.author, c.time_us}));
   }
 
   bool blob_exists(const std::string& sha256) override {
@@ -180,8 +179,8 @@ void SqlStore::migrate(const std::string& backend_name) {
                            std::to_string(migrations.back().version) + ")");
     for (const Migration& m : migrations) {
       if (m.version <= current) continue;
-      spdlog::debug("event=migrate backend={} version={} file={}",
-                   backend_name, m.version, m.name);
+      spdlog::debug("event=migrate backend={} version={} file={}", backend_name,
+                    m.version, m.name);
       s.execute_script(m.sql);
       s.execute(make_sql(dialect_,
                          "INSERT INTO schema_migrations (version, name, "
@@ -229,11 +228,11 @@ std::string SqlStore::explain(const Query& q) {
 
 std::optional<Document> SqlStore::get(std::string_view path) {
   validate_path(path);
-  auto docs = read_documents(make_sql(
-      dialect_,
-      std::string("SELECT ") + document_columns(dialect_) +
-          " FROM documents WHERE path = ? AND deleted = 0",
-      {std::string(path)}));
+  auto docs = read_documents(
+      make_sql(dialect_,
+               std::string("SELECT ") + document_columns(dialect_) +
+                   " FROM documents WHERE path = ? AND deleted = 0",
+               {std::string(path)}));
   if (docs.empty()) return std::nullopt;
   return std::move(docs.front());
 }
@@ -331,7 +330,7 @@ std::int64_t SqlStore::apply_group(const std::vector<PendingBatch*>& group) {
         b->results = apply_ops(txn, *b->ops, options_.default_author);
         if (fenced) s.execute_script("RELEASE SAVEPOINT batch");
       } catch (const StoreError& e) {
-        if (!is_request_error(e.code())) throw;  // the database failed
+        if (!is_request_error(e.code())) throw;    // the database failed
         if (!fenced && b->ops->size() > 1) throw;  // alone: roll back all
         if (fenced) s.execute_script("ROLLBACK TO SAVEPOINT batch");
         txn.rewind(mark);
@@ -374,21 +373,21 @@ std::string SqlStore::put_blob(std::istream& in) {
         throw StoreError(ErrorCode::kUnavailable,
                          "upload " + upload_id +
                              " was collected before it completed; retry");
-      bool exists = !s.query(make_sql(dialect_,
-                                      "SELECT 1 FROM blobs WHERE sha256 = ?",
-                                      {blob.sha256}))
-                         .empty();
+      bool exists =
+          !s.query(make_sql(dialect_, "SELECT 1 FROM blobs WHERE sha256 = ?",
+                            {blob.sha256}))
+               .empty();
       if (exists) {
         s.execute(make_sql(dialect_,
                            "DELETE FROM blob_chunks WHERE blob_key = ?",
                            {upload_id}));
       } else {
-        s.execute(make_sql(dialect_,
-                           "INSERT INTO blobs (sha256, size, chunk_bytes, "
-                           "created_us) VALUES (?, ?, ?, ?)",
-                           {blob.sha256, blob.size,
-                            static_cast<std::int64_t>(kBlobChunkBytes),
-                            now_us()}));
+        s.execute(
+            make_sql(dialect_,
+                     "INSERT INTO blobs (sha256, size, chunk_bytes, "
+                     "created_us) VALUES (?, ?, ?, ?)",
+                     {blob.sha256, blob.size,
+                      static_cast<std::int64_t>(kBlobChunkBytes), now_us()}));
         s.execute(make_sql(
             dialect_, "UPDATE blob_chunks SET blob_key = ? WHERE blob_key = ?",
             {blob.sha256, upload_id}));
@@ -419,9 +418,9 @@ std::optional<BlobInfo> SqlStore::blob_info(std::string_view sha256) {
   require_valid_hash(sha256);
   std::optional<BlobInfo> info;
   with_read([&](SqlSession& s) {
-    auto rows = s.query(make_sql(dialect_,
-                                 "SELECT size FROM blobs WHERE sha256 = ?",
-                                 {std::string(sha256)}));
+    auto rows =
+        s.query(make_sql(dialect_, "SELECT size FROM blobs WHERE sha256 = ?",
+                         {std::string(sha256)}));
     if (!rows.empty()) info = BlobInfo{std::string(sha256), to_int(rows[0][0])};
   });
   return info;
@@ -460,10 +459,11 @@ std::size_t SqlStore::collect_garbage(std::chrono::seconds min_age) {
     const char* unreferenced =
         "SELECT sha256 FROM blobs WHERE created_us <= ? AND NOT EXISTS "
         "(SELECT 1 FROM blob_refs r WHERE r.sha256 = blobs.sha256)";
-    s.execute(make_sql(dialect_,
-                       std::string("DELETE FROM blob_chunks WHERE blob_key IN (") +
-                           unreferenced + ")",
-                       {cutoff}));
+    s.execute(
+        make_sql(dialect_,
+                 std::string("DELETE FROM blob_chunks WHERE blob_key IN (") +
+                     unreferenced + ")",
+                 {cutoff}));
     removed = static_cast<std::size_t>(s.execute(make_sql(
         dialect_,
         std::string("DELETE FROM blobs WHERE sha256 IN (") + unreferenced + ")",
@@ -472,9 +472,8 @@ std::size_t SqlStore::collect_garbage(std::chrono::seconds min_age) {
                        "DELETE FROM blob_chunks WHERE blob_key IN (SELECT "
                        "upload_id FROM blob_uploads WHERE started_us <= ?)",
                        {cutoff}));
-    s.execute(make_sql(dialect_,
-                       "DELETE FROM blob_uploads WHERE started_us <= ?",
-                       {cutoff}));
+    s.execute(make_sql(
+        dialect_, "DELETE FROM blob_uploads WHERE started_us <= ?", {cutoff}));
   });
   if (removed > 0) spdlog::info("event=blob_gc removed={}", removed);
   return removed;
@@ -516,12 +515,12 @@ void SqlStore::wait_for_change(std::int64_t after,
 StoreStats SqlStore::stats() {
   StoreStats st;
   with_read([&](SqlSession& s) {
-    auto rows = s.query(make_sql(
-        dialect_,
-        "SELECT (SELECT count(*) FROM documents WHERE deleted = 0), "
-        "(SELECT count(*) FROM blobs), "
-        "(SELECT coalesce(sum(size), 0) FROM blobs), "
-        "(SELECT value FROM counters WHERE name = 'seq')"));
+    auto rows = s.query(
+        make_sql(dialect_,
+                 "SELECT (SELECT count(*) FROM documents WHERE deleted = 0), "
+                 "(SELECT count(*) FROM blobs), "
+                 "(SELECT coalesce(sum(size), 0) FROM blobs), "
+                 "(SELECT value FROM counters WHERE name = 'seq')"));
     st.documents = to_int(rows[0][0]);
     st.blobs = to_int(rows[0][1]);
     st.blob_bytes = to_int(rows[0][2]);
@@ -534,7 +533,8 @@ std::vector<int> SqlStore::schema_versions() {
   std::vector<int> out;
   with_read([&](SqlSession& s) {
     for (const SqlRow& r : s.query(make_sql(
-             dialect_, "SELECT version FROM schema_migrations ORDER BY version")))
+             dialect_,
+             "SELECT version FROM schema_migrations ORDER BY version")))
       out.push_back(static_cast<int>(to_int(r[0])));
   });
   return out;

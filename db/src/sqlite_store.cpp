@@ -86,7 +86,8 @@ class Connection : public SqlSession {
       sqlite3_free(err);
       int primary = sqlite3_extended_errcode(db_) & 0xff;
       throw StoreError(primary == SQLITE_BUSY || primary == SQLITE_READONLY ||
-                               primary == SQLITE_FULL || primary == SQLITE_IOERR ||
+                               primary == SQLITE_FULL ||
+                               primary == SQLITE_IOERR ||
                                primary == SQLITE_NOTADB
                            ? ErrorCode::kUnavailable
                            : ErrorCode::kInternal,
@@ -103,21 +104,25 @@ class Connection : public SqlSession {
       cache_.erase(st.sql);
       fail(db_, "preparing SQL");
     }
-    for (std::size_t i = 0; i < st.params.size(); ++i) bind(stmt, i + 1, st.params[i]);
+    for (std::size_t i = 0; i < st.params.size(); ++i)
+      bind(stmt, i + 1, st.params[i]);
     return stmt;
   }
 
   void bind(sqlite3_stmt* stmt, std::size_t index, const SqlParam& p) {
     int i = static_cast<int>(index), rc = SQLITE_OK;
-    if (auto v = std::get_if<std::int64_t>(&p)) rc = sqlite3_bind_int64(stmt, i, *v);
-    else if (auto v = std::get_if<double>(&p)) rc = sqlite3_bind_double(stmt, i, *v);
+    if (auto v = std::get_if<std::int64_t>(&p))
+      rc = sqlite3_bind_int64(stmt, i, *v);
+    else if (auto v = std::get_if<double>(&p))
+      rc = sqlite3_bind_double(stmt, i, *v);
     else if (auto v = std::get_if<std::string>(&p))
       rc = sqlite3_bind_text(stmt, i, v->data(), static_cast<int>(v->size()),
                              SQLITE_STATIC);
     else if (auto v = std::get_if<SqlBytes>(&p))
       rc = sqlite3_bind_blob(stmt, i, v->data.data(),
                              static_cast<int>(v->data.size()), SQLITE_STATIC);
-    else rc = sqlite3_bind_null(stmt, i);
+    else
+      rc = sqlite3_bind_null(stmt, i);
     if (rc != SQLITE_OK) fail(db_, "binding a parameter");
   }
 

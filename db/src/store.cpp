@@ -64,8 +64,9 @@ class ThreadSubscription : public Subscription {
         store_.wait_for_change(scanned, poll_);
       } catch (const StoreError& e) {
         // The log is the truth: after a lost connection, retry from last_.
-        spdlog::warn("event=subscription_retry pattern={} since={} error=\"{}\"",
-                     pattern_, last_.load(), e.what());
+        spdlog::warn(
+            "event=subscription_retry pattern={} since={} error=\"{}\"",
+            pattern_, last_.load(), e.what());
         std::this_thread::sleep_for(backoff);
         backoff = std::min(backoff * 2, std::chrono::milliseconds(2000));
       }
@@ -118,15 +119,16 @@ std::unique_ptr<Store> Store::open(const std::string& url,
   }
   if (starts_with(url, "postgresql://") || starts_with(url, "postgres://"))
     return internal::open_postgres(url, options);
-  throw StoreError(ErrorCode::kInvalidArgument,
-                   "database URL '" + url +
-                       "' must start with sqlite: or postgresql://");
+  throw StoreError(
+      ErrorCode::kInvalidArgument,
+      "database URL '" + url + "' must start with sqlite: or postgresql://");
 }
 
 WriteResult Store::write(const WriteOp& op) { return batch({op}).front(); }
 
 WriteResult Store::put(const std::string& path, const std::string& kind,
-                       const Json& attrs, std::optional<std::int64_t> expected) {
+                       const Json& attrs,
+                       std::optional<std::int64_t> expected) {
   return write(WriteOp::put(path, kind, attrs, expected));
 }
 

@@ -33,8 +33,9 @@ bool is_short_name(std::string_view s, std::size_t max) {
 
 void validate_attrs(const std::string& path, const Json& attrs) {
   if (!attrs.is_object())
-    invalid_document(path, std::string("attributes must be a JSON object, got ") +
-                               attrs.type_name());
+    invalid_document(path,
+                     std::string("attributes must be a JSON object, got ") +
+                         attrs.type_name());
   std::size_t bytes = attrs.dump().size();
   if (bytes > kMaxAttributesBytes)
     throw StoreError(ErrorCode::kTooLarge,
@@ -46,12 +47,13 @@ void validate_attrs(const std::string& path, const Json& attrs) {
 void validate_blob_refs(WriteTxn& txn, const std::string& path,
                         const BlobRefs& refs) {
   if (refs.size() > kMaxBlobRefs)
-    invalid_document(path, "more than " + std::to_string(kMaxBlobRefs) +
-                               " blob references");
+    invalid_document(
+        path, "more than " + std::to_string(kMaxBlobRefs) + " blob references");
   for (const auto& [name, hash] : refs) {
     if (!is_short_name(name, 64))
-      invalid_document(path, "blob name '" + name +
-                                 "' must be 1-64 characters of A-Z a-z 0-9 . _ -");
+      invalid_document(path,
+                       "blob name '" + name +
+                           "' must be 1-64 characters of A-Z a-z 0-9 . _ -");
     if (!is_sha256_hex(hash))
       invalid_document(path, "blob '" + name + "' hash '" + hash +
                                  "' is not 64 lower-case hex digits");
@@ -130,9 +132,8 @@ const Json* find_dotted(const Json& attrs, const std::string& key) {
   std::size_t start = 0;
   while (true) {
     std::size_t dot = key.find('.', start);
-    std::string part = key.substr(start, dot == std::string::npos
-                                             ? std::string::npos
-                                             : dot - start);
+    std::string part = key.substr(
+        start, dot == std::string::npos ? std::string::npos : dot - start);
     if (!node->is_object()) return nullptr;
     auto it = node->find(part);
     if (it == node->end()) return nullptr;
@@ -169,9 +170,8 @@ std::vector<WriteResult> apply_ops(WriteTxn& txn,
       throw;  // keeps its type; the path already says which op
     } catch (const StoreError& e) {
       if (ops.size() == 1) throw;
-      throw StoreError(e.code(), "batch operation " + std::to_string(i) +
-                                     " (" + to_string(op.type) + "): " +
-                                     e.what());
+      throw StoreError(e.code(), "batch operation " + std::to_string(i) + " (" +
+                                     to_string(op.type) + "): " + e.what());
     }
   }
   return results;
@@ -251,8 +251,8 @@ LatLonBox bounding_box(const GeoRadius& near) {
 }
 
 std::vector<Document> collect_pages(
-    const std::function<std::vector<Document>(const std::string&,
-                                              std::size_t)>& fetch_page,
+    const std::function<std::vector<Document>(const std::string&, std::size_t)>&
+        fetch_page,
     const std::function<bool(const Document&)>& keep, std::size_t limit) {
   std::vector<Document> out;
   const std::size_t page = std::clamp<std::size_t>(limit * 2, 64, 2048);
@@ -323,8 +323,8 @@ void write_blob_range(
   if (length > info.size - offset)
     throw StoreError(ErrorCode::kInvalidArgument,
                      "range of " + std::to_string(length) + " bytes at " +
-                         std::to_string(offset) + " runs past the end of blob " +
-                         info.sha256);
+                         std::to_string(offset) +
+                         " runs past the end of blob " + info.sha256);
   const auto chunk = static_cast<std::int64_t>(kBlobChunkBytes);
   std::int64_t pos = offset, end = offset + length;
   while (pos < end) {
@@ -334,9 +334,9 @@ void write_blob_range(
     std::int64_t n = std::min<std::int64_t>(
         end - pos, static_cast<std::int64_t>(data.size()) - from);
     if (n <= 0)
-      throw StoreError(ErrorCode::kInternal,
-                       "blob " + info.sha256 + " is missing chunk " +
-                           std::to_string(index));
+      throw StoreError(
+          ErrorCode::kInternal,
+          "blob " + info.sha256 + " is missing chunk " + std::to_string(index));
     out.write(data.data() + from, n);
     pos += n;
   }
@@ -351,7 +351,9 @@ std::string new_upload_id() {
   return buf;
 }
 
-std::string blob_refs_to_text(const BlobRefs& refs) { return Json(refs).dump(); }
+std::string blob_refs_to_text(const BlobRefs& refs) {
+  return Json(refs).dump();
+}
 
 BlobRefs blob_refs_from_text(std::string_view text) {
   if (text.empty()) return {};

@@ -109,14 +109,19 @@ TEST_P(StoreConformance, MergePatchFollowsRfc7386) {
       "/d", Json{{"gone", nullptr}, {"b", "new"}, {"nested", {{"y", 3}}}}, 1);
   EXPECT_EQ(r.version, 2);
   auto doc = store_->get("/d");
-  EXPECT_EQ(doc->attrs, (Json{{"a", 1},
-                              {"b", "new"},
-                              {"nested", {{"x", 1}, {"y", 3}}}}));
+  EXPECT_EQ(doc->attrs,
+            (Json{{"a", 1}, {"b", "new"}, {"nested", {{"x", 1}, {"y", 3}}}}));
   EXPECT_EQ(doc->kind, "doc");
-  expect_rejected([&] { store_->patch("/d", Json{{"a", 9}}, 1); },
-                  ErrorCode::kConflict);
-  expect_rejected([&] { store_->patch("/missing", Json{{"a", 1}}); },
-                  ErrorCode::kNotFound);
+  expect_rejected(
+      [&] {
+        store_->patch("/d", Json{{"a", 9}}, 1);
+      },
+      ErrorCode::kConflict);
+  expect_rejected(
+      [&] {
+        store_->patch("/missing", Json{{"a", 1}});
+      },
+      ErrorCode::kNotFound);
   expect_rejected([&] { store_->patch("/d", Json::array({1})); },
                   ErrorCode::kInvalidDocument);
 }
@@ -149,8 +154,9 @@ TEST_P(StoreConformance, BatchIsAllOrNothing) {
   EXPECT_FALSE(store_->get("/b/one"));
   EXPECT_FALSE(store_->get("/b/existing")->attrs.contains("touched"));
 
-  std::vector<WriteOp> invalid = {WriteOp::put("/b/two", "doc", Json::object()),
-                                  WriteOp::put("/b/../x", "doc", Json::object())};
+  std::vector<WriteOp> invalid = {
+      WriteOp::put("/b/two", "doc", Json::object()),
+      WriteOp::put("/b/../x", "doc", Json::object())};
   expect_rejected([&] { store_->batch(invalid); }, ErrorCode::kInvalidPath,
                   "batch operation 1");
 
@@ -205,9 +211,9 @@ TEST_P(StoreConformance, ConcurrentBatchesSucceedOrFailIndependently) {
 }
 
 TEST_P(StoreConformance, SubtreeAndChildrenRespectDepth) {
-  for (const char* p : {"/sites", "/sites/s1", "/sites/s1/model",
-                        "/sites/s1/model/sparse", "/sites/s2", "/sitesX",
-                        "/other"})
+  for (const char* p :
+       {"/sites", "/sites/s1", "/sites/s1/model", "/sites/s1/model/sparse",
+        "/sites/s2", "/sitesX", "/other"})
     store_->put(p, "doc", Json::object());
   auto paths = [](const std::vector<Document>& docs) {
     std::vector<std::string> out;
@@ -228,9 +234,9 @@ TEST_P(StoreConformance, SubtreeAndChildrenRespectDepth) {
 }
 
 TEST_P(StoreConformance, QueriesByPattern) {
-  for (const char* p : {"/captures", "/captures/c1", "/captures/c2",
-                        "/captures/c2/thumb", "/sites/s1/model",
-                        "/sites/s2/model", "/sites/s2/other"})
+  for (const char* p :
+       {"/captures", "/captures/c1", "/captures/c2", "/captures/c2/thumb",
+        "/sites/s1/model", "/sites/s2/model", "/sites/s2/other"})
     store_->put(p, "doc", Json::object());
   auto count = [&](const std::string& pattern) {
     Query q;
@@ -252,7 +258,8 @@ TEST_P(StoreConformance, QueriesByPattern) {
 
 TEST_P(StoreConformance, QueriesByAttributeEquality) {
   store_->put("/captures/a", "capture",
-              Json{{"status", "registered"}, {"gps", {{"satellites", 8}}},
+              Json{{"status", "registered"},
+                   {"gps", {{"satellites", 8}}},
                    {"ok", true}});
   store_->put("/captures/b", "capture",
               Json{{"status", "rejected"}, {"gps", {{"satellites", 8}}}});
@@ -279,8 +286,9 @@ TEST_P(StoreConformance, QueriesByGeographicRadius) {
   // Offsets north of a centre in Graz: 1 degree of latitude ~ 111.2 km.
   const double lat0 = 47.0707, lon0 = 15.4395;
   auto put_at = [&](const std::string& path, double north_m) {
-    store_->put(path, "capture",
-                Json{{"gps", {{"lat", lat0 + north_m / 111195.0}, {"lon", lon0}}}});
+    store_->put(
+        path, "capture",
+        Json{{"gps", {{"lat", lat0 + north_m / 111195.0}, {"lon", lon0}}}});
   };
   put_at("/captures/m10", 10);
   put_at("/captures/m40", 40);
@@ -319,8 +327,8 @@ TEST_P(StoreConformance, RejectsBadInputAndChangesNothing) {
   expect_rejected([&] { store_->write(unknown); }, ErrorCode::kUnknownBlob,
                   "not stored");
   unknown.blobs = BlobRefs{{"image", "not-a-hash"}};
-  expect_rejected([&] { store_->write(unknown); },
-                  ErrorCode::kInvalidDocument, "hex");
+  expect_rejected([&] { store_->write(unknown); }, ErrorCode::kInvalidDocument,
+                  "hex");
   expect_rejected([&] { store_->put("/keep", "doc", Json::object(), -2); },
                   ErrorCode::kInvalidArgument);
   EXPECT_EQ(store_->get("/keep")->attrs["v"], 1);
@@ -473,7 +481,8 @@ TEST_P(StoreConformance, SubscriberGetsBacklogThenLiveChangesInOrder) {
     seen.push_back(c);
   });
   for (int i = 0; i < 20; ++i)
-    store_->put("/captures/live" + std::to_string(i), "capture", Json::object());
+    store_->put("/captures/live" + std::to_string(i), "capture",
+                Json::object());
   auto deadline = std::chrono::steady_clock::now() + 10s;
   while (std::chrono::steady_clock::now() < deadline) {
     {
@@ -492,7 +501,8 @@ TEST_P(StoreConformance, SubscriberGetsBacklogThenLiveChangesInOrder) {
 }
 
 TEST_P(StoreConformance, SubscriberResumesFromItsCheckpoint) {
-  for (int i = 0; i < 5; ++i) store_->put("/e/" + std::to_string(i), "doc", Json::object());
+  for (int i = 0; i < 5; ++i)
+    store_->put("/e/" + std::to_string(i), "doc", Json::object());
   std::atomic<std::int64_t> last{0};
   {
     auto sub = store_->subscribe("/e/*", store_->load_checkpoint("w"),
@@ -504,7 +514,8 @@ TEST_P(StoreConformance, SubscriberResumesFromItsCheckpoint) {
   store_->save_checkpoint("w", last);
   EXPECT_EQ(store_->load_checkpoint("w"), 5);
   EXPECT_EQ(store_->load_checkpoint("never"), 0);
-  for (int i = 5; i < 8; ++i) store_->put("/e/" + std::to_string(i), "doc", Json::object());
+  for (int i = 5; i < 8; ++i)
+    store_->put("/e/" + std::to_string(i), "doc", Json::object());
   auto missed = store_->changes(store_->load_checkpoint("w"), "/e/*");
   ASSERT_EQ(missed.size(), 3u);
   EXPECT_EQ(missed.front().path, "/e/5");
@@ -611,7 +622,8 @@ TEST_F(PostgresStore, RadiusQueryIsServedByThePositionIndex) {
   for (int i = 0; i < 4000; ++i)
     ops.push_back(WriteOp::put(
         "/captures/c" + std::to_string(i), "capture",
-        Json{{"gps", {{"lat", -60 + (i % 200) * 0.6}, {"lon", -170 + i * 0.085}}}}));
+        Json{{"gps",
+              {{"lat", -60 + (i % 200) * 0.6}, {"lon", -170 + i * 0.085}}}}));
   store_->batch(ops);
   admin("ANALYZE documents");
   Query q;
@@ -632,8 +644,9 @@ TEST_F(PostgresStore, RecoversFromKilledConnectionsAndSubscribersCatchUp) {
   for (int i = 0; i < 5; ++i)
     store_->put("/k/" + std::to_string(i), "doc", Json::object());
   // Kill every other connection to this database, the pool's and LISTEN's.
-  admin("SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE "
-        "datname = current_database() AND pid <> pg_backend_pid()");
+  admin(
+      "SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE "
+      "datname = current_database() AND pid <> pg_backend_pid()");
   // Dead pooled connections are replaced without the caller noticing.
   for (int i = 5; i < 10; ++i)
     EXPECT_NO_THROW(

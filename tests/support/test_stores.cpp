@@ -73,7 +73,8 @@ std::optional<std::string> fresh_postgres_url(std::string* why) {
   }
   PGresult* res = PQexec(conn, ("CREATE DATABASE " + name).c_str());
   bool ok = PQresultStatus(res) == PGRES_COMMAND_OK;
-  if (!ok) *why = std::string("CREATE DATABASE failed: ") + PQerrorMessage(conn);
+  if (!ok)
+    *why = std::string("CREATE DATABASE failed: ") + PQerrorMessage(conn);
   PQclear(res);
   PQfinish(conn);
   if (!ok) return std::nullopt;

@@ -35,13 +35,13 @@ std::string helper_path(const std::string& name);
 }  // namespace arscout::testing
 
 // Sets `url` to a fresh store of `backend`, or skips (fails under CI).
-#define ARSCOUT_FRESH_STORE_OR_SKIP(url, backend)                        \
-  do {                                                                   \
-    std::string why_;                                                    \
-    auto maybe_ = ::arscout::testing::fresh_store_url(backend, &why_);   \
-    if (!maybe_) {                                                       \
-      if (::arscout::testing::in_ci()) FAIL() << why_;                   \
-      GTEST_SKIP() << why_;                                              \
-    }                                                                    \
-    url = *maybe_;                                                       \
+#define ARSCOUT_FRESH_STORE_OR_SKIP(url, backend)                      \
+  do {                                                                 \
+    std::string why_;                                                  \
+    auto maybe_ = ::arscout::testing::fresh_store_url(backend, &why_); \
+    if (!maybe_) {                                                     \
+      if (::arscout::testing::in_ci()) FAIL() << why_;                 \
+      GTEST_SKIP() << why_;                                            \
+    }                                                                  \
+    url = *maybe_;                                                     \
   } while (0)

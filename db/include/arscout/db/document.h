@@ -25,14 +25,14 @@ using BlobRefs = std::map<std::string, std::string>;
 
 struct Document {
   std::string path;
-  std::string kind;           // short type tag, e.g. "capture"
+  std::string kind;  // short type tag, e.g. "capture"
   Json attrs = Json::object();
   BlobRefs blobs;
-  std::int64_t version = 0;   // 1 on creation, +1 per write (deletes included)
-  std::int64_t seq = 0;       // seq of the change that last wrote it
+  std::int64_t version = 0;  // 1 on creation, +1 per write (deletes included)
+  std::int64_t seq = 0;      // seq of the change that last wrote it
   std::int64_t created_us = 0;  // microseconds since the Unix epoch
   std::int64_t updated_us = 0;
-  std::string author;         // writer identity of the last write
+  std::string author;  // writer identity of the last write
 };
 
 // Converts a document to the JSON form used by the CLI and the HTTP API:
@@ -48,11 +48,11 @@ const char* to_string(OpType op);
 struct WriteOp {
   OpType type = OpType::kPut;
   std::string path;
-  std::string kind;                 // put: required; patch: ignored
-  Json attrs = Json::object();      // put: new attributes; patch: merge patch
-  std::optional<BlobRefs> blobs;    // put: refs (none if unset); patch: replace
+  std::string kind;               // put: required; patch: ignored
+  Json attrs = Json::object();    // put: new attributes; patch: merge patch
+  std::optional<BlobRefs> blobs;  // put: refs (none if unset); patch: replace
   std::optional<std::int64_t> expected_version;
-  std::string author;               // empty: the store's default author
+  std::string author;  // empty: the store's default author
 
   static WriteOp put(std::string path, std::string kind, Json attrs,
                      std::optional<std::int64_t> expected = std::nullopt);
