@@ -18,8 +18,11 @@ class Builder {
  public:
   explicit Builder(Dialect dialect) : dialect_(dialect) {}
 
-  std::string param(SqlParam value) {
-    params_.push_back(std::move(value));
+  // Typed, and constructed in place: a temporary SqlParam here trips GCC
+  // 12's -Wmaybe-uninitialized on the variant's string member.
+  template <typename T>
+  std::string param(const T& value) {
+    params_.emplace_back(std::in_place_type<T>, value);
     return placeholder(dialect_, params_.size());
   }
   void where(const std::string& condition) {
