@@ -312,6 +312,10 @@ void SqlStore::commit_group(const std::vector<PendingBatch*>& group) {
         }
       }
     }
+  } catch (...) {
+    // Anything else is a bug or resource failure, never a half-commit (the
+    // transaction rolled back): every caller of the group hears of it.
+    for (PendingBatch* b : group) b->error = std::current_exception();
   }
   for (PendingBatch* b : group) b->done = true;
 }

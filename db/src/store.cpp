@@ -62,7 +62,7 @@ class ThreadSubscription : public Subscription {
         scanned = std::max(head, last_.load());
         backoff = std::chrono::milliseconds(50);
         store_.wait_for_change(scanned, poll_);
-      } catch (const StoreError& e) {
+      } catch (const std::exception& e) {
         // The log is the truth: after a lost connection, retry from last_.
         spdlog::warn(
             "event=subscription_retry pattern={} since={} error=\"{}\"",

@@ -36,7 +36,13 @@ void validate_attrs(const std::string& path, const Json& attrs) {
     invalid_document(path,
                      std::string("attributes must be a JSON object, got ") +
                          attrs.type_name());
-  std::size_t bytes = attrs.dump().size();
+  std::size_t bytes = 0;
+  try {
+    bytes = attrs.dump().size();
+  } catch (const Json::exception& e) {  // e.g. a string of invalid UTF-8
+    invalid_document(path, std::string("attributes cannot be stored: ") +
+                               e.what());
+  }
   if (bytes > kMaxAttributesBytes)
     throw StoreError(ErrorCode::kTooLarge,
                      "attributes of " + path + " are " + std::to_string(bytes) +

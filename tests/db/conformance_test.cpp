@@ -331,6 +331,9 @@ TEST_P(StoreConformance, RejectsBadInputAndChangesNothing) {
                   "hex");
   expect_rejected([&] { store_->put("/keep", "doc", Json::object(), -2); },
                   ErrorCode::kInvalidArgument);
+  expect_rejected(
+      [&] { store_->put("/a", "doc", Json{{"s", std::string("\xff\xfe")}}); },
+      ErrorCode::kInvalidDocument, "cannot be stored");
   EXPECT_EQ(store_->get("/keep")->attrs["v"], 1);
   EXPECT_THROW(store_->get("/bad path"), StoreError);
   EXPECT_THROW(store_->changes(0, "/a*"), StoreError);
