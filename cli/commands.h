@@ -1,4 +1,5 @@
-// Subcommand families of the arscout executable.
+// Exit codes of the arscout executable. Subcommand families register
+// themselves (command_registry.h).
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -14,8 +15,5 @@ enum ExitCode : int {
   kExitNotFound = 4,    // no such document or blob
   kExitUnavailable = 5  // the database cannot be opened or reached
 };
-
-void add_db_commands(CLI::App& app);
-void add_demo_command(CLI::App& app);
 
 }  // namespace arscout::cli

@@ -5,6 +5,7 @@
 #include "arscout/db/path.h"
 #include "arscout/db/store.h"
 #include "cli_support.h"
+#include "command_registry.h"
 #include "commands.h"
 
 namespace arscout::cli {
@@ -258,8 +259,6 @@ void add_stats(CLI::App& dbc, DbArgs& a) {
   });
 }
 
-}  // namespace
-
 void add_db_commands(CLI::App& app) {
   static DbArgs args;  // CLI11 binds options to storage that outlives parsing
   CLI::App* dbc = app.add_subcommand(
@@ -277,4 +276,7 @@ void add_db_commands(CLI::App& app) {
   add_stats(*dbc, args);
 }
 
+const CommandRegistration registration(10, add_db_commands);
+
+}  // namespace
 }  // namespace arscout::cli

@@ -7,6 +7,7 @@
 
 #include "arscout/db/store.h"
 #include "cli_support.h"
+#include "command_registry.h"
 #include "commands.h"
 
 namespace arscout::cli {
@@ -108,8 +109,6 @@ int run_demo(const DemoArgs& a) {
   return kExitOk;
 }
 
-}  // namespace
-
 void add_demo_command(CLI::App& app) {
   static DemoArgs args;
   CLI::App* cmd = app.add_subcommand(
@@ -120,4 +119,7 @@ void add_demo_command(CLI::App& app) {
   cmd->callback([] { run_command([] { return run_demo(args); }); });
 }
 
+const CommandRegistration registration(90, add_demo_command);
+
+}  // namespace
 }  // namespace arscout::cli

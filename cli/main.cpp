@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include "cli_support.h"
+#include "command_registry.h"
 #include "commands.h"
 
 namespace {
@@ -36,8 +37,7 @@ int main(int argc, char** argv) {
       ->check(
           CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
   app.parse_complete_callback([&] { configure_logging(log_level); });
-  arscout::cli::add_db_commands(app);
-  arscout::cli::add_demo_command(app);
+  arscout::cli::add_registered_commands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -88,6 +88,19 @@ std::optional<std::string> fresh_store_url(const std::string& backend,
   return fresh_postgres_url(why);
 }
 
+std::optional<std::string> shared_data(const std::string& sub) {
+  std::filesystem::path root;
+  if (const char* env = std::getenv("ARSCOUT_SHARED_DATA")) {
+    root = env;
+  } else {
+    root = std::filesystem::path(ARSCOUT_SOURCE_DIR).parent_path() / "shared" /
+           "data";
+  }
+  auto dir = root / sub;
+  if (!std::filesystem::is_directory(dir)) return std::nullopt;
+  return dir.string();
+}
+
 std::string helper_path(const std::string& name) {
   std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe");
   return (self.parent_path() / name).string();

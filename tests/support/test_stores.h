@@ -32,6 +32,10 @@ std::optional<std::string> fresh_store_url(const std::string& backend,
 // Path of a helper executable built next to the test binaries.
 std::string helper_path(const std::string& name);
 
+// The real image data, ../shared/data beside the source tree (or
+// $ARSCOUT_SHARED_DATA); nullopt when the folder `sub` is not there.
+std::optional<std::string> shared_data(const std::string& sub);
+
 }  // namespace arscout::testing
 
 // Sets `url` to a fresh store of `backend`, or skips (fails under CI).
@@ -44,4 +48,18 @@ std::string helper_path(const std::string& name);
       GTEST_SKIP() << why_;                                            \
     }                                                                  \
     url = *maybe_;                                                     \
+  } while (0)
+
+// Sets `dir` to ../shared/data/`sub`, or skips (fails under CI, where the
+// data is always present).
+#define ARSCOUT_SHARED_DATA_OR_SKIP(dir, sub)                              \
+  do {                                                                     \
+    auto maybe_ = ::arscout::testing::shared_data(sub);                    \
+    if (!maybe_) {                                                         \
+      std::string why_ = std::string("shared data folder '") + (sub) +     \
+                         "' not found (../shared/data or ARSCOUT_SHARED_DATA)"; \
+      if (::arscout::testing::in_ci()) FAIL() << why_;                     \
+      GTEST_SKIP() << why_;                                                \
+    }                                                                      \
+    dir = *maybe_;                                                         \
   } while (0)

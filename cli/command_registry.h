@@ -1,0 +1,21 @@
+// Subcommand families register themselves, so adding one is adding a file:
+//
+//   namespace { const CommandRegistration reg(20, add_scout_commands); }
+//
+// main() adds them in `order` (then name) so --help lists them stably.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace arscout::cli {
+
+using CommandAdder = void (*)(CLI::App& app);
+
+struct CommandRegistration {
+  CommandRegistration(int order, CommandAdder adder);
+};
+
+// Calls every registered adder on app.
+void add_registered_commands(CLI::App& app);
+
+}  // namespace arscout::cli
