@@ -1,0 +1,93 @@
+// `arscout serve`: the HTTP API over a store.
+#include <iostream>
+#include <thread>
+
+#include "arscout/ingest/server.h"
+#include "cli_support.h"
+#include "command_registry.h"
+#include "commands.h"
+
+namespace arscout::cli {
+namespace {
+
+struct ServeArgs {
+  std::string db;
+  std::string listen = "127.0.0.1:8080";
+  std::string tls_cert;
+  std::string tls_key;
+  std::size_t max_body_mb = 64;
+  int io_threads = 2;
+  int workers = 32;
+};
+
+// "HOST:PORT" or "[V6]:PORT".
+bool split_listen(const std::string& text, std::string* host,
+                  std::uint16_t* port) {
+  std::size_t colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0) return false;
+  *host = text.substr(0, colon);
+  if (host->front() == '[' && host->back() == ']')
+    *host = host->substr(1, host->size() - 2);
+  try {
+    std::size_t used = 0;
+    int p = std::stoi(text.substr(colon + 1), &used);
+    if (used != text.size() - colon - 1 || p < 0 || p > 65535) return false;
+    *port = static_cast<std::uint16_t>(p);
+  } catch (const std::exception&) {
+    return false;
+  }
+  return true;
+}
+
+int serve(const ServeArgs& a) {
+  ingest::ServerOptions options;
+  if (!split_listen(a.listen, &options.host, &options.port))
+    throw db::StoreError(db::ErrorCode::kInvalidArgument,
+                         "--listen must be HOST:PORT, not '" + a.listen + "'");
+  options.tls_cert = a.tls_cert;
+  options.tls_key = a.tls_key;
+  options.max_body_bytes = a.max_body_mb << 20;
+  options.io_threads = a.io_threads;
+  options.worker_threads = a.workers;
+  install_stop_handlers();
+  auto store = db::Store::open(a.db);
+  ingest::Server server(*store, options);
+  server.start();
+  std::cout << "arscout serving " << store->backend() << " store at "
+            << (server.tls() ? "https://" : "http://") << options.host << ":"
+            << server.port() << std::endl;
+  while (!stop_requested())
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  server.stop();
+  std::cout << "arscout server stopped" << std::endl;
+  return kExitOk;
+}
+
+void add_serve_command(CLI::App& app) {
+  static ServeArgs args;
+  CLI::App* cmd = app.add_subcommand(
+      "serve", "serve the HTTP API (docs/api.md) for scouts and planners");
+  cmd->add_option("--db", args.db, "database URL: sqlite:FILE or postgresql://...")
+      ->required();
+  cmd->add_option("--listen", args.listen, "HOST:PORT to listen on (port 0: any)")
+      ->capture_default_str();
+  cmd->add_option("--tls-cert", args.tls_cert, "PEM certificate chain: serve HTTPS");
+  cmd->add_option("--tls-key", args.tls_key, "PEM private key for --tls-cert");
+  cmd->add_option("--max-body-mb", args.max_body_mb,
+                  "largest request body in MiB (413 beyond)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 4096));
+  cmd->add_option("--io-threads", args.io_threads, "network threads")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
+  cmd->add_option("--workers", args.workers,
+                  "handler threads (uploads, queries, long-polls)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1024));
+  cmd->callback([] { run_command([] { return serve(args); }); });
+}
+
+const CommandRegistration registration(20, add_serve_command);
+
+}  // namespace
+}  // namespace arscout::cli

@@ -1,0 +1,45 @@
+// The v1 API (docs/api.md) as a function from request to response. Knows
+// nothing of sockets; beast_server.cpp feeds it.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <variant>
+
+#include "arscout/db/store.h"
+#include "arscout/ingest/auth.h"
+#include "http_types.h"
+#include "metrics.h"
+
+namespace arscout::ingest {
+
+class Api {
+ public:
+  Api(db::Store& store, Metrics& metrics) : store_(store), metrics_(metrics) {}
+
+  // Answers one request; never throws. Records it in the metrics.
+  HttpResponse handle(const HttpRequest& request);
+
+  // A WebSocket /v1/subscribe request, checked: where to start, or the
+  // error response to send instead of upgrading.
+  struct Subscribe {
+    std::int64_t since = 0;
+    std::string pattern = "/**";
+  };
+  std::variant<Subscribe, HttpResponse> check_subscribe(
+      const HttpRequest& request);
+
+  db::Store& store() { return store_; }
+  Metrics& metrics() { return metrics_; }
+
+ private:
+  HttpResponse dispatch(const HttpRequest& request, std::string* route);
+
+  db::Store& store_;
+  Metrics& metrics_;
+};
+
+// The route template of a path, for metrics ("/v1/docs/*", "other").
+std::string route_template(const std::string& method, const std::string& path);
+
+}  // namespace arscout::ingest

@@ -1,0 +1,220 @@
+// POST /v1/captures and DELETE /v1/captures/{id}: a scout's photos.
+#include <chrono>
+#include <ctime>
+
+#include "api_handlers.h"
+#include "arscout/db/path.h"
+#include "arscout/ingest/gps.h"
+#include "digest.h"
+#include "image_probe.h"
+#include "multipart.h"
+
+namespace arscout::ingest {
+namespace {
+
+struct Upload {
+  std::string_view image;
+  Json meta = Json::object();
+};
+
+std::string now_rfc3339() {
+  std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+// Splits the request into image bytes and metadata; an error response when
+// the body or metadata is malformed.
+std::optional<HttpResponse> read_upload(const HttpRequest& req, Upload* up) {
+  std::string error;
+  std::string meta_text;
+  std::string boundary = multipart_boundary(req.header("content-type"));
+  if (!boundary.empty()) {
+    auto parts = parse_multipart(req.body, boundary, &error);
+    if (!parts) return HttpResponse::error(400, "bad_request", error);
+    bool has_image = false;
+    for (const FormPart& p : *parts) {
+      if (p.name == "image") {
+        up->image = p.body;
+        has_image = true;
+      } else if (p.name == "metadata") {
+        meta_text = std::string(p.body);
+      }
+    }
+    if (!has_image)
+      return HttpResponse::error(422, "unprocessable",
+                                 "the multipart body has no part named 'image'");
+  } else {
+    up->image = req.body;
+    meta_text = req.header("x-capture-metadata");
+  }
+  if (!meta_text.empty()) {
+    auto meta = parse_json_body(meta_text, &error);
+    if (!meta)
+      return HttpResponse::error(400, "invalid_json", "capture metadata: " + error);
+    if (!meta->is_object())
+      return HttpResponse::error(400, "bad_request",
+                                 "capture metadata must be a JSON object");
+    up->meta = *meta;
+  }
+  return std::nullopt;
+}
+
+// A metadata string field, or an error response when it has the wrong type
+// or is too long.
+std::optional<HttpResponse> string_field(const Json& meta, const char* key,
+                                         std::size_t max, std::string* out) {
+  auto it = meta.find(key);
+  if (it == meta.end() || it->is_null()) return std::nullopt;
+  if (!it->is_string() || it->get<std::string>().size() > max)
+    return HttpResponse::error(422, "unprocessable",
+                               std::string("metadata.") + key +
+                                   " must be a string of at most " +
+                                   std::to_string(max) + " characters");
+  *out = it->get<std::string>();
+  return std::nullopt;
+}
+
+HttpResponse replay_or_conflict(const db::Document& existing,
+                                const Principal& who, const std::string& hash) {
+  auto image = existing.blobs.find("image");
+  bool same = existing.attrs.value("scout", "") == who.name &&
+              image != existing.blobs.end() && image->second == hash;
+  if (!same)
+    return HttpResponse::error(
+        409, "conflict",
+        "capture id " + existing.path.substr(10) +
+            " already holds a different upload (another image or scout)");
+  HttpResponse r = HttpResponse::json(201, to_json(existing));
+  r.headers.emplace_back("Idempotent-Replay", "true");
+  r.headers.emplace_back("Location", "/v1/docs" + existing.path);
+  return r;
+}
+
+struct CaptureFields {
+  std::string id, camera, site_hint, filename, taken;
+  std::optional<GpsFix> gps;
+};
+
+std::optional<HttpResponse> read_fields(const Json& meta, CaptureFields* f) {
+  for (auto [key, max, out] :
+       {std::tuple{"capture_id", std::size_t{128}, &f->id},
+        {"camera", 128, &f->camera}, {"site_hint", 128, &f->site_hint},
+        {"filename", 256, &f->filename}, {"taken", 64, &f->taken}})
+    if (auto bad = string_field(meta, key, max, out)) return bad;
+  if (!f->id.empty()) db::validate_path("/captures/" + f->id);
+  if (!f->camera.empty()) db::validate_path("/cameras/" + f->camera);
+  if (f->id.find('/') != std::string::npos ||
+      f->camera.find('/') != std::string::npos)
+    return HttpResponse::error(400, "invalid_path",
+                               "capture_id and camera are single path segments");
+  if (auto it = meta.find("gps"); it != meta.end() && !it->is_null()) {
+    std::string error;
+    f->gps = gps_from_json(*it, &error);
+    if (!f->gps) return HttpResponse::error(422, "unprocessable", error);
+    f->gps->source = "request";
+  }
+  return std::nullopt;
+}
+
+Json capture_attrs(const CaptureFields& f, const Principal& who,
+                   const ImageProbe& probe, const ExifInfo& exif,
+                   std::size_t bytes) {
+  std::optional<GpsFix> gps = f.gps ? f.gps : exif.gps;
+  if (gps && !validate_gps(*gps).empty()) gps.reset();  // implausible EXIF
+  Json attrs{{"scout", who.name},
+             {"received", now_rfc3339()},
+             {"format", probe.format},
+             {"width", probe.width},
+             {"height", probe.height},
+             {"bytes", bytes},
+             {"status", gps ? "stored" : "needs-gps"},
+             {"status_reason", gps ? "" : "no GPS in the request or the EXIF"}};
+  attrs["taken"] = f.taken.empty() ? exif.taken : f.taken;
+  if (gps) attrs["gps"] = to_json(*gps);
+  if (!f.camera.empty()) attrs["camera"] = f.camera;
+  if (!f.site_hint.empty()) attrs["site_hint"] = f.site_hint;
+  if (!f.filename.empty()) attrs["filename"] = f.filename;
+  if (exif.focal_35mm) attrs["exif"]["focal_35mm"] = *exif.focal_35mm;
+  if (exif.focal_mm) attrs["exif"]["focal_mm"] = *exif.focal_mm;
+  if (!exif.make.empty()) attrs["exif"]["make"] = exif.make;
+  if (!exif.model.empty()) attrs["exif"]["model"] = exif.model;
+  return attrs;
+}
+
+}  // namespace
+
+HttpResponse post_capture(ApiContext& ctx, const HttpRequest& req) {
+  Upload up;
+  if (auto bad = read_upload(req, &up)) return *bad;
+  CaptureFields f;
+  if (auto bad = read_fields(up.meta, &f)) return *bad;
+  const std::string hash = sha256_hex(up.image);
+  if (f.id.empty()) f.id = ctx.who.name + "-" + hash.substr(0, 16);
+  const std::string path = "/captures/" + f.id;
+  if (auto existing = ctx.store.get(path))
+    return replay_or_conflict(*existing, ctx.who, hash);
+
+  ImageProbe probe = probe_image(up.image);
+  if (!probe.ok) return HttpResponse::error(422, "unprocessable", probe.error);
+  ExifInfo exif = read_exif(up.image);
+
+  // The blob first: the document may only refer to stored bytes. If the
+  // document write then fails, the orphaned blob is collected by `db gc`.
+  std::string stored = ctx.store.put_blob(up.image);
+  db::WriteOp op = db::WriteOp::put(
+      path, "capture", capture_attrs(f, ctx.who, probe, exif, up.image.size()),
+      0);
+  op.blobs = db::BlobRefs{{"image", stored}};
+  op.author = ctx.who.name;
+  try {
+    ctx.store.write(op);
+  } catch (const db::ConflictError&) {  // a concurrent retry won the race
+    if (auto existing = ctx.store.get(path))
+      return replay_or_conflict(*existing, ctx.who, hash);
+    throw;
+  }
+  ctx.metrics.add_upload_bytes(static_cast<std::int64_t>(up.image.size()));
+  auto doc = ctx.store.get(path);
+  HttpResponse r = HttpResponse::json(201, to_json(*doc));
+  r.headers.emplace_back("Location", "/v1/docs" + path);
+  return r;
+}
+
+HttpResponse withdraw_capture(ApiContext& ctx, const HttpRequest& /*req*/,
+                              const std::string& id) {
+  db::validate_path("/captures/" + id);
+  const std::string path = "/captures/" + id;
+  for (int attempt = 0; attempt < 5; ++attempt) {
+    auto doc = ctx.store.get(path);
+    if (!doc || doc->kind != "capture")
+      return HttpResponse::error(404, "not_found", "no capture " + id);
+    if (ctx.who.role != Role::kAdmin &&
+        !(ctx.who.role == Role::kScout &&
+          doc->attrs.value("scout", "") == ctx.who.name))
+      return HttpResponse::error(403, "forbidden",
+                                 "only its own scout or an admin may withdraw " +
+                                     id);
+    if (doc->attrs.value("status", "") == "withdrawn")
+      return HttpResponse::json(200, to_json(*doc));
+    db::WriteOp op = db::WriteOp::patch(
+        path,
+        Json{{"status", "withdrawn"},
+             {"status_reason", "withdrawn by " + ctx.who.name}},
+        doc->version);
+    op.author = ctx.who.name;
+    try {
+      ctx.store.write(op);
+      return HttpResponse::json(200, to_json(*ctx.store.get(path)));
+    } catch (const db::ConflictError&) {
+      // The engine updated it meanwhile; read again and retry.
+    }
+  }
+  return HttpResponse::error(503, "unavailable",
+                             "capture " + id + " kept changing; retry");
+}
+
+}  // namespace arscout::ingest

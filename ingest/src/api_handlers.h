@@ -1,0 +1,47 @@
+// The API's handlers, one file per resource. Each gets the authenticated
+// principal; dispatch (api.cpp) has already checked the route and method.
+#pragma once
+
+#include <string>
+
+#include "arscout/db/store.h"
+#include "arscout/ingest/auth.h"
+#include "http_types.h"
+#include "metrics.h"
+
+namespace arscout::ingest {
+
+struct ApiContext {
+  db::Store& store;
+  Metrics& metrics;
+  const Principal& who;
+};
+
+// api_captures.cpp
+HttpResponse post_capture(ApiContext& ctx, const HttpRequest& req);
+HttpResponse withdraw_capture(ApiContext& ctx, const HttpRequest& req,
+                              const std::string& id);
+// api_docs.cpp; `path` is the document path ("/sites/s1")
+HttpResponse docs_request(ApiContext& ctx, const HttpRequest& req,
+                          const std::string& path);
+// api_feed.cpp
+HttpResponse get_changes(ApiContext& ctx, const HttpRequest& req);
+// api_resources.cpp
+HttpResponse get_sites(ApiContext& ctx, const HttpRequest& req);
+HttpResponse get_blob(ApiContext& ctx, const HttpRequest& req,
+                      const std::string& hash);
+HttpResponse put_camera(ApiContext& ctx, const HttpRequest& req,
+                        const std::string& id);
+
+// Shared helpers (api.cpp).
+HttpResponse error_for(const db::StoreError& e);
+// Parses a query parameter as an integer in [min, max]; nullopt + *error.
+std::optional<std::int64_t> int_param(const HttpRequest& req,
+                                      const std::string& name,
+                                      std::int64_t fallback, std::int64_t min,
+                                      std::int64_t max, std::string* error);
+// Parses a JSON body; nullopt and *error (naming the byte) when malformed.
+std::optional<Json> parse_json_body(const std::string& text, std::string* error);
+bool can_read(const Principal& who, const std::string& doc_path);
+
+}  // namespace arscout::ingest

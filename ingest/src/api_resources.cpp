@@ -1,0 +1,154 @@
+// /v1/sites, /v1/blobs/{sha256}, /v1/cameras/{id}.
+#include <sstream>
+
+#include "api_handlers.h"
+#include "arscout/db/path.h"
+#include "arscout/ingest/calibration.h"
+
+namespace arscout::ingest {
+namespace {
+
+// "LAT,LON" -> the two numbers, or nullopt.
+std::optional<std::pair<double, double>> parse_near(const std::string& text) {
+  std::size_t comma = text.find(',');
+  if (comma == std::string::npos) return std::nullopt;
+  try {
+    std::size_t a = 0, b = 0;
+    double lat = std::stod(text.substr(0, comma), &a);
+    double lon = std::stod(text.substr(comma + 1), &b);
+    if (a != comma || b != text.size() - comma - 1) return std::nullopt;
+    return std::make_pair(lat, lon);
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+std::string sniff_content_type(std::string_view head) {
+  if (head.substr(0, 3) == "\xFF\xD8\xFF") return "image/jpeg";
+  if (head.substr(0, 8) == "\x89PNG\r\n\x1a\n") return "image/png";
+  if (head.substr(0, 4) == "ply\n" || head.substr(0, 5) == "ply\r\n")
+    return "application/x-ply";
+  return "application/octet-stream";
+}
+
+// A single "bytes=A-B" / "bytes=A-" / "bytes=-N" range within size; false
+// when malformed or unsatisfiable.
+bool parse_range(const std::string& header, std::int64_t size,
+                 std::int64_t* first, std::int64_t* last) {
+  if (header.rfind("bytes=", 0) != 0) return false;
+  std::string spec = header.substr(6);
+  if (spec.find(',') != std::string::npos) return false;  // one range only
+  std::size_t dash = spec.find('-');
+  if (dash == std::string::npos) return false;
+  std::string a = spec.substr(0, dash), b = spec.substr(dash + 1);
+  auto number = [](const std::string& s, std::int64_t* out) {
+    if (s.empty() || s.find_first_not_of("0123456789") != std::string::npos ||
+        s.size() > 18)
+      return false;
+    *out = std::stoll(s);
+    return true;
+  };
+  std::int64_t x = 0, y = 0;
+  if (a.empty()) {  // suffix: the last N bytes
+    if (!number(b, &y) || y == 0 || size == 0) return false;
+    *first = std::max<std::int64_t>(0, size - y);
+    *last = size - 1;
+    return true;
+  }
+  if (!number(a, &x) || x >= size) return false;
+  if (b.empty()) {
+    y = size - 1;
+  } else if (!number(b, &y) || y < x) {
+    return false;
+  }
+  *first = x;
+  *last = std::min(y, size - 1);
+  return true;
+}
+
+}  // namespace
+
+HttpResponse get_sites(ApiContext& ctx, const HttpRequest& req) {
+  db::Query q;
+  q.pattern = "/sites/*";
+  if (auto it = req.query.find("near"); it != req.query.end()) {
+    auto near = parse_near(it->second);
+    if (!near)
+      return HttpResponse::error(400, "bad_request",
+                                 "near must be LAT,LON in decimal degrees");
+    double radius = 1000;
+    if (auto r = req.query.find("radius"); r != req.query.end()) {
+      try {
+        std::size_t used = 0;
+        radius = std::stod(r->second, &used);
+        if (used != r->second.size()) radius = -1;
+      } catch (const std::exception&) {
+        radius = -1;
+      }
+      if (!(radius >= 0) || radius > 2.1e7)
+        return HttpResponse::error(400, "bad_request",
+                                   "radius must be metres in [0, 21000000]");
+    }
+    q.near = db::GeoRadius{near->first, near->second, radius};
+  }
+  Json sites = Json::array();
+  for (const auto& d : ctx.store.query(q)) sites.push_back(to_json(d));
+  return HttpResponse::json(200, Json{{"sites", sites}});
+}
+
+HttpResponse get_blob(ApiContext& ctx, const HttpRequest& req,
+                      const std::string& hash) {
+  auto info = ctx.store.blob_info(hash);  // throws invalid_argument on a bad hash
+  if (!info) return HttpResponse::error(404, "unknown_blob", "no blob " + hash);
+  std::ostringstream head;
+  ctx.store.read_blob(hash, head, 0, std::min<std::int64_t>(8, info->size));
+  HttpResponse r;
+  r.content_type = sniff_content_type(head.str());
+  r.headers.emplace_back("ETag", "\"" + hash + "\"");
+  r.headers.emplace_back("Accept-Ranges", "bytes");
+  r.headers.emplace_back("Cache-Control", "public, max-age=31536000, immutable");
+  std::int64_t first = 0, last = info->size - 1;
+  std::string range = req.header("range");
+  if (!range.empty()) {
+    if (!parse_range(range, info->size, &first, &last)) {
+      HttpResponse bad = HttpResponse::error(
+          416, "range_not_satisfiable",
+          "Range '" + range + "' is not one satisfiable byte range of " +
+              std::to_string(info->size));
+      bad.headers.emplace_back("Content-Range",
+                               "bytes */" + std::to_string(info->size));
+      return bad;
+    }
+    r.status = 206;
+    r.headers.emplace_back("Content-Range",
+                           "bytes " + std::to_string(first) + "-" +
+                               std::to_string(last) + "/" +
+                               std::to_string(info->size));
+  }
+  std::ostringstream body;
+  if (info->size > 0) ctx.store.read_blob(hash, body, first, last - first + 1);
+  r.body = std::move(body).str();
+  return r;
+}
+
+HttpResponse put_camera(ApiContext& ctx, const HttpRequest& req,
+                        const std::string& id) {
+  db::validate_path("/cameras/" + id);
+  if (id.find('/') != std::string::npos)
+    return HttpResponse::error(400, "invalid_path",
+                               "a camera id is one path segment");
+  std::string error;
+  auto body = parse_json_body(req.body, &error);
+  if (!body) return HttpResponse::error(400, "invalid_json", error);
+  error = validate_camera_json(*body);
+  if (!error.empty()) return HttpResponse::error(422, "unprocessable", error);
+  db::WriteOp op = db::WriteOp::put("/cameras/" + id, "camera", *body);
+  op.author = ctx.who.name;
+  ctx.store.write(op);
+  auto doc = ctx.store.get("/cameras/" + id);
+  HttpResponse r = HttpResponse::json(doc->version == 1 ? 201 : 200, to_json(*doc));
+  r.headers.emplace_back("ETag", "\"" + std::to_string(doc->version) + "\"");
+  return r;
+}
+
+}  // namespace arscout::ingest

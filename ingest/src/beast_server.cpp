@@ -1,0 +1,412 @@
+// The network side of the server, and the only server file that compiles
+// Boost.Beast: accepting, TLS, HTTP/1.1 sessions with limits and timeouts,
+// WebSocket subscriptions. Requests are answered by Api on a worker pool.
+#include <utility>  // before Asio, for C++20
+
+#include <boost/asio.hpp>
+#include <boost/asio/ssl.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/ssl.hpp>
+#include <boost/beast/websocket.hpp>
+#include <boost/beast/websocket/ssl.hpp>
+#include <deque>
+#include <spdlog/spdlog.h>
+#include <thread>
+
+#include "api.h"
+#include "arscout/ingest/server.h"
+
+namespace arscout::ingest {
+namespace {
+
+namespace asio = boost::asio;
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+namespace ssl = asio::ssl;
+using tcp = asio::ip::tcp;
+
+struct Shared {
+  Api& api;
+  const ServerOptions& options;
+  asio::thread_pool& workers;
+};
+
+HttpRequest to_request(http::request<http::string_body>&& in) {
+  HttpRequest out;
+  out.method = std::string(in.method_string());
+  out.target = std::string(in.target());
+  for (const auto& field : in) {
+    std::string name(field.name_string());
+    for (char& c : name) c = static_cast<char>(std::tolower(c));
+    out.headers[name] = std::string(field.value());
+  }
+  out.body = std::move(in.body());
+  return out;
+}
+
+http::response<http::string_body> to_beast(HttpResponse&& r, unsigned version,
+                                           bool keep_alive) {
+  http::response<http::string_body> out{static_cast<http::status>(r.status),
+                                        version};
+  out.set(http::field::server, "arscout/0.1");
+  out.set(http::field::content_type, r.content_type);
+  for (auto& [k, v] : r.headers) out.set(k, v);
+  out.body() = std::move(r.body);
+  out.keep_alive(keep_alive);
+  out.prepare_payload();
+  return out;
+}
+
+// Socket access for both stream kinds.
+tcp::socket& socket_of(beast::tcp_stream& s) { return s.socket(); }
+tcp::socket& socket_of(beast::ssl_stream<beast::tcp_stream>& s) {
+  return s.next_layer().socket();
+}
+beast::tcp_stream& tcp_of(beast::tcp_stream& s) { return s; }
+beast::tcp_stream& tcp_of(beast::ssl_stream<beast::tcp_stream>& s) {
+  return s.next_layer();
+}
+
+// ---------------------------------------------------------------- WebSocket
+
+template <typename Stream>
+class SubscribeSession
+    : public std::enable_shared_from_this<SubscribeSession<Stream>> {
+ public:
+  SubscribeSession(Stream&& stream, Shared shared)
+      : ws_(std::move(stream)), shared_(shared) {
+    shared_.api.metrics().connection_opened();
+  }
+  ~SubscribeSession() {
+    shared_.api.metrics().connection_closed();
+    // Stopping joins the subscription thread; never on a network thread.
+    if (subscription_) {
+      auto sub = std::shared_ptr<db::Subscription>(std::move(subscription_));
+      asio::post(shared_.workers, [sub] { sub->stop(); });
+    }
+  }
+
+  void run(http::request<http::string_body> upgrade, Api::Subscribe where) {
+    tcp_of(beast::get_lowest_layer(ws_)).expires_never();
+    ws_.set_option(
+        websocket::stream_base::timeout::suggested(beast::role_type::server));
+    auto self = this->shared_from_this();
+    ws_.async_accept(upgrade, [self, where](beast::error_code ec) {
+      if (ec) return;
+      self->start_feed(where);
+      self->read_loop();
+    });
+  }
+
+ private:
+  static constexpr std::size_t kMaxQueued = 20000;
+
+  void start_feed(const Api::Subscribe& where) {
+    std::weak_ptr<SubscribeSession> weak = this->shared_from_this();
+    auto executor = ws_.get_executor();
+    subscription_ = shared_.api.store().subscribe(
+        where.pattern, where.since, [weak, executor](const db::Change& c) {
+          std::string text = to_json(c).dump();
+          asio::post(executor, [weak, text = std::move(text)]() mutable {
+            if (auto self = weak.lock()) self->enqueue(std::move(text));
+          });
+        });
+  }
+
+  // The client sends nothing we need; reading notices when it goes away.
+  void read_loop() {
+    auto self = this->shared_from_this();
+    ws_.async_read(incoming_, [self](beast::error_code ec, std::size_t) {
+      if (ec) return;  // closed: the session ends with its last owner
+      self->incoming_.consume(self->incoming_.size());
+      self->read_loop();
+    });
+  }
+
+  void enqueue(std::string text) {
+    if (queue_.size() >= kMaxQueued) {  // a client too slow to keep up
+      ws_.async_close(websocket::close_reason(websocket::close_code::policy_error,
+                                              "too far behind; reconnect "
+                                              "with since"),
+                      [self = this->shared_from_this()](beast::error_code) {});
+      return;
+    }
+    queue_.push_back(std::move(text));
+    if (queue_.size() == 1) write_next();
+  }
+
+  void write_next() {
+    ws_.text(true);
+    auto self = this->shared_from_this();
+    ws_.async_write(asio::buffer(queue_.front()),
+                    [self](beast::error_code ec, std::size_t) {
+                      if (ec) return;
+                      self->queue_.pop_front();
+                      if (!self->queue_.empty()) self->write_next();
+                    });
+  }
+
+  websocket::stream<Stream> ws_;
+  Shared shared_;
+  beast::flat_buffer incoming_;
+  std::deque<std::string> queue_;
+  std::unique_ptr<db::Subscription> subscription_;
+};
+
+// ---------------------------------------------------------------- HTTP
+
+template <typename Stream>
+class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
+ public:
+  HttpSession(Stream&& stream, Shared shared)
+      : stream_(std::move(stream)), shared_(shared) {
+    shared_.api.metrics().connection_opened();
+  }
+  ~HttpSession() { shared_.api.metrics().connection_closed(); }
+
+  void run() {
+    if constexpr (std::is_same_v<Stream, beast::tcp_stream>) {
+      read_header(shared_.options.header_timeout);
+    } else {
+      tcp_of(stream_).expires_after(shared_.options.header_timeout);
+      stream_.async_handshake(
+          ssl::stream_base::server,
+          [self = this->shared_from_this()](beast::error_code ec) {
+            if (!ec) self->read_header(self->shared_.options.header_timeout);
+          });
+    }
+  }
+
+ private:
+  void read_header(std::chrono::seconds timeout) {
+    parser_.emplace();
+    parser_->header_limit(
+        static_cast<std::uint32_t>(shared_.options.max_header_bytes));
+    parser_->body_limit(shared_.options.max_body_bytes);
+    tcp_of(stream_).expires_after(timeout);
+    http::async_read_header(
+        stream_, buffer_, *parser_,
+        [self = this->shared_from_this()](beast::error_code ec, std::size_t) {
+          self->on_header(ec);
+        });
+  }
+
+  void on_header(beast::error_code ec) {
+    if (ec == http::error::header_limit)
+      return reject(431, "header_too_large",
+                    "the request header is larger than " +
+                        std::to_string(shared_.options.max_header_bytes) +
+                        " bytes");
+    if (ec == http::error::body_limit) return reject_too_large();
+    if (ec) return;  // closed, timed out or garbage: drop the connection
+    auto length = parser_->content_length();
+    if (length && *length > shared_.options.max_body_bytes)
+      return reject_too_large();
+    if (websocket::is_upgrade(parser_->get())) return upgrade();
+    auto body_time = std::chrono::seconds(30) +
+                     std::chrono::seconds(length.value_or(0) / (64 * 1024));
+    tcp_of(stream_).expires_after(body_time);
+    http::async_read(stream_, buffer_, *parser_,
+                     [self = this->shared_from_this()](beast::error_code ec2,
+                                                       std::size_t) {
+                       self->on_body(ec2);
+                     });
+  }
+
+  void on_body(beast::error_code ec) {
+    if (ec == http::error::body_limit) return reject_too_large();
+    if (ec) return;
+    tcp_of(stream_).expires_never();
+    auto request = parser_->release();
+    const unsigned version = request.version();
+    const bool keep_alive = request.keep_alive();
+    HttpRequest req = to_request(std::move(request));
+    auto parsed = parse_target(req.target);
+    if (!parsed) {
+      return send(HttpResponse::error(400, "bad_request",
+                                      "malformed percent-encoding in the URL"),
+                  version, false);
+    }
+    req.path = std::move(parsed->path);
+    req.query = std::move(parsed->query);
+    auto self = this->shared_from_this();
+    asio::post(shared_.workers, [self, req = std::move(req), version,
+                                 keep_alive]() mutable {
+      HttpResponse response = self->shared_.api.handle(req);
+      asio::post(self->stream_.get_executor(),
+                 [self, response = std::move(response), version,
+                  keep_alive]() mutable {
+                   self->send(std::move(response), version, keep_alive);
+                 });
+    });
+  }
+
+  void upgrade() {
+    auto request = parser_->release();
+    HttpRequest req = to_request(http::request<http::string_body>(request));
+    auto parsed = parse_target(req.target);
+    if (parsed) {
+      req.path = parsed->path;
+      req.query = parsed->query;
+    }
+    if (!parsed || req.path != "/v1/subscribe")
+      return send(HttpResponse::error(404, "not_found",
+                                      "WebSocket only at /v1/subscribe"),
+                  request.version(), false);
+    auto checked = shared_.api.check_subscribe(req);
+    if (auto* error = std::get_if<HttpResponse>(&checked))
+      return send(std::move(*error), request.version(), false);
+    auto ws = std::make_shared<SubscribeSession<Stream>>(std::move(stream_),
+                                                         shared_);
+    ws->run(std::move(request), std::get<Api::Subscribe>(checked));
+  }
+
+  void reject_too_large() {
+    reject(413, "payload_too_large",
+           "the request body is larger than the limit of " +
+               std::to_string(shared_.options.max_body_bytes) + " bytes");
+  }
+
+  // Answers without reading the rest of the request, then closes.
+  void reject(int status, const std::string& kind, const std::string& message) {
+    shared_.api.metrics().record_request("rejected", status, 0);
+    send(HttpResponse::error(status, kind, message), 11, false);
+  }
+
+  void send(HttpResponse&& response, unsigned version, bool keep_alive) {
+    auto message = std::make_shared<http::response<http::string_body>>(
+        to_beast(std::move(response), version, keep_alive));
+    tcp_of(stream_).expires_after(std::chrono::seconds(60));
+    http::async_write(
+        stream_, *message,
+        [self = this->shared_from_this(), message](beast::error_code ec,
+                                                   std::size_t) {
+          if (ec) return;
+          if (!message->keep_alive()) return self->close();
+          self->read_header(self->shared_.options.idle_timeout);
+        });
+  }
+
+  void close() {
+    beast::error_code ignored;
+    socket_of(stream_).shutdown(tcp::socket::shutdown_send, ignored);
+  }
+
+  Stream stream_;
+  Shared shared_;
+  beast::flat_buffer buffer_;
+  std::optional<http::request_parser<http::string_body>> parser_;
+};
+
+}  // namespace
+
+struct Server::Impl {
+  Impl(db::Store& store, ServerOptions opts)
+      : options(std::move(opts)),
+        api(store, metrics),
+        workers(static_cast<std::size_t>(std::max(1, options.worker_threads))),
+        acceptor(ioc),
+        tls_context(ssl::context::tls_server) {}
+
+  void load_tls() {
+    if (options.tls_cert.empty() != options.tls_key.empty())
+      throw std::runtime_error("--tls-cert and --tls-key go together");
+    if (options.tls_cert.empty()) return;
+    use_tls = true;
+    tls_context.set_options(ssl::context::default_workarounds |
+                            ssl::context::no_sslv2 | ssl::context::no_sslv3 |
+                            ssl::context::no_tlsv1 | ssl::context::no_tlsv1_1);
+    boost::system::error_code ec;
+    tls_context.use_certificate_chain_file(options.tls_cert, ec);
+    if (ec)
+      throw std::runtime_error("cannot load TLS certificate " +
+                               options.tls_cert + ": " + ec.message());
+    tls_context.use_private_key_file(options.tls_key, ssl::context::pem, ec);
+    if (ec)
+      throw std::runtime_error("cannot load TLS key " + options.tls_key + ": " +
+                               ec.message());
+  }
+
+  void listen() {
+    boost::system::error_code ec;
+    auto address = asio::ip::make_address(options.host, ec);
+    if (ec) throw std::runtime_error("invalid listen address " + options.host);
+    tcp::endpoint endpoint(address, options.port);
+    acceptor.open(endpoint.protocol(), ec);
+    if (!ec) acceptor.set_option(asio::socket_base::reuse_address(true), ec);
+    if (!ec) acceptor.bind(endpoint, ec);
+    if (!ec) acceptor.listen(asio::socket_base::max_listen_connections, ec);
+    if (ec)
+      throw std::runtime_error("cannot listen on " + options.host + ":" +
+                               std::to_string(options.port) + ": " +
+                               ec.message());
+    bound_port = acceptor.local_endpoint().port();
+  }
+
+  void accept() {
+    acceptor.async_accept(asio::make_strand(ioc), [this](beast::error_code ec,
+                                                         tcp::socket socket) {
+      if (ec == asio::error::operation_aborted) return;
+      if (!ec) {
+        Shared shared{api, options, workers};
+        if (use_tls) {
+          std::make_shared<HttpSession<beast::ssl_stream<beast::tcp_stream>>>(
+              beast::ssl_stream<beast::tcp_stream>(
+                  beast::tcp_stream(std::move(socket)), tls_context),
+              shared)
+              ->run();
+        } else {
+          std::make_shared<HttpSession<beast::tcp_stream>>(
+              beast::tcp_stream(std::move(socket)), shared)
+              ->run();
+        }
+      }
+      accept();
+    });
+  }
+
+  ServerOptions options;
+  Metrics metrics;
+  Api api;
+  asio::io_context ioc;
+  asio::thread_pool workers;
+  tcp::acceptor acceptor;
+  ssl::context tls_context;
+  bool use_tls = false;
+  std::uint16_t bound_port = 0;
+  std::vector<std::thread> threads;
+};
+
+Server::Server(db::Store& store, ServerOptions options)
+    : impl_(std::make_unique<Impl>(store, std::move(options))) {}
+
+Server::~Server() { stop(); }
+
+void Server::start() {
+  impl_->load_tls();
+  impl_->listen();
+  impl_->accept();
+  for (int i = 0; i < std::max(1, impl_->options.io_threads); ++i)
+    impl_->threads.emplace_back([this] { impl_->ioc.run(); });
+  spdlog::info("event=listening host={} port={} tls={}", impl_->options.host,
+               impl_->bound_port, impl_->use_tls);
+}
+
+void Server::stop() {
+  if (impl_->threads.empty()) return;
+  asio::post(impl_->ioc, [this] {
+    boost::system::error_code ignored;
+    impl_->acceptor.close(ignored);
+  });
+  impl_->ioc.stop();
+  for (auto& t : impl_->threads) t.join();
+  impl_->threads.clear();
+  impl_->workers.join();
+}
+
+std::uint16_t Server::port() const { return impl_->bound_port; }
+bool Server::tls() const { return impl_->use_tls; }
+
+}  // namespace arscout::ingest

@@ -1,0 +1,50 @@
+// Plain HTTP request and response values. The API handlers see only these,
+// so only beast_server.cpp compiles Boost.Beast.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace arscout::ingest {
+
+using Json = nlohmann::json;
+
+struct HttpRequest {
+  std::string method;                          // "GET", "POST", ...
+  std::string target;                          // as sent: path?query
+  std::string path;                            // percent-decoded, no query
+  std::map<std::string, std::string> query;    // percent-decoded
+  std::map<std::string, std::string> headers;  // keys lower-case
+  std::string body;
+
+  // A header's value, or "" when absent.
+  std::string header(const std::string& lower_name) const;
+};
+
+struct HttpResponse {
+  int status = 200;
+  std::string content_type = "application/json";
+  std::vector<std::pair<std::string, std::string>> headers;
+  std::string body;
+
+  static HttpResponse json(int status, const Json& body);
+  // {"error": kind, "message": message} plus any fields of `extra`.
+  static HttpResponse error(int status, const std::string& kind,
+                            const std::string& message,
+                            const Json& extra = Json::object());
+};
+
+// Splits a request target into a decoded path and query parameters. Returns
+// nullopt for malformed percent-encoding.
+struct ParsedTarget {
+  std::string path;
+  std::map<std::string, std::string> query;
+};
+std::optional<ParsedTarget> parse_target(const std::string& target);
+
+}  // namespace arscout::ingest
