@@ -62,7 +62,10 @@ ExifInfo read_exif_file(const std::string& path);
 // naming the line of a malformed row.
 std::map<std::string, GpsFix> read_gps_csv(const std::string& path);
 
-// A GPX 1.0/1.1 track (trkpt with lat/lon, ele, time, hdop, sat).
+// A GPX 1.0/1.1 track (trkpt with lat/lon, ele, time, hdop, sat), sorted by
+// time. h_acc (v_acc) is 5 m times hdop (vdop). Points without a time are
+// skipped; throws std::runtime_error naming the line of a malformed point,
+// or when no point has a time.
 struct TrackPoint {
   std::int64_t time_s = 0;  // seconds since the Unix epoch, UTC
   GpsFix fix;
@@ -72,5 +75,12 @@ std::vector<TrackPoint> read_gpx(const std::string& path);
 // nullopt when the time is more than max_gap_s outside the track.
 std::optional<GpsFix> fix_at(const std::vector<TrackPoint>& track,
                              std::int64_t time_s, std::int64_t max_gap_s = 60);
+
+// Seconds since the Unix epoch of "YYYY-MM-DDTHH:MM:SS[.fff][Z|+hh:mm|-hh:mm]"
+// (RFC 3339; fractions are dropped). A time without an offset, such as
+// ExifInfo::taken, is read as UTC. nullopt when malformed or out of range.
+std::optional<std::int64_t> parse_time_utc(std::string_view text);
+// "YYYY-MM-DDTHH:MM:SSZ".
+std::string format_time_utc(std::int64_t time_s);
 
 }  // namespace arscout::ingest

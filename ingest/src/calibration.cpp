@@ -1,0 +1,308 @@
+#include "arscout/ingest/calibration.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <stdexcept>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace arscout::ingest {
+namespace {
+
+// Phone photos are 12 MP and more; findChessboardCorners on the full image
+// takes seconds each, so the board is found on a copy at most this wide and
+// the corners are then refined on the full image.
+constexpr int kDetectMaxSide = 1600;
+constexpr int kMinViews = 3;
+constexpr std::size_t kMaxDistortion = 8;
+
+// --- validate_camera_json ---------------------------------------------------
+
+bool is_finite_number(const Json& j) {
+  return j.is_number() && std::isfinite(j.get<double>());
+}
+
+bool is_whole_number(const Json& j, double min) {
+  if (!is_finite_number(j)) return false;
+  double v = j.get<double>();
+  return v >= min && v == std::floor(v) && v <= 1e9;
+}
+
+std::string check_positive(const Json& camera, const char* key,
+                           const char* what) {
+  auto it = camera.find(key);
+  if (it == camera.end())
+    return std::string(key) + " is missing (" + what + ")";
+  if (!is_finite_number(*it) || it->get<double>() <= 0)
+    return std::string(key) + " must be a positive finite number (" + what +
+           ")";
+  return "";
+}
+
+std::string check_size(const Json& camera, const char* key) {
+  auto it = camera.find(key);
+  if (it == camera.end())
+    return std::string(key) + " is missing (image size in pixels)";
+  if (!is_whole_number(*it, 1))
+    return std::string(key) + " must be a positive whole number of pixels";
+  return "";
+}
+
+std::string check_principal(const Json& camera, const char* key,
+                            const char* size_key) {
+  auto it = camera.find(key);
+  if (it == camera.end())
+    return std::string(key) + " is missing (principal point in pixels)";
+  double limit = camera[size_key].get<double>();
+  if (!is_finite_number(*it) || it->get<double>() < 0 ||
+      it->get<double>() > limit)
+    return std::string(key) + " must lie inside the image: 0 <= " + key +
+           " <= " + size_key + " (" + std::to_string(static_cast<int>(limit)) +
+           ")";
+  return "";
+}
+
+std::string check_distortion(const Json& camera) {
+  auto it = camera.find("distortion");
+  if (it == camera.end() || it->is_null()) return "";
+  if (!it->is_array() || it->size() > kMaxDistortion)
+    return "distortion must be an array of 0 to 8 finite numbers "
+           "[k1, k2, p1, p2, k3, ...]";
+  for (std::size_t i = 0; i < it->size(); ++i)
+    if (!is_finite_number((*it)[i]))
+      return "distortion[" + std::to_string(i) + "] must be a finite number";
+  return "";
+}
+
+std::string check_source(const Json& camera) {
+  auto it = camera.find("source");
+  static const char* const kSources = "calibrated, exif or estimated";
+  if (it == camera.end())
+    return std::string("source is missing (") + kSources + ")";
+  if (!it->is_string() ||
+      (*it != "calibrated" && *it != "exif" && *it != "estimated"))
+    return std::string("source must be one of ") + kSources;
+  return "";
+}
+
+std::string check_optional_stats(const Json& camera) {
+  auto rms = camera.find("rms_px");
+  if (rms != camera.end() && !rms->is_null() &&
+      (!is_finite_number(*rms) || rms->get<double>() < 0))
+    return "rms_px must be a finite number >= 0 (pixels)";
+  auto used = camera.find("images_used");
+  if (used != camera.end() && !used->is_null() && !is_whole_number(*used, 0))
+    return "images_used must be a whole number >= 0";
+  return "";
+}
+
+// --- calibrate_chessboard ---------------------------------------------------
+
+struct View {
+  std::string path;
+  std::vector<cv::Point2f> corners;
+};
+
+double min_corner_spacing(const std::vector<cv::Point2f>& corners,
+                          BoardSize board) {
+  double best = std::numeric_limits<double>::max();
+  for (int r = 0; r < board.rows; ++r)
+    for (int c = 0; c + 1 < board.cols; ++c)
+      best = std::min<double>(best, cv::norm(corners[r * board.cols + c + 1] -
+                                             corners[r * board.cols + c]));
+  return best;
+}
+
+// The inner corners to sub-pixel accuracy, or nullopt when the whole board is
+// not in the image.
+std::optional<std::vector<cv::Point2f>> find_corners(const cv::Mat& gray,
+                                                     BoardSize board) {
+  const cv::Size pattern(board.cols, board.rows);
+  double scale = std::min(1.0, static_cast<double>(kDetectMaxSide) /
+                                   std::max(gray.cols, gray.rows));
+  cv::Mat small = gray;
+  if (scale < 1.0)
+    cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
+  std::vector<cv::Point2f> corners;
+  const int flags = cv::CALIB_CB_ADAPTIVE_THRESH |
+                    cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_FAST_CHECK;
+  if (!cv::findChessboardCorners(small, pattern, corners, flags))
+    return std::nullopt;
+  for (auto& p : corners) p *= 1.0 / scale;
+  // The refinement window must stay inside the squares around each corner,
+  // or it locks onto the neighbouring corners' edges.
+  int half = std::clamp(
+      static_cast<int>(std::lround(min_corner_spacing(corners, board) / 3)), 2,
+      11);
+  cv::cornerSubPix(
+      gray, corners, cv::Size(half, half), cv::Size(-1, -1),
+      cv::TermCriteria(cv::TermCriteria::EPS | cv::TermCriteria::COUNT, 50,
+                       1e-3));
+  return corners;
+}
+
+// Reads every image and finds the board; reports each image as it goes.
+std::vector<View> find_views(const std::vector<std::string>& paths,
+                             BoardSize board, cv::Size* image_size,
+                             std::vector<std::string>* rejected,
+                             const ImageStatusCallback& on_image) {
+  std::vector<View> views;
+  std::string first_path;
+  auto reject = [&](const std::string& path, const std::string& why) {
+    if (rejected) rejected->push_back(path + ": " + why);
+    if (on_image) on_image(path, why);
+  };
+  for (const auto& path : paths) {
+    // Intrinsics belong to the sensor, so images are taken as stored, not
+    // turned by their EXIF orientation.
+    cv::Mat gray =
+        cv::imread(path, cv::IMREAD_GRAYSCALE | cv::IMREAD_IGNORE_ORIENTATION);
+    if (gray.empty()) {
+      reject(path, "not a readable image");
+      continue;
+    }
+    if (first_path.empty()) {
+      first_path = path;
+      *image_size = gray.size();
+    } else if (gray.size() != *image_size) {
+      throw std::runtime_error("images differ in size: " + first_path + " is " +
+                               std::to_string(image_size->width) + "x" +
+                               std::to_string(image_size->height) + ", " +
+                               path + " is " + std::to_string(gray.cols) + "x" +
+                               std::to_string(gray.rows) +
+                               "; calibrate one camera at one resolution");
+    }
+    auto corners = find_corners(gray, board);
+    if (!corners) {
+      reject(path, "chessboard with " + std::to_string(board.cols) + "x" +
+                       std::to_string(board.rows) +
+                       " inner corners not found (the whole board must be "
+                       "visible)");
+      continue;
+    }
+    views.push_back(View{path, std::move(*corners)});
+    if (on_image) on_image(path, "");
+  }
+  return views;
+}
+
+std::vector<cv::Point3f> board_points(BoardSize board, double square_m) {
+  std::vector<cv::Point3f> points;
+  for (int r = 0; r < board.rows; ++r)
+    for (int c = 0; c < board.cols; ++c)
+      points.emplace_back(static_cast<float>(c * square_m),
+                          static_cast<float>(r * square_m), 0.0f);
+  return points;
+}
+
+CameraCalibration fit(const std::vector<View>& views, BoardSize board,
+                      double square_m, cv::Size image_size) {
+  std::vector<std::vector<cv::Point3f>> object_points(
+      views.size(), board_points(board, square_m));
+  std::vector<std::vector<cv::Point2f>> image_points;
+  for (const auto& v : views) image_points.push_back(v.corners);
+  cv::Mat k, d;
+  std::vector<cv::Mat> rvecs, tvecs;
+  // k3 is left at 0: with the dozen views a scout takes it is barely
+  // constrained and trades off against k1, k2 and the focal length.
+  double rms = cv::calibrateCamera(
+      object_points, image_points, image_size, k, d, rvecs, tvecs,
+      cv::CALIB_FIX_K3,
+      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100,
+                       std::numeric_limits<double>::epsilon()));
+  CameraCalibration c;
+  c.width = image_size.width;
+  c.height = image_size.height;
+  c.fx = k.at<double>(0, 0);
+  c.fy = k.at<double>(1, 1);
+  c.cx = k.at<double>(0, 2);
+  c.cy = k.at<double>(1, 2);
+  const double* dist = d.ptr<double>();
+  c.k1 = dist[0];
+  c.k2 = dist[1];
+  c.p1 = dist[2];
+  c.p2 = dist[3];
+  c.k3 = dist[4];
+  c.rms_px = rms;
+  c.images_used = static_cast<int>(views.size());
+  return c;
+}
+
+}  // namespace
+
+Json to_json(const CameraCalibration& c) {
+  return Json{{"fx", c.fx},
+              {"fy", c.fy},
+              {"cx", c.cx},
+              {"cy", c.cy},
+              {"width", c.width},
+              {"height", c.height},
+              {"distortion", {c.k1, c.k2, c.p1, c.p2, c.k3}},
+              {"source", c.source},
+              {"rms_px", c.rms_px},
+              {"images_used", c.images_used}};
+}
+
+std::string validate_camera_json(const Json& camera) {
+  if (!camera.is_object()) return "a camera must be a JSON object";
+  // Sizes first: the principal point is checked against them.
+  for (const std::string& problem :
+       {check_size(camera, "width"), check_size(camera, "height"),
+        check_positive(camera, "fx", "focal length in pixels"),
+        check_positive(camera, "fy", "focal length in pixels")})
+    if (!problem.empty()) return problem;
+  for (const std::string& problem :
+       {check_principal(camera, "cx", "width"),
+        check_principal(camera, "cy", "height"), check_distortion(camera),
+        check_source(camera), check_optional_stats(camera)})
+    if (!problem.empty()) return problem;
+  return "";
+}
+
+std::optional<BoardSize> parse_board_size(const std::string& text) {
+  auto x = text.find_first_of("xX");
+  if (x == std::string::npos) return std::nullopt;
+  auto parse = [](const std::string& s) -> std::optional<int> {
+    if (s.empty() || s.size() > 3 ||
+        !std::all_of(s.begin(), s.end(), [](char ch) {
+          return std::isdigit(static_cast<unsigned char>(ch));
+        }))
+      return std::nullopt;
+    int v = std::atoi(s.c_str());
+    if (v < 3 || v > 100) return std::nullopt;
+    return v;
+  };
+  auto cols = parse(text.substr(0, x));
+  auto rows = parse(text.substr(x + 1));
+  if (!cols || !rows) return std::nullopt;
+  return BoardSize{*cols, *rows};
+}
+
+CameraCalibration calibrate_chessboard(
+    const std::vector<std::string>& image_paths, BoardSize inner_corners,
+    double square_m, std::vector<std::string>* rejected,
+    const ImageStatusCallback& on_image) {
+  if (inner_corners.cols < 3 || inner_corners.rows < 3)
+    throw std::invalid_argument(
+        "the chessboard needs at least 3x3 inner corners");
+  if (!std::isfinite(square_m) || square_m <= 0)
+    throw std::invalid_argument("the square size must be positive metres");
+  cv::Size image_size;
+  auto views =
+      find_views(image_paths, inner_corners, &image_size, rejected, on_image);
+  if (views.size() < static_cast<std::size_t>(kMinViews))
+    throw std::runtime_error(
+        "calibration needs at least " + std::to_string(kMinViews) +
+        " images showing the whole chessboard; found it in " +
+        std::to_string(views.size()) + " of " +
+        std::to_string(image_paths.size()));
+  return fit(views, inner_corners, square_m, image_size);
+}
+
+}  // namespace arscout::ingest
