@@ -12,7 +12,7 @@ packages=(
   libsqlite3-dev sqlite3 libpqxx-dev libpq-dev
   libgeographiclib-dev libboost-dev nlohmann-json3-dev libexiv2-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libspdlog-dev
-  libssl-dev
+  libssl-dev openssl
   # PostgreSQL server for the PostgreSQL backend tests and deployments
   postgresql-15 postgresql-client-15
   # runuser (util-linux) starts the throwaway test server as 'postgres'
