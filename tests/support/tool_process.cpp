@@ -19,7 +19,7 @@ namespace arscout::testing {
 
 ToolProcess::ToolProcess(const std::string& tool, std::vector<std::string> args,
                          const std::string& log) {
-  args.insert(args.begin(), helper_path(tool));
+  args.insert(args.begin(), tool.front() == '/' ? tool : helper_path(tool));
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);

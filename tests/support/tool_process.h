@@ -13,7 +13,8 @@ namespace arscout::testing {
 
 class ToolProcess {
  public:
-  // Starts helper_path(tool) with args; stdout and stderr append to log.
+  // Starts tool (an absolute path, or a helper beside the test binary) with
+  // args; stdout and stderr append to log.
   ToolProcess(const std::string& tool, std::vector<std::string> args,
               const std::string& log);
   ~ToolProcess();  // kills it if it is still running
