@@ -405,6 +405,30 @@ TEST_P(ServerTest, WebSocketDeliversEveryLaterChangeInOrderAcrossReconnects) {
   EXPECT_THROW(ChangeStream(as("ars_bogus"), 0), NetworkError);
 }
 
+TEST_P(ServerTest, MetricsCountRequestsUploadsAndConnections) {
+  ASSERT_EQ(upload(alice_, jpeg_bytes(8), metadata("alice-m")).status, 201);
+  Client c(as(planner_));
+  EXPECT_EQ(c.get("/v1/docs/nothing/here").status, 404);
+  HttpResult m = c.get("/metrics");  // no token needed, but one is fine
+  ASSERT_EQ(m.status, 200);
+  EXPECT_EQ(m.headers["content-type"], "text/plain; version=0.0.4");
+  EXPECT_NE(m.body.find(R"(arscout_http_requests_total{route="POST /v1/captures",status="201"} 1)"),
+            std::string::npos)
+      << m.body;
+  EXPECT_NE(m.body.find(R"(route="GET /v1/docs/*",status="404"} 1)"),
+            std::string::npos);
+  EXPECT_NE(m.body.find(
+                R"(arscout_http_request_duration_seconds_count{route="POST /v1/captures"} 1)"),
+            std::string::npos);
+  EXPECT_NE(m.body.find("arscout_upload_bytes_total " +
+                        std::to_string(jpeg_bytes(8).size())),
+            std::string::npos);
+  // This client's connection at least; the upload's may not be reaped yet.
+  auto at = m.body.find("\narscout_active_connections ");
+  ASSERT_NE(at, std::string::npos);
+  EXPECT_GE(std::stoi(m.body.substr(at + 28)), 1);
+}
+
 INSTANTIATE_TEST_SUITE_P(Backends, ServerTest,
                          ::testing::Values("sqlite", "postgresql"),
                          [](const auto& info) { return info.param; });
