@@ -10,6 +10,7 @@
 #include "arscout/db/path.h"
 #include "arscout/db/store.h"
 #include "arscout/ingest/calibration.h"
+#include "arscout/ingest/client.h"
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
@@ -72,12 +73,67 @@ void print_result(const ingest::CameraCalibration& c, int images_seen,
   out << std::defaultfloat;
 }
 
+// A failed HTTP answer as the StoreError whose kind gives the right exit
+// code; the server's JSON error message is kept when there is one.
+StoreError http_error(const ingest::HttpResult& r, const std::string& what) {
+  std::string message = r.body;
+  try {
+    message = r.json().value("message", r.body);
+  } catch (const std::exception&) {
+    // Not JSON (a proxy's error page, say): the body itself is the message.
+  }
+  ErrorCode code = ErrorCode::kInternal;
+  if (r.status == 409) {
+    code = ErrorCode::kConflict;
+  } else if (r.status == 404) {
+    code = ErrorCode::kNotFound;
+  } else if (r.status == 502 || r.status == 503 || r.status == 504) {
+    code = ErrorCode::kUnavailable;
+  } else if (r.status >= 400 && r.status < 500) {
+    code = ErrorCode::kInvalidArgument;
+  }
+  return StoreError(
+      code, what + ": HTTP " + std::to_string(r.status) + ": " + message);
+}
+
+void put_over_http(const CalibrateArgs& a, const Json& camera,
+                   std::ostream& out) {
+  ingest::ClientOptions options;
+  options.server = a.server;
+  options.token = a.token;
+  ingest::Client client(options);
+  const std::string target = "/v1/cameras/" + a.camera_id;
+  ingest::HttpResult r;
+  try {
+    r = client.request("PUT", target, camera.dump(),
+                       {{"Content-Type", "application/json"}});
+  } catch (const ingest::NetworkError& e) {
+    throw StoreError(ErrorCode::kUnavailable, e.what());
+  }
+  if (r.status != 200 && r.status != 201) throw http_error(r, "PUT " + target);
+  out << "stored /cameras/" << a.camera_id << " on " << a.server << " (HTTP "
+      << r.status << ")" << std::endl;
+}
+
 void put_in_store(const CalibrateArgs& a, const Json& camera,
                   std::ostream& out) {
   auto store = db::Store::open(a.db);
   auto result = store->put("/cameras/" + a.camera_id, "camera", camera);
   out << "stored " << result.path << " version " << result.version << " in "
       << a.db << std::endl;
+}
+
+// Too few usable photos or mixed image sizes are bad input (exit 2), not an
+// internal failure.
+ingest::CameraCalibration calibrate(const std::vector<std::string>& images,
+                                    ingest::BoardSize board, double square_m,
+                                    const ingest::ImageStatusCallback& report) {
+  try {
+    return ingest::calibrate_chessboard(images, board, square_m, nullptr,
+                                        report);
+  } catch (const std::runtime_error& e) {
+    throw StoreError(ErrorCode::kInvalidArgument, e.what());
+  }
 }
 
 // The id becomes one path segment and, with --server, part of a URL.
@@ -114,12 +170,13 @@ int run_calibrate(const CalibrateArgs& a) {
       out << "  rejected     " << name << ": " << problem << std::endl;
     }
   };
-  auto calibration =
-      ingest::calibrate_chessboard(images, *board, a.square_m, nullptr, report);
+  auto calibration = calibrate(images, *board, a.square_m, report);
   print_result(calibration, static_cast<int>(images.size()), out);
 
   Json camera = ingest::to_json(calibration);
-  if (!a.db.empty()) {
+  if (!a.server.empty()) {
+    put_over_http(a, camera, out);
+  } else if (!a.db.empty()) {
     put_in_store(a, camera, out);
   } else {
     std::cout << camera.dump(2) << std::endl;
@@ -128,8 +185,8 @@ int run_calibrate(const CalibrateArgs& a) {
 }
 
 void add_calibrate_command(CLI::App& app) {
-  static CalibrateArgs args;  // CLI11 binds options to storage that outlives
-                              // parsing
+  // CLI11 binds options to storage that outlives parsing.
+  static CalibrateArgs args;
   CLI::App* cmd = app.add_subcommand(
       "calibrate",
       "compute a camera's intrinsics from photos of a printed chessboard and "

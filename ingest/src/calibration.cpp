@@ -21,6 +21,7 @@ namespace {
 constexpr int kDetectMaxSide = 1600;
 constexpr int kMinViews = 3;
 constexpr std::size_t kMaxDistortion = 8;
+constexpr char kSources[] = "calibrated, exif or estimated";
 
 // --- validate_camera_json ---------------------------------------------------
 
@@ -82,7 +83,6 @@ std::string check_distortion(const Json& camera) {
 
 std::string check_source(const Json& camera) {
   auto it = camera.find("source");
-  static const char* const kSources = "calibrated, exif or estimated";
   if (it == camera.end())
     return std::string("source is missing (") + kSources + ")";
   if (!it->is_string() ||
@@ -104,13 +104,9 @@ std::string check_optional_stats(const Json& camera) {
 
 // --- calibrate_chessboard ---------------------------------------------------
 
-struct View {
-  std::string path;
-  std::vector<cv::Point2f> corners;
-};
+using Corners = std::vector<cv::Point2f>;
 
-double min_corner_spacing(const std::vector<cv::Point2f>& corners,
-                          BoardSize board) {
+double min_corner_spacing(const Corners& corners, BoardSize board) {
   double best = std::numeric_limits<double>::max();
   for (int r = 0; r < board.rows; ++r)
     for (int c = 0; c + 1 < board.cols; ++c)
@@ -121,20 +117,21 @@ double min_corner_spacing(const std::vector<cv::Point2f>& corners,
 
 // The inner corners to sub-pixel accuracy, or nullopt when the whole board is
 // not in the image.
-std::optional<std::vector<cv::Point2f>> find_corners(const cv::Mat& gray,
-                                                     BoardSize board) {
+std::optional<Corners> find_corners(const cv::Mat& gray, BoardSize board) {
   const cv::Size pattern(board.cols, board.rows);
   double scale = std::min(1.0, static_cast<double>(kDetectMaxSide) /
                                    std::max(gray.cols, gray.rows));
   cv::Mat small = gray;
   if (scale < 1.0)
     cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
-  std::vector<cv::Point2f> corners;
+  Corners corners;
   const int flags = cv::CALIB_CB_ADAPTIVE_THRESH |
                     cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_FAST_CHECK;
   if (!cv::findChessboardCorners(small, pattern, corners, flags))
     return std::nullopt;
-  for (auto& p : corners) p *= 1.0 / scale;
+  // Back to full-size pixels; pixel centres sit at integers in both images.
+  for (auto& p : corners)
+    p = (p + cv::Point2f(0.5f, 0.5f)) / scale - cv::Point2f(0.5f, 0.5f);
   // The refinement window must stay inside the squares around each corner,
   // or it locks onto the neighbouring corners' edges.
   int half = std::clamp(
@@ -147,16 +144,31 @@ std::optional<std::vector<cv::Point2f>> find_corners(const cv::Mat& gray,
   return corners;
 }
 
+std::string size_text(cv::Size size) {
+  return std::to_string(size.width) + "x" + std::to_string(size.height);
+}
+
+// One set of intrinsics holds for one image size only.
+void check_same_size(const std::string& first_path, cv::Size first,
+                     const std::string& path, cv::Size size) {
+  if (size != first)
+    throw std::runtime_error("images differ in size: " + first_path + " is " +
+                             size_text(first) + ", " + path + " is " +
+                             size_text(size) +
+                             "; calibrate one camera at one resolution");
+}
+
 // Reads every image and finds the board; reports each image as it goes.
-std::vector<View> find_views(const std::vector<std::string>& paths,
-                             BoardSize board, cv::Size* image_size,
-                             std::vector<std::string>* rejected,
-                             const ImageStatusCallback& on_image) {
-  std::vector<View> views;
+std::vector<Corners> find_views(const std::vector<std::string>& paths,
+                                BoardSize board, cv::Size* image_size,
+                                std::vector<std::string>* rejected,
+                                const ImageStatusCallback& on_image) {
+  std::vector<Corners> views;
   std::string first_path;
-  auto reject = [&](const std::string& path, const std::string& why) {
-    if (rejected) rejected->push_back(path + ": " + why);
-    if (on_image) on_image(path, why);
+  auto report = [&](const std::string& path, const std::string& problem) {
+    if (rejected && !problem.empty())
+      rejected->push_back(path + ": " + problem);
+    if (on_image) on_image(path, problem);
   };
   for (const auto& path : paths) {
     // Intrinsics belong to the sensor, so images are taken as stored, not
@@ -164,30 +176,23 @@ std::vector<View> find_views(const std::vector<std::string>& paths,
     cv::Mat gray =
         cv::imread(path, cv::IMREAD_GRAYSCALE | cv::IMREAD_IGNORE_ORIENTATION);
     if (gray.empty()) {
-      reject(path, "not a readable image");
+      report(path, "not a readable image");
       continue;
     }
     if (first_path.empty()) {
       first_path = path;
       *image_size = gray.size();
-    } else if (gray.size() != *image_size) {
-      throw std::runtime_error("images differ in size: " + first_path + " is " +
-                               std::to_string(image_size->width) + "x" +
-                               std::to_string(image_size->height) + ", " +
-                               path + " is " + std::to_string(gray.cols) + "x" +
-                               std::to_string(gray.rows) +
-                               "; calibrate one camera at one resolution");
     }
+    check_same_size(first_path, *image_size, path, gray.size());
     auto corners = find_corners(gray, board);
     if (!corners) {
-      reject(path, "chessboard with " + std::to_string(board.cols) + "x" +
-                       std::to_string(board.rows) +
+      report(path, "chessboard with " + size_text({board.cols, board.rows}) +
                        " inner corners not found (the whole board must be "
                        "visible)");
       continue;
     }
-    views.push_back(View{path, std::move(*corners)});
-    if (on_image) on_image(path, "");
+    views.push_back(std::move(*corners));
+    report(path, "");
   }
   return views;
 }
@@ -201,12 +206,10 @@ std::vector<cv::Point3f> board_points(BoardSize board, double square_m) {
   return points;
 }
 
-CameraCalibration fit(const std::vector<View>& views, BoardSize board,
+CameraCalibration fit(const std::vector<Corners>& image_points, BoardSize board,
                       double square_m, cv::Size image_size) {
   std::vector<std::vector<cv::Point3f>> object_points(
-      views.size(), board_points(board, square_m));
-  std::vector<std::vector<cv::Point2f>> image_points;
-  for (const auto& v : views) image_points.push_back(v.corners);
+      image_points.size(), board_points(board, square_m));
   cv::Mat k, d;
   std::vector<cv::Mat> rvecs, tvecs;
   // k3 is left at 0: with the dozen views a scout takes it is barely
@@ -230,7 +233,7 @@ CameraCalibration fit(const std::vector<View>& views, BoardSize board,
   c.p2 = dist[3];
   c.k3 = dist[4];
   c.rms_px = rms;
-  c.images_used = static_cast<int>(views.size());
+  c.images_used = static_cast<int>(image_points.size());
   return c;
 }
 

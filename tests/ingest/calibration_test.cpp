@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -22,6 +23,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "arscout/db/store.h"
+#include "arscout/ingest/auth.h"
+#include "arscout/ingest/server.h"
 #include "test_stores.h"
 #include "tool_process.h"
 
@@ -42,6 +45,7 @@ constexpr double kK1 = -0.1;
 // square, as printed targets have: findChessboardCorners needs it.
 constexpr BoardSize kBoard{9, 6};
 constexpr double kSquareM = 0.025;
+// Squares = inner corners + 1, plus the margin on both sides.
 constexpr int kSquaresX = kBoard.cols + 3;
 constexpr int kSquaresY = kBoard.rows + 3;
 constexpr int kTexelsPerSquare = 100;  // 0.25 mm, finer than any view's pixel
@@ -265,6 +269,33 @@ TEST_F(CalibrationTest, RecoversTheRenderingCamera) {
   EXPECT_EQ(reported[3], "blank.png rejected");
 }
 
+// Phone-sized photos are searched at a reduced size and refined at full
+// size; the same views at twice the size must give twice the focal length.
+TEST_F(CalibrationTest, LargePhotosAreCalibratedAtFullResolution) {
+  std::vector<std::string> paths;
+  for (std::size_t i = 0; i < 6; ++i) {
+    cv::Mat large;
+    cv::resize(cv::imread((*views_)[i], cv::IMREAD_GRAYSCALE), large,
+               cv::Size(2 * kWidth, 2 * kHeight), 0, 0, cv::INTER_CUBIC);
+    paths.push_back(
+        write_png(*extra_, "large-" + std::to_string(i) + ".png", large));
+  }
+  auto c = calibrate_chessboard(paths, kBoard, kSquareM, nullptr);
+  for (const auto& path : paths) fs::remove(path);
+  EXPECT_EQ(c.width, 2 * kWidth);
+  EXPECT_EQ(c.images_used, 6);
+  // Pixel centres at integers: x maps to 2 x + 0.5.
+  EXPECT_NEAR(c.fx, 2 * kFocal, 0.01 * kFocal);
+  EXPECT_NEAR(c.fy, 2 * kFocal, 0.01 * kFocal);
+  EXPECT_NEAR(c.cx, 2 * kCx + 0.5, 4.0);
+  EXPECT_NEAR(c.cy, 2 * kCy + 0.5, 4.0);
+  EXPECT_NEAR(c.k1, kK1, 0.01);
+  EXPECT_LT(c.rms_px, 0.5);
+  std::cout << "at 2x: fx " << c.fx << " fy " << c.fy << " cx " << c.cx
+            << " cy " << c.cy << " k1 " << c.k1 << " rms " << c.rms_px
+            << " px\n";
+}
+
 TEST_F(CalibrationTest, UnreadableImagesAreRejectedWithAReason) {
   std::string junk = *extra_ + "/notes.png";
   std::ofstream(junk) << "not an image";
@@ -447,6 +478,42 @@ TEST_F(CalibrationTest, CliWritesTheCameraDocument) {
   fs::remove_all(out, ignored);
 }
 
+// The same through the API: an in-process server, a scout's token.
+TEST_F(CalibrationTest, CliPutsTheCameraOverHttp) {
+  std::string out = arscout::testing::make_temp_dir("calibration-http");
+  auto store = arscout::db::Store::open("sqlite:" + out + "/x.db");
+  std::string token = create_token(*store, Role::kScout, "alice");
+  ServerOptions options;
+  options.port = 0;
+  Server server(*store, options);
+  server.start();
+  std::string args = "calibrate --images '" + *dir_ +
+                     "' --board 9x6 --square 0.025 --camera-id phone-1 "
+                     "--server http://127.0.0.1:" +
+                     std::to_string(server.port()) + " --token ";
+  std::string log = out + "/log.txt";
+
+  int code = run_cli(args + token, log);
+  ASSERT_EQ(code, 0) << arscout::testing::slurp(log);
+  EXPECT_NE(arscout::testing::slurp(log).find("(HTTP 201)"), std::string::npos)
+      << arscout::testing::slurp(log);
+  auto doc = store->get("/cameras/phone-1");
+  ASSERT_TRUE(doc);
+  EXPECT_EQ(doc->kind, "camera");
+  EXPECT_NEAR(doc->attrs["fx"].get<double>(), kFocal, 0.005 * kFocal);
+  EXPECT_EQ(doc->attrs["source"], "calibrated");
+
+  // A refused token fails with the server's message and changes nothing.
+  code = run_cli(args + "ars_not_a_token", log);
+  EXPECT_EQ(code, 2) << arscout::testing::slurp(log);
+  EXPECT_NE(arscout::testing::slurp(log).find("HTTP 401"), std::string::npos)
+      << arscout::testing::slurp(log);
+  EXPECT_EQ(store->get("/cameras/phone-1")->version, 1);
+  server.stop();
+  std::error_code ignored;
+  fs::remove_all(out, ignored);
+}
+
 TEST_F(CalibrationTest, CliRefusesABadBoardAsUsage) {
   std::string out = arscout::testing::make_temp_dir("calibration-cli");
   std::string log = out + "/log.txt";
@@ -459,6 +526,17 @@ TEST_F(CalibrationTest, CliRefusesABadBoardAsUsage) {
                      "' --board 9x6 --square 0.025 --camera-id 'a/b'",
                  log);
   EXPECT_EQ(code, 2) << arscout::testing::slurp(log);
+
+  // Too few photos with the board is bad input too.
+  fs::copy_file((*views_)[0], out + "/view.png");
+  fs::copy_file(*blank_, out + "/blank.png");
+  code = run_cli("calibrate --images '" + out +
+                     "' --board 9x6 --square 0.025 --camera-id cam1",
+                 log);
+  EXPECT_EQ(code, 2) << arscout::testing::slurp(log);
+  EXPECT_NE(arscout::testing::slurp(log).find("found it in 1 of 2"),
+            std::string::npos)
+      << arscout::testing::slurp(log);
   std::error_code ignored;
   fs::remove_all(out, ignored);
 }
