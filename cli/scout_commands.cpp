@@ -34,7 +34,8 @@ using ingest::GpsFix;
 using ingest::HttpResult;
 using ingest::Json;
 
-// ---- shared: server options, answers, errors ----------------------------------
+// ---- shared: server options, answers, errors
+// ----------------------------------
 
 struct ServerArgs {
   std::string server;
@@ -125,9 +126,8 @@ bool sleep_unless_stopped(double seconds) {
   while (!stop_requested()) {
     auto left = until - std::chrono::steady_clock::now();
     if (left <= std::chrono::steady_clock::duration::zero()) return true;
-    std::this_thread::sleep_for(
-        std::min<std::chrono::steady_clock::duration>(
-            left, std::chrono::milliseconds(100)));
+    std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(
+        left, std::chrono::milliseconds(100)));
   }
   return false;
 }
@@ -141,7 +141,8 @@ std::string short_hash(std::string_view s, int hex_digits) {
   return std::string(buf, hex_digits);
 }
 
-// ---- photos and capture ids ----------------------------------------------------
+// ---- photos and capture ids
+// ----------------------------------------------------
 
 std::string lower(std::string s) {
   for (char& c : s)
@@ -174,8 +175,8 @@ std::vector<fs::path> list_photos(const std::string& dir) {
     if (it->is_regular_file(ec) && is_photo_name(it->path()))
       photos.push_back(it->path());
   }
-  if (ec) std::cerr << "arscout: cannot list " << dir << ": " << ec.message()
-                    << "\n";
+  if (ec)
+    std::cerr << "arscout: cannot list " << dir << ": " << ec.message() << "\n";
   sort_by_file_name(photos);
   return photos;
 }
@@ -223,7 +224,8 @@ std::string content_type(const std::string& bytes, const fs::path& path) {
                                                     : "image/jpeg";
 }
 
-// ---- scout ---------------------------------------------------------------------
+// ---- scout
+// ---------------------------------------------------------------------
 
 struct ScoutArgs {
   ServerArgs server;
@@ -349,9 +351,9 @@ class Uploader {
   void upload(const fs::path& path) {
     ++uploads_started_;
     std::string name = path.filename().string();
+    if (!is_photo_name(path)) return fail(name, "not a .jpg/.jpeg/.png file");
     auto bytes = read_bytes(path);
     if (!bytes) return fail(name, "cannot read " + path.string());
-    if (!is_photo_name(path)) return fail(name, "not a .jpg/.jpeg/.png file");
     send(name, *bytes, path);
   }
 
@@ -374,8 +376,8 @@ class Uploader {
         {"X-Capture-Metadata", meta.dump(-1, ' ', true)}};
     auto outcome = post_with_retries(name, bytes, headers);
     report(name, id, bytes.size(), planned_gps(fix, exif), why, outcome);
-    if (outcome.answer && (outcome.answer->status == 401 ||
-                           outcome.answer->status == 403))
+    if (outcome.answer &&
+        (outcome.answer->status == 401 || outcome.answer->status == 403))
       refused_ = true;
   }
 
@@ -436,9 +438,9 @@ class Uploader {
   }
 
   // `why` says why the GPS file had no fix for the photo.
-  void report(const std::string& name, const std::string& id,
-              std::size_t size, const std::string& gps_text,
-              const std::string& why, const UploadOutcome& out) {
+  void report(const std::string& name, const std::string& id, std::size_t size,
+              const std::string& gps_text, const std::string& why,
+              const UploadOutcome& out) {
     std::ostringstream line;
     line << name << "  gps ";
     bool ok = out.answer && out.answer->status / 100 == 2;
@@ -471,10 +473,14 @@ class Uploader {
       return text.str();
     }
     Json attrs = doc.value("attrs", Json::object());
+    // "request" says less than our own description (csv or gpx).
     auto gps = attrs.find("gps");
-    text << (gps != attrs.end() && gps->is_object() ? describe_gps(*gps)
-                                                    : "none")
-         << (why.empty() ? "" : " (" + why + ")") << "  " << answer.status;
+    bool has_gps = gps != attrs.end() && gps->is_object();
+    if (has_gps && gps->value("source", "") == "request")
+      text << gps_text;
+    else
+      text << (has_gps ? describe_gps(*gps) : "none");
+    text << (why.empty() ? "" : " (" + why + ")") << "  " << answer.status;
     if (answer.headers.count("idempotent-replay")) text << " replay";
     text << " " << id << " seq " << doc.value("seq", Json()).dump() << " "
          << attrs.value("status", "?");
@@ -605,10 +611,10 @@ void add_scout(CLI::App& app) {
   auto* files = cmd->add_option("files", a.files, "photos to upload")
                     ->check(CLI::ExistingFile);
   dir->excludes(files);
-  auto* csv = cmd->add_option(
-      "--gps-csv", a.gps_csv,
-      "fixes by file name: image,latitude,longitude,altitude,"
-      "horizontal_accuracy_m,vertical_accuracy_m");
+  auto* csv =
+      cmd->add_option("--gps-csv", a.gps_csv,
+                      "fixes by file name: image,latitude,longitude,altitude,"
+                      "horizontal_accuracy_m,vertical_accuracy_m");
   csv->check(CLI::ExistingFile);
   cmd->add_option("--gpx", a.gpx,
                   "GPX track matched by each photo's EXIF DateTimeOriginal")
@@ -640,7 +646,8 @@ void add_scout(CLI::App& app) {
   cmd->callback([] { run_client_command([] { return run_scout(a); }); });
 }
 
-// ---- sites, get -----------------------------------------------------------------
+// ---- sites, get
+// -----------------------------------------------------------------
 
 struct SitesArgs {
   ServerArgs server;
@@ -680,8 +687,9 @@ int run_sites(const SitesArgs& a) {
 void add_sites(CLI::App& app) {
   static SitesArgs a;
   CLI::App* cmd = app.add_subcommand(
-      "sites", "list the sites near a place (all without --near), one JSON "
-               "line each");
+      "sites",
+      "list the sites near a place (all without --near), one JSON "
+      "line each");
   add_server_options(*cmd, a.server);
   cmd->add_option("--near", a.near, "LAT,LON in degrees");
   cmd->add_option("--radius", a.radius_m,

@@ -121,8 +121,8 @@ std::string gps_time(const Exiv2::ExifData& exif) {
       std::sscanf(date.c_str(), "%4d:%2d:%2d", &y, &mo, &d) != 3)
     return "";
   auto h = rational(*t, 0), mi = rational(*t, 1), s = rational(*t, 2);
-  if (!h || !mi || !s || *h < 0 || *h >= 24 || *mi < 0 || *mi >= 60 ||
-      *s < 0 || *s >= 61 || mo < 1 || mo > 12 || d < 1 || d > 31)
+  if (!h || !mi || !s || *h < 0 || *h >= 24 || *mi < 0 || *mi >= 60 || *s < 0 ||
+      *s >= 61 || mo < 1 || mo > 12 || d < 1 || d > 31)
     return "";
   char buf[40];
   std::snprintf(buf, sizeof buf, "%04d-%02d-%02dT%02d:%02d:%02dZ", y, mo, d,
@@ -222,7 +222,8 @@ ExifInfo read_info(const Exiv2::ExifData& exif) {
   info.focal_mm = positive(exif, "Exif.Photo.FocalLength");
   info.focal_35mm = positive(exif, "Exif.Photo.FocalLengthIn35mmFilm");
   info.focal_plane_x_res = positive(exif, "Exif.Photo.FocalPlaneXResolution");
-  if (info.focal_plane_x_res) info.focal_plane_unit_mm = focal_plane_unit_mm(exif);
+  if (info.focal_plane_x_res)
+    info.focal_plane_unit_mm = focal_plane_unit_mm(exif);
   info.make = text(exif, "Exif.Image.Make");
   info.model = text(exif, "Exif.Image.Model");
   info.width = dimension(exif, "Exif.Photo.PixelXDimension");

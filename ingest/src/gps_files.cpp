@@ -79,9 +79,8 @@ std::optional<int> utc_offset(std::string_view s, std::size_t pos) {
   if (s.substr(pos) == "Z" || s.substr(pos) == "z") return 0;
   int sign = s[pos] == '-' ? -1 : 1;
   int h, m;
-  if (!expect(s, pos, "+-") || !digits(s, pos, 2, &h) ||
-      !expect(s, pos, ":") || !digits(s, pos, 2, &m) || pos != s.size() ||
-      h > 23 || m > 59)
+  if (!expect(s, pos, "+-") || !digits(s, pos, 2, &h) || !expect(s, pos, ":") ||
+      !digits(s, pos, 2, &m) || pos != s.size() || h > 23 || m > 59)
     return std::nullopt;
   return sign * (h * 3600 + m * 60);
 }
@@ -365,8 +364,8 @@ class GpxReader {
     try {
       return next_tag(doc_, pos);
     } catch (const std::runtime_error& e) {
-      throw std::runtime_error("line " + std::to_string(lines_.at(pos)) +
-                               ": " + e.what());
+      throw std::runtime_error("line " + std::to_string(lines_.at(pos)) + ": " +
+                               e.what());
     }
   }
 
@@ -470,7 +469,7 @@ std::optional<std::int64_t> parse_time_utc(std::string_view s) {
   auto offset = utc_offset(s, pos);
   namespace chr = std::chrono;
   chr::year_month_day date{chr::year{y}, chr::month(static_cast<unsigned>(mo)),
-                             chr::day(static_cast<unsigned>(d))};
+                           chr::day(static_cast<unsigned>(d))};
   if (!offset || !date.ok()) return std::nullopt;
   std::int64_t days = chr::sys_days(date).time_since_epoch().count();
   return days * 86400 + h * 3600 + mi * 60 + sec - *offset;
@@ -483,13 +482,12 @@ std::string format_time_utc(std::int64_t time_s) {
   chr::year_month_day date{day};
   chr::hh_mm_ss hms{t - day};
   char buf[48];
-  std::snprintf(buf, sizeof buf, "%04d-%02u-%02uT%02d:%02d:%02dZ",
-                static_cast<int>(date.year()),
-                static_cast<unsigned>(date.month()),
-                static_cast<unsigned>(date.day()),
-                static_cast<int>(hms.hours().count()),
-                static_cast<int>(hms.minutes().count()),
-                static_cast<int>(hms.seconds().count()));
+  std::snprintf(
+      buf, sizeof buf, "%04d-%02u-%02uT%02d:%02d:%02dZ",
+      static_cast<int>(date.year()), static_cast<unsigned>(date.month()),
+      static_cast<unsigned>(date.day()), static_cast<int>(hms.hours().count()),
+      static_cast<int>(hms.minutes().count()),
+      static_cast<int>(hms.seconds().count()));
   return buf;
 }
 

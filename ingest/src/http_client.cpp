@@ -36,7 +36,7 @@ constexpr std::uint32_t kMaxResponseHeader = 64 * 1024;
 
 struct ServerUrl {
   bool tls = false;
-  std::string host;         // without brackets for IPv6
+  std::string host;  // without brackets for IPv6
   std::string port;
   std::string host_header;  // host[:port] as the Host header wants it
   std::string base_path;    // "" or "/prefix" without a trailing slash
@@ -65,10 +65,9 @@ void split_authority(const std::string& authority, ServerUrl* url) {
   }
   if (url->host.empty()) throw std::invalid_argument("no host");
   if (!port.empty()) {
-    bool digits = port.size() <= 5 && std::all_of(port.begin(), port.end(),
-                                                   [](unsigned char c) {
-                                                     return std::isdigit(c);
-                                                   });
+    bool digits = port.size() <= 5 &&
+                  std::all_of(port.begin(), port.end(),
+                              [](unsigned char c) { return std::isdigit(c); });
     if (!digits || std::stoi(port) < 1 || std::stoi(port) > 65535)
       throw std::invalid_argument("bad port '" + port + "'");
   }
@@ -145,9 +144,9 @@ struct Client::Impl {
 
   ssl::context make_tls_context() const {
     ssl::context ctx(ssl::context::tls_client);
-    ctx.set_options(ssl::context::default_workarounds |
-                    ssl::context::no_sslv2 | ssl::context::no_sslv3 |
-                    ssl::context::no_tlsv1 | ssl::context::no_tlsv1_1);
+    ctx.set_options(ssl::context::default_workarounds | ssl::context::no_sslv2 |
+                    ssl::context::no_sslv3 | ssl::context::no_tlsv1 |
+                    ssl::context::no_tlsv1_1);
     ctx.set_default_verify_paths();
     if (!options.ca_file.empty()) {
       beast::error_code ec;
@@ -209,7 +208,8 @@ struct Client::Impl {
           timer.cancel();
         });
     run();
-    if (timed_out) throw StepError{"resolve " + url.host, beast::error::timeout};
+    if (timed_out)
+      throw StepError{"resolve " + url.host, beast::error::timeout};
     if (error) throw StepError{"resolve " + url.host, error};
     return results;
   }
@@ -241,11 +241,11 @@ struct Client::Impl {
   void prepare_tls() {
     beast::error_code ec;
     net::ip::make_address(url.host, ec);
-    if (ec && !SSL_set_tlsext_host_name(secure->native_handle(),
-                                        url.host.c_str()))
-      throw StepError{"TLS setup", beast::error_code(
-                                       static_cast<int>(::ERR_get_error()),
-                                       net::error::get_ssl_category())};
+    if (ec &&
+        !SSL_set_tlsext_host_name(secure->native_handle(), url.host.c_str()))
+      throw StepError{"TLS setup",
+                      beast::error_code(static_cast<int>(::ERR_get_error()),
+                                        net::error::get_ssl_category())};
     if (options.verify_tls)
       secure->set_verify_callback(ssl::host_name_verification(url.host));
   }
@@ -325,8 +325,7 @@ struct Client::Impl {
     req.set(http::field::user_agent, "arscout-client/1");
     if (!options.token.empty())
       req.set(http::field::authorization, "Bearer " + options.token);
-    if (!body.empty())
-      req.set(http::field::content_type, "application/json");
+    if (!body.empty()) req.set(http::field::content_type, "application/json");
     for (const auto& [name, value] : headers) {
       if (name.empty() || has_line_break(name) || has_line_break(value))
         throw std::invalid_argument("bad header '" + name + "'");

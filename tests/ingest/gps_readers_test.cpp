@@ -53,7 +53,8 @@ double distance_m(double lat1, double lon1, double lat2, double lon2) {
   return std::hypot(x, y) * kEarth;
 }
 
-// ---- EXIF assembled by hand ---------------------------------------------------
+// ---- EXIF assembled by hand
+// ---------------------------------------------------
 
 enum TiffType : std::uint16_t {
   kByte = 1,
@@ -149,12 +150,12 @@ std::string jpeg_with_exif(std::vector<TiffEntry> ifd0,
 
 std::vector<TiffEntry> full_exif_ifd() {
   return {ascii(0x9003, "2024:03:05 15:07:30"),  // DateTimeOriginal
-          rationals(0x920A, {{42, 10}}),           // FocalLength
-          long_value(0xA002, 64),                  // PixelXDimension
-          long_value(0xA003, 48),                  // PixelYDimension
-          rationals(0xA20E, {{5000, 1}}),          // FocalPlaneXResolution
-          short_value(0xA210, 3),                  // ... its unit: cm
-          short_value(0xA405, 28)};                // 35 mm equivalent
+          rationals(0x920A, {{42, 10}}),         // FocalLength
+          long_value(0xA002, 64),                // PixelXDimension
+          long_value(0xA003, 48),                // PixelYDimension
+          rationals(0xA20E, {{5000, 1}}),        // FocalPlaneXResolution
+          short_value(0xA210, 3),                // ... its unit: cm
+          short_value(0xA405, 28)};              // 35 mm equivalent
 }
 
 std::vector<TiffEntry> southern_western_gps() {
@@ -172,9 +173,9 @@ std::vector<TiffEntry> southern_western_gps() {
 }
 
 TEST(ExifSynthetic, DecodesEveryTag) {
-  auto info = read_exif(jpeg_with_exif(
-      {ascii(0x010F, "TestCam"), ascii(0x0110, "TC-1  ")}, full_exif_ifd(),
-      southern_western_gps()));
+  auto info = read_exif(
+      jpeg_with_exif({ascii(0x010F, "TestCam"), ascii(0x0110, "TC-1  ")},
+                     full_exif_ifd(), southern_western_gps()));
   ASSERT_TRUE(info.gps);
   EXPECT_NEAR(info.gps->lat, -33.45, 1e-9);
   EXPECT_NEAR(info.gps->lon, -(70 + 40 / 60.0 + 12.3 / 3600), 1e-9);
@@ -213,11 +214,10 @@ TEST(ExifSynthetic, AccuracyFromDopWhenNoPositioningError) {
 }
 
 TEST(ExifSynthetic, NoFixIsNoGps) {
-  auto zeros = jpeg_with_exif({}, {},
-                              {ascii(0x0001, "N"),
-                               rationals(0x0002, {{0, 1}, {0, 1}, {0, 1}}),
-                               ascii(0x0003, "E"),
-                               rationals(0x0004, {{0, 1}, {0, 1}, {0, 1}})});
+  auto zeros = jpeg_with_exif(
+      {}, {},
+      {ascii(0x0001, "N"), rationals(0x0002, {{0, 1}, {0, 1}, {0, 1}}),
+       ascii(0x0003, "E"), rationals(0x0004, {{0, 1}, {0, 1}, {0, 1}})});
   EXPECT_FALSE(read_exif(zeros).gps);
   auto void_status = jpeg_with_exif(
       {}, {},
@@ -258,11 +258,14 @@ TEST(ExifGarbage, TruncatedExifKeepsNoPartialGarbage) {
   auto jpeg = jpeg_with_exif({}, full_exif_ifd(), southern_western_gps());
   for (std::size_t cut : {std::size_t{10}, std::size_t{40}, std::size_t{120}}) {
     auto info = read_exif(std::string_view(jpeg).substr(0, cut));
-    if (info.gps) EXPECT_TRUE(validate_gps(*info.gps).empty());
+    if (info.gps) {
+      EXPECT_TRUE(validate_gps(*info.gps).empty());
+    }
   }
 }
 
-// ---- EXIF of real photos --------------------------------------------------------
+// ---- EXIF of real photos
+// --------------------------------------------------------
 
 TEST(ExifReal, LundStreetWalk) {
   std::string dir;
@@ -301,9 +304,8 @@ TEST(ExifReal, BerlinDom) {
     ASSERT_TRUE(from_file.gps) << name;
     ASSERT_TRUE(from_bytes.gps) << name;
     EXPECT_EQ(to_json(*from_file.gps), to_json(*from_bytes.gps));
-    EXPECT_LT(distance_m(from_file.gps->lat, from_file.gps->lon, 52.519,
-                         13.401),
-              150)
+    EXPECT_LT(
+        distance_m(from_file.gps->lat, from_file.gps->lon, 52.519, 13.401), 150)
         << name;
     EXPECT_EQ(from_file.width, 3264);
     EXPECT_EQ(from_file.height, 2448);
@@ -316,7 +318,8 @@ TEST(ExifReal, StrechaPhotosHaveNoGps) {
   EXPECT_FALSE(read_exif_file(dir + "/images/0000.jpg").gps);
 }
 
-// ---- CSV -----------------------------------------------------------------------
+// ---- CSV
+// -----------------------------------------------------------------------
 
 TEST(CsvGps, ReadsStrechaFountain) {
   std::string dir;
@@ -334,13 +337,12 @@ TEST(CsvGps, ReadsStrechaFountain) {
 }
 
 TEST(CsvGps, ColumnsByNameOptionalCellsCrlfAndBom) {
-  auto path = write_temp(
-      "named.csv",
-      "\xEF\xBB\xBFlongitude,image,latitude,satellites\r\n"
-      "\r\n"
-      "# a comment\r\n"
-      "15.44,IMG_0001.jpg,47.07,9\r\n"
-      "-0.5,IMG 0002.JPG,-1.25,\r\n");
+  auto path = write_temp("named.csv",
+                         "\xEF\xBB\xBFlongitude,image,latitude,satellites\r\n"
+                         "\r\n"
+                         "# a comment\r\n"
+                         "15.44,IMG_0001.jpg,47.07,9\r\n"
+                         "-0.5,IMG 0002.JPG,-1.25,\r\n");
   auto fixes = read_gps_csv(path);
   ASSERT_EQ(fixes.size(), 2u);
   EXPECT_DOUBLE_EQ(fixes.at("IMG_0001.jpg").lat, 47.07);
@@ -379,7 +381,8 @@ TEST(CsvGps, ErrorsNameTheLine) {
   EXPECT_NE(error_of([] { read_gps_csv("/nonexistent/gps.csv"); }), "");
 }
 
-// ---- GPX -----------------------------------------------------------------------
+// ---- GPX
+// -----------------------------------------------------------------------
 
 const char* kTrack = R"(<?xml version="1.0" encoding="UTF-8"?>
 <!-- recorded by a handheld receiver <trkpt lat="0" lon="0"> -->
@@ -451,7 +454,8 @@ TEST(Gpx, ErrorsNameTheLine) {
             "line 3: gps.lat"},
            {wrap("<trkpt lat=\"1\" lon=\"2\"><ele>high</ele></trkpt>"),
             "line 3: <ele> 'high' is not a number"},
-           {wrap("<trkpt lat=\"1\" lon=\"2\"><ele>1</ele>"), "unexpected </trkseg>"},
+           {wrap("<trkpt lat=\"1\" lon=\"2\"><ele>1</ele>"),
+            "unexpected </trkseg>"},
            {wrap("<trkpt lat=\"1\" lon=\"2\"/>"), "no <trkpt> with lat, lon"},
            {"<gpx><trk", "unterminated tag"}}) {
     auto path = write_temp("bad.gpx", c.content);
@@ -495,15 +499,18 @@ TEST(GpsFixAt, InterpolatesInsideAndClampsNearTheEnds) {
 
 TEST(GpsFixAt, CrossesTheAntimeridian) {
   std::vector<TrackPoint> track(2);
-  track[0] = {100, GpsFix{.lat = 0, .lon = 179.5}};
-  track[1] = {110, GpsFix{.lat = 0, .lon = -179.5}};
+  track[0].time_s = 100;
+  track[0].fix.lon = 179.5;
+  track[1].time_s = 110;
+  track[1].fix.lon = -179.5;
   auto fix = fix_at(track, 105);
   ASSERT_TRUE(fix);
   EXPECT_NEAR(std::abs(fix->lon), 180, 1e-9);
   EXPECT_NEAR(fix_at(track, 108)->lon, -179.7, 1e-9);
 }
 
-// ---- times ---------------------------------------------------------------------
+// ---- times
+// ---------------------------------------------------------------------
 
 TEST(GpsTime, ParsesRfc3339) {
   EXPECT_EQ(parse_time_utc("1970-01-01T00:00:00Z"), 0);
@@ -516,11 +523,10 @@ TEST(GpsTime, ParsesRfc3339) {
             parse_time_utc("2026-11-21T13:05:00Z"));
   EXPECT_EQ(parse_time_utc("2026-11-21T13:05:00"),  // EXIF style: UTC
             parse_time_utc("2026-11-21T13:05:00Z"));
-  for (const char* bad :
-       {"", "2026-11-21", "2026-02-29T00:00:00Z", "2026-13-01T00:00:00Z",
-        "2026-11-21T24:00:00Z", "2026-11-21T13:05:00.Z",
-        "2026-11-21T13:05:00+1", "2026-11-21T13:05:00Zjunk",
-        "2026:11:21 13:05:00"})
+  for (const char* bad : {"", "2026-11-21", "2026-02-29T00:00:00Z",
+                          "2026-13-01T00:00:00Z", "2026-11-21T24:00:00Z",
+                          "2026-11-21T13:05:00.Z", "2026-11-21T13:05:00+1",
+                          "2026-11-21T13:05:00Zjunk", "2026:11:21 13:05:00"})
     EXPECT_FALSE(parse_time_utc(bad)) << bad;
   EXPECT_EQ(format_time_utc(951868800), "2000-03-01T00:00:00Z");
   EXPECT_EQ(format_time_utc(-1), "1969-12-31T23:59:59Z");
@@ -528,7 +534,8 @@ TEST(GpsTime, ParsesRfc3339) {
   EXPECT_EQ(format_time_utc(t), "2026-11-21T13:05:07Z");
 }
 
-// ---- JSON validation ----------------------------------------------------------
+// ---- JSON validation
+// ----------------------------------------------------------
 
 TEST(GpsJson, RejectsInvalidFixes) {
   struct Case {
