@@ -26,8 +26,9 @@ CommandRegistration::CommandRegistration(int order, CommandAdder adder) {
 
 void add_registered_commands(CLI::App& app) {
   std::vector<Entry> entries = registry();
-  std::stable_sort(entries.begin(), entries.end(),
-                   [](const Entry& a, const Entry& b) { return a.order < b.order; });
+  std::stable_sort(
+      entries.begin(), entries.end(),
+      [](const Entry& a, const Entry& b) { return a.order < b.order; });
   for (const Entry& e : entries) e.adder(app);
 }
 

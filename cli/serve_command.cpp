@@ -67,11 +67,14 @@ void add_serve_command(CLI::App& app) {
   static ServeArgs args;
   CLI::App* cmd = app.add_subcommand(
       "serve", "serve the HTTP API (docs/api.md) for scouts and planners");
-  cmd->add_option("--db", args.db, "database URL: sqlite:FILE or postgresql://...")
+  cmd->add_option("--db", args.db,
+                  "database URL: sqlite:FILE or postgresql://...")
       ->required();
-  cmd->add_option("--listen", args.listen, "HOST:PORT to listen on (port 0: any)")
+  cmd->add_option("--listen", args.listen,
+                  "HOST:PORT to listen on (port 0: any)")
       ->capture_default_str();
-  cmd->add_option("--tls-cert", args.tls_cert, "PEM certificate chain: serve HTTPS");
+  cmd->add_option("--tls-cert", args.tls_cert,
+                  "PEM certificate chain: serve HTTPS");
   cmd->add_option("--tls-key", args.tls_key, "PEM private key for --tls-cert");
   cmd->add_option("--max-body-mb", args.max_body_mb,
                   "largest request body in MiB (413 beyond)")

@@ -26,8 +26,9 @@ void add_token_commands(CLI::App& app) {
   create->add_option("--role", args.role, "scout | planner | admin")
       ->required()
       ->check(CLI::IsMember({"scout", "planner", "admin"}));
-  create->add_option("--name", args.name,
-                     "who holds it; for a scout, its scout id")
+  create
+      ->add_option("--name", args.name,
+                   "who holds it; for a scout, its scout id")
       ->required();
   create->callback([] {
     run_command([] {

@@ -20,8 +20,8 @@ bool starts_with(const std::string& s, std::string_view prefix) {
 }
 
 HttpResponse method_not_allowed(const std::string& allowed) {
-  HttpResponse r = HttpResponse::error(
-      405, "method_not_allowed", "this resource allows " + allowed);
+  HttpResponse r = HttpResponse::error(405, "method_not_allowed",
+                                       "this resource allows " + allowed);
   r.headers.emplace_back("Allow", allowed);
   return r;
 }
@@ -107,11 +107,13 @@ std::optional<std::int64_t> int_param(const HttpRequest& req,
   return v;
 }
 
-std::optional<Json> parse_json_body(const std::string& text, std::string* error) {
+std::optional<Json> parse_json_body(const std::string& text,
+                                    std::string* error) {
   try {
     return Json::parse(text);
   } catch (const Json::parse_error& e) {
-    *error = "malformed JSON at byte " + std::to_string(e.byte) + ": " + e.what();
+    *error =
+        "malformed JSON at byte " + std::to_string(e.byte) + ": " + e.what();
     return std::nullopt;
   }
 }
@@ -130,9 +132,9 @@ HttpResponse Api::handle(const HttpRequest& request) {
     response = HttpResponse::error(500, "internal", e.what());
   }
   if (response.status == 503 || response.status == 500) metrics_.store_error();
-  double seconds = std::chrono::duration<double>(
-                       std::chrono::steady_clock::now() - start)
-                       .count();
+  double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
   metrics_.record_request(route, response.status, seconds);
   return response;
 }
@@ -149,11 +151,11 @@ HttpResponse Api::dispatch(const HttpRequest& req, std::string* route) {
     r.body = metrics_.render();
     return r;
   }
-  bool known = starts_with(path, std::string(kDocs) + "/") || path == kCaptures ||
-               starts_with(path, std::string(kCaptures) + "/") ||
-               starts_with(path, kBlobs) || starts_with(path, kCameras) ||
-               path == "/v1/changes" || path == "/v1/sites" ||
-               path == "/v1/subscribe";
+  bool known =
+      starts_with(path, std::string(kDocs) + "/") || path == kCaptures ||
+      starts_with(path, std::string(kCaptures) + "/") ||
+      starts_with(path, kBlobs) || starts_with(path, kCameras) ||
+      path == "/v1/changes" || path == "/v1/sites" || path == "/v1/subscribe";
   if (!known) {
     *route = "other";
     return HttpResponse::error(404, "not_found", "no route " + path);
@@ -206,8 +208,8 @@ HttpResponse Api::dispatch(const HttpRequest& req, std::string* route) {
 std::variant<Api::Subscribe, HttpResponse> Api::check_subscribe(
     const HttpRequest& req) {
   if (!authenticate(store_, req.header("authorization")))
-    return HttpResponse::error(401, "unauthorized",
-                               "a valid Authorization: Bearer token is required");
+    return HttpResponse::error(
+        401, "unauthorized", "a valid Authorization: Bearer token is required");
   std::string error;
   auto since = int_param(req, "since", 0, 0, INT64_MAX, &error);
   if (!since) return HttpResponse::error(400, "bad_request", error);

@@ -45,8 +45,8 @@ std::optional<HttpResponse> read_upload(const HttpRequest& req, Upload* up) {
       }
     }
     if (!has_image)
-      return HttpResponse::error(422, "unprocessable",
-                                 "the multipart body has no part named 'image'");
+      return HttpResponse::error(
+          422, "unprocessable", "the multipart body has no part named 'image'");
   } else {
     up->image = req.body;
     meta_text = req.header("x-capture-metadata");
@@ -54,7 +54,8 @@ std::optional<HttpResponse> read_upload(const HttpRequest& req, Upload* up) {
   if (!meta_text.empty()) {
     auto meta = parse_json_body(meta_text, &error);
     if (!meta)
-      return HttpResponse::error(400, "invalid_json", "capture metadata: " + error);
+      return HttpResponse::error(400, "invalid_json",
+                                 "capture metadata: " + error);
     if (!meta->is_object())
       return HttpResponse::error(400, "bad_request",
                                  "capture metadata must be a JSON object");
@@ -102,15 +103,17 @@ struct CaptureFields {
 std::optional<HttpResponse> read_fields(const Json& meta, CaptureFields* f) {
   for (auto [key, max, out] :
        {std::tuple{"capture_id", std::size_t{128}, &f->id},
-        {"camera", 128, &f->camera}, {"site_hint", 128, &f->site_hint},
-        {"filename", 256, &f->filename}, {"taken", 64, &f->taken}})
+        {"camera", 128, &f->camera},
+        {"site_hint", 128, &f->site_hint},
+        {"filename", 256, &f->filename},
+        {"taken", 64, &f->taken}})
     if (auto bad = string_field(meta, key, max, out)) return bad;
   if (!f->id.empty()) db::validate_path("/captures/" + f->id);
   if (!f->camera.empty()) db::validate_path("/cameras/" + f->camera);
   if (f->id.find('/') != std::string::npos ||
       f->camera.find('/') != std::string::npos)
-    return HttpResponse::error(400, "invalid_path",
-                               "capture_id and camera are single path segments");
+    return HttpResponse::error(
+        400, "invalid_path", "capture_id and camera are single path segments");
   if (auto it = meta.find("gps"); it != meta.end() && !it->is_null()) {
     std::string error;
     f->gps = gps_from_json(*it, &error);
@@ -195,9 +198,9 @@ HttpResponse withdraw_capture(ApiContext& ctx, const HttpRequest& /*req*/,
     if (ctx.who.role != Role::kAdmin &&
         !(ctx.who.role == Role::kScout &&
           doc->attrs.value("scout", "") == ctx.who.name))
-      return HttpResponse::error(403, "forbidden",
-                                 "only its own scout or an admin may withdraw " +
-                                     id);
+      return HttpResponse::error(
+          403, "forbidden",
+          "only its own scout or an admin may withdraw " + id);
     if (doc->attrs.value("status", "") == "withdrawn")
       return HttpResponse::json(200, to_json(*doc));
     db::WriteOp op = db::WriteOp::patch(

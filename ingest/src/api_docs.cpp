@@ -75,9 +75,8 @@ HttpResponse write_doc(ApiContext& ctx, const HttpRequest& req,
   if (req.method == "DELETE") {
     op.type = db::OpType::kDelete;
     auto r = ctx.store.write(op);
-    return HttpResponse::json(200, Json{{"path", r.path},
-                                        {"version", r.version},
-                                        {"seq", r.seq}});
+    return HttpResponse::json(
+        200, Json{{"path", r.path}, {"version", r.version}, {"seq", r.seq}});
   }
   auto body = parse_json_body(req.body, &error);
   if (!body) return HttpResponse::error(400, "invalid_json", error);
@@ -101,8 +100,9 @@ HttpResponse write_doc(ApiContext& ctx, const HttpRequest& req,
       db::BlobRefs refs;
       for (auto& [name, hash] : blobs.items()) {
         if (!hash.is_string())
-          return HttpResponse::error(422, "invalid_document",
-                                     "blob " + name + " must be a sha256 string");
+          return HttpResponse::error(
+              422, "invalid_document",
+              "blob " + name + " must be a sha256 string");
         refs[name] = hash.get<std::string>();
       }
       op.blobs = refs;
@@ -110,7 +110,8 @@ HttpResponse write_doc(ApiContext& ctx, const HttpRequest& req,
   }
   auto result = ctx.store.write(op);
   auto doc = ctx.store.get(path);
-  if (!doc) return HttpResponse::error(409, "conflict", path + " changed meanwhile");
+  if (!doc)
+    return HttpResponse::error(409, "conflict", path + " changed meanwhile");
   return document_response(result.version == 1 ? 201 : 200, *doc);
 }
 
@@ -122,8 +123,8 @@ HttpResponse docs_request(ApiContext& ctx, const HttpRequest& req,
   if (m == "GET") return get_doc(ctx, req, path.empty() ? "/" : path);
   if (m == "PUT" || m == "PATCH" || m == "DELETE")
     return write_doc(ctx, req, path);
-  HttpResponse r = HttpResponse::error(405, "method_not_allowed",
-                                       "documents allow GET, PUT, PATCH, DELETE");
+  HttpResponse r = HttpResponse::error(
+      405, "method_not_allowed", "documents allow GET, PUT, PATCH, DELETE");
   r.headers.emplace_back("Allow", "GET, PUT, PATCH, DELETE");
   return r;
 }

@@ -8,8 +8,8 @@ namespace arscout::ingest {
 HttpResponse get_changes(ApiContext& ctx, const HttpRequest& req) {
   std::string error;
   auto since = int_param(req, "since", 0, 0, INT64_MAX, &error);
-  auto limit = since ? int_param(req, "limit", 1000, 1, 10000, &error)
-                     : std::nullopt;
+  auto limit =
+      since ? int_param(req, "limit", 1000, 1, 10000, &error) : std::nullopt;
   auto wait = limit ? int_param(req, "wait", 0, 0, 60, &error) : std::nullopt;
   if (!wait) return HttpResponse::error(400, "bad_request", error);
   std::string pattern = "/**";
@@ -22,11 +22,13 @@ HttpResponse get_changes(ApiContext& ctx, const HttpRequest& req) {
   std::int64_t head = 0;
   while (true) {
     head = ctx.store.last_seq();
-    changes = ctx.store.changes(*since, pattern, static_cast<std::size_t>(*limit));
+    changes =
+        ctx.store.changes(*since, pattern, static_cast<std::size_t>(*limit));
     if (!changes.empty() || Clock::now() >= deadline) break;
     auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
         deadline - Clock::now());
-    ctx.store.wait_for_change(head, std::min(left, std::chrono::milliseconds(1000)));
+    ctx.store.wait_for_change(head,
+                              std::min(left, std::chrono::milliseconds(1000)));
   }
   Json out = Json::array();
   for (const auto& c : changes) out.push_back(to_json(c));

@@ -41,7 +41,8 @@ std::optional<std::int64_t> int_param(const HttpRequest& req,
                                       std::int64_t fallback, std::int64_t min,
                                       std::int64_t max, std::string* error);
 // Parses a JSON body; nullopt and *error (naming the byte) when malformed.
-std::optional<Json> parse_json_body(const std::string& text, std::string* error);
+std::optional<Json> parse_json_body(const std::string& text,
+                                    std::string* error);
 bool can_read(const Principal& who, const std::string& doc_path);
 
 }  // namespace arscout::ingest

@@ -98,7 +98,8 @@ HttpResponse get_sites(ApiContext& ctx, const HttpRequest& req) {
 
 HttpResponse get_blob(ApiContext& ctx, const HttpRequest& req,
                       const std::string& hash) {
-  auto info = ctx.store.blob_info(hash);  // throws invalid_argument on a bad hash
+  auto info =
+      ctx.store.blob_info(hash);  // throws invalid_argument on a bad hash
   if (!info) return HttpResponse::error(404, "unknown_blob", "no blob " + hash);
   std::ostringstream head;
   ctx.store.read_blob(hash, head, 0, std::min<std::int64_t>(8, info->size));
@@ -106,7 +107,8 @@ HttpResponse get_blob(ApiContext& ctx, const HttpRequest& req,
   r.content_type = sniff_content_type(head.str());
   r.headers.emplace_back("ETag", "\"" + hash + "\"");
   r.headers.emplace_back("Accept-Ranges", "bytes");
-  r.headers.emplace_back("Cache-Control", "public, max-age=31536000, immutable");
+  r.headers.emplace_back("Cache-Control",
+                         "public, max-age=31536000, immutable");
   std::int64_t first = 0, last = info->size - 1;
   std::string range = req.header("range");
   if (!range.empty()) {
@@ -120,10 +122,10 @@ HttpResponse get_blob(ApiContext& ctx, const HttpRequest& req,
       return bad;
     }
     r.status = 206;
-    r.headers.emplace_back("Content-Range",
-                           "bytes " + std::to_string(first) + "-" +
-                               std::to_string(last) + "/" +
-                               std::to_string(info->size));
+    r.headers.emplace_back("Content-Range", "bytes " + std::to_string(first) +
+                                                "-" + std::to_string(last) +
+                                                "/" +
+                                                std::to_string(info->size));
   }
   std::ostringstream body;
   if (info->size > 0) ctx.store.read_blob(hash, body, first, last - first + 1);
@@ -146,7 +148,8 @@ HttpResponse put_camera(ApiContext& ctx, const HttpRequest& req,
   op.author = ctx.who.name;
   ctx.store.write(op);
   auto doc = ctx.store.get("/cameras/" + id);
-  HttpResponse r = HttpResponse::json(doc->version == 1 ? 201 : 200, to_json(*doc));
+  HttpResponse r =
+      HttpResponse::json(doc->version == 1 ? 201 : 200, to_json(*doc));
   r.headers.emplace_back("ETag", "\"" + std::to_string(doc->version) + "\"");
   return r;
 }

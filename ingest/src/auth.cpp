@@ -16,9 +16,12 @@ std::string token_path(const std::string& token) {
 
 const char* to_string(Role role) {
   switch (role) {
-    case Role::kScout: return "scout";
-    case Role::kPlanner: return "planner";
-    case Role::kAdmin: return "admin";
+    case Role::kScout:
+      return "scout";
+    case Role::kPlanner:
+      return "planner";
+    case Role::kAdmin:
+      return "admin";
   }
   return "planner";
 }
@@ -33,16 +36,17 @@ std::optional<Role> role_from_string(const std::string& text) {
 std::string create_token(db::Store& store, Role role, const std::string& name) {
   db::validate_path("/" + name);  // names become path segments
   if (name.find('/') != std::string::npos)
-    throw db::StoreError(db::ErrorCode::kInvalidArgument,
-                         "a token name is one path segment, not '" + name + "'");
+    throw db::StoreError(
+        db::ErrorCode::kInvalidArgument,
+        "a token name is one path segment, not '" + name + "'");
   unsigned char random[32];
   if (RAND_bytes(random, sizeof random) != 1)
     throw db::StoreError(db::ErrorCode::kInternal,
                          "no randomness for a token (RAND_bytes failed)");
   std::string token = "ars_" + to_hex(random, sizeof random);
-  std::vector<db::WriteOp> ops = {db::WriteOp::put(
-      token_path(token), "token",
-      db::Json{{"role", to_string(role)}, {"name", name}}, 0)};
+  std::vector<db::WriteOp> ops = {
+      db::WriteOp::put(token_path(token), "token",
+                       db::Json{{"role", to_string(role)}, {"name", name}}, 0)};
   if (role == Role::kScout && !store.get("/scouts/" + name))
     ops.push_back(db::WriteOp::put("/scouts/" + name, "scout",
                                    db::Json{{"name", name}, {"role", "scout"}},

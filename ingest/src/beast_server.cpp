@@ -3,6 +3,7 @@
 // WebSocket subscriptions. Requests are answered by Api on a worker pool.
 #include <utility>  // before Asio, for C++20
 
+#include <spdlog/spdlog.h>
 #include <boost/asio.hpp>
 #include <boost/asio/ssl.hpp>
 #include <boost/beast/core.hpp>
@@ -11,7 +12,6 @@
 #include <boost/beast/websocket.hpp>
 #include <boost/beast/websocket/ssl.hpp>
 #include <deque>
-#include <spdlog/spdlog.h>
 #include <thread>
 
 #include "api.h"
@@ -127,10 +127,11 @@ class SubscribeSession
 
   void enqueue(std::string text) {
     if (queue_.size() >= kMaxQueued) {  // a client too slow to keep up
-      ws_.async_close(websocket::close_reason(websocket::close_code::policy_error,
-                                              "too far behind; reconnect "
-                                              "with since"),
-                      [self = this->shared_from_this()](beast::error_code) {});
+      ws_.async_close(
+          websocket::close_reason(websocket::close_code::policy_error,
+                                  "too far behind; reconnect "
+                                  "with since"),
+          [self = this->shared_from_this()](beast::error_code) {});
       return;
     }
     queue_.push_back(std::move(text));
@@ -208,11 +209,11 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     auto body_time = std::chrono::seconds(30) +
                      std::chrono::seconds(length.value_or(0) / (64 * 1024));
     tcp_of(stream_).expires_after(body_time);
-    http::async_read(stream_, buffer_, *parser_,
-                     [self = this->shared_from_this()](beast::error_code ec2,
-                                                       std::size_t) {
-                       self->on_body(ec2);
-                     });
+    http::async_read(
+        stream_, buffer_, *parser_,
+        [self = this->shared_from_this()](beast::error_code ec2, std::size_t) {
+          self->on_body(ec2);
+        });
   }
 
   void on_body(beast::error_code ec) {
@@ -258,8 +259,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     auto checked = shared_.api.check_subscribe(req);
     if (auto* error = std::get_if<HttpResponse>(&checked))
       return send(std::move(*error), request.version(), false);
-    auto ws = std::make_shared<SubscribeSession<Stream>>(std::move(stream_),
-                                                         shared_);
+    auto ws =
+        std::make_shared<SubscribeSession<Stream>>(std::move(stream_), shared_);
     ws->run(std::move(request), std::get<Api::Subscribe>(checked));
   }
 
@@ -279,14 +280,13 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     auto message = std::make_shared<http::response<http::string_body>>(
         to_beast(std::move(response), version, keep_alive));
     tcp_of(stream_).expires_after(std::chrono::seconds(60));
-    http::async_write(
-        stream_, *message,
-        [self = this->shared_from_this(), message](beast::error_code ec,
-                                                   std::size_t) {
-          if (ec) return;
-          if (!message->keep_alive()) return self->close();
-          self->read_header(self->shared_.options.idle_timeout);
-        });
+    http::async_write(stream_, *message,
+                      [self = this->shared_from_this(), message](
+                          beast::error_code ec, std::size_t) {
+                        if (ec) return;
+                        if (!message->keep_alive()) return self->close();
+                        self->read_header(self->shared_.options.idle_timeout);
+                      });
   }
 
   void close() {

@@ -10,7 +10,8 @@ int hex_value(char c) {
   return -1;
 }
 
-std::optional<std::string> percent_decode(std::string_view in, bool plus_space) {
+std::optional<std::string> percent_decode(std::string_view in,
+                                          bool plus_space) {
   std::string out;
   out.reserve(in.size());
   for (std::size_t i = 0; i < in.size(); ++i) {
@@ -45,7 +46,8 @@ HttpResponse HttpResponse::json(int status, const Json& body) {
 }
 
 HttpResponse HttpResponse::error(int status, const std::string& kind,
-                                 const std::string& message, const Json& extra) {
+                                 const std::string& message,
+                                 const Json& extra) {
   Json body{{"error", kind}, {"message", message}};
   for (auto& [k, v] : extra.items()) body[k] = v;
   return json(status, body);

@@ -19,8 +19,8 @@ bool jpeg_has_end_marker(std::string_view b) {
 }
 
 bool png_has_end_chunk(std::string_view b) {
-  return b.size() >= 12 && b.substr(b.size() - 12, 8) ==
-                               std::string_view("\0\0\0\0IEND", 8);
+  return b.size() >= 12 &&
+         b.substr(b.size() - 12, 8) == std::string_view("\0\0\0\0IEND", 8);
 }
 
 ImageProbe fail(std::string why) {
@@ -32,7 +32,8 @@ ImageProbe fail(std::string why) {
 }  // namespace
 
 ImageProbe probe_image(std::string_view bytes) {
-  if (bytes.empty()) return fail("the body is empty; expected a JPEG or PNG image");
+  if (bytes.empty())
+    return fail("the body is empty; expected a JPEG or PNG image");
   ImageProbe p;
   if (starts_with(bytes, "\xFF\xD8\xFF")) {
     p.format = "jpeg";
@@ -53,7 +54,8 @@ ImageProbe probe_image(std::string_view bytes) {
   } catch (const cv::Exception& e) {
     return fail("corrupt " + p.format + ": " + e.what());
   }
-  if (image.empty()) return fail("corrupt " + p.format + ": it does not decode");
+  if (image.empty())
+    return fail("corrupt " + p.format + ": it does not decode");
   p.ok = true;
   p.width = image.cols;
   p.height = image.rows;

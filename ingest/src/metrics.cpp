@@ -18,11 +18,12 @@ void Metrics::record_request(const std::string& route, int status,
 std::string Metrics::render() const {
   std::ostringstream out;
   std::lock_guard lock(mu_);
-  out << "# HELP arscout_http_requests_total HTTP requests by route and status.\n"
+  out << "# HELP arscout_http_requests_total HTTP requests by route and "
+         "status.\n"
          "# TYPE arscout_http_requests_total counter\n";
   for (const auto& [key, n] : requests_)
-    out << "arscout_http_requests_total{route=\"" << key.first
-        << "\",status=\"" << key.second << "\"} " << n << "\n";
+    out << "arscout_http_requests_total{route=\"" << key.first << "\",status=\""
+        << key.second << "\"} " << n << "\n";
   out << "# HELP arscout_http_request_duration_seconds Request latency by "
          "route.\n# TYPE arscout_http_request_duration_seconds histogram\n";
   for (const auto& [route, h] : latency_) {

@@ -17,7 +17,8 @@ std::string header_param(const std::string& value, const std::string& key) {
   std::string lowered = lower(value);
   std::size_t pos = 0;
   while ((pos = lowered.find(key + "=", pos)) != std::string::npos) {
-    bool starts = pos == 0 || lowered[pos - 1] == ';' || lowered[pos - 1] == ' ';
+    bool starts =
+        pos == 0 || lowered[pos - 1] == ';' || lowered[pos - 1] == ' ';
     std::size_t start = pos + key.size() + 1;
     if (!starts) {
       pos = start;
@@ -65,9 +66,8 @@ std::string multipart_boundary(const std::string& content_type) {
   return header_param(content_type, "boundary");
 }
 
-std::optional<std::vector<FormPart>> parse_multipart(std::string_view body,
-                                                     const std::string& boundary,
-                                                     std::string* error) {
+std::optional<std::vector<FormPart>> parse_multipart(
+    std::string_view body, const std::string& boundary, std::string* error) {
   if (boundary.empty() || boundary.size() > 200) {
     *error = "multipart body without a valid boundary";
     return std::nullopt;

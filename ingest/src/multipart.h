@@ -21,8 +21,7 @@ std::string multipart_boundary(const std::string& content_type);
 // Splits body into its parts. Returns nullopt and sets *error on a
 // malformed body (missing boundary lines, parts without a name, no final
 // boundary).
-std::optional<std::vector<FormPart>> parse_multipart(std::string_view body,
-                                                     const std::string& boundary,
-                                                     std::string* error);
+std::optional<std::vector<FormPart>> parse_multipart(
+    std::string_view body, const std::string& boundary, std::string* error);
 
 }  // namespace arscout::ingest

@@ -118,10 +118,12 @@ struct ChangeStream::Impl {
 
   void close() {
     beast::error_code ignored;
-    if (plain) beast::get_lowest_layer(*plain).socket().shutdown(
-        tcp::socket::shutdown_both, ignored);
-    if (secure) beast::get_lowest_layer(*secure).socket().shutdown(
-        tcp::socket::shutdown_both, ignored);
+    if (plain)
+      beast::get_lowest_layer(*plain).socket().shutdown(
+          tcp::socket::shutdown_both, ignored);
+    if (secure)
+      beast::get_lowest_layer(*secure).socket().shutdown(
+          tcp::socket::shutdown_both, ignored);
     if (reader.joinable()) reader.join();
   }
 };
@@ -141,24 +143,28 @@ ChangeStream::ChangeStream(const ClientOptions& options, std::int64_t since,
     if (!options.ca_file.empty()) impl_->tls.load_verify_file(options.ca_file);
     impl_->tls.set_verify_mode(options.verify_tls ? ssl::verify_peer
                                                   : ssl::verify_none);
-    impl_->secure = std::make_unique<
-        websocket::stream<ssl::stream<beast::tcp_stream>>>(impl_->ioc,
-                                                           impl_->tls);
+    impl_->secure =
+        std::make_unique<websocket::stream<ssl::stream<beast::tcp_stream>>>(
+            impl_->ioc, impl_->tls);
     auto& layer = beast::get_lowest_layer(*impl_->secure);
     layer.connect(addresses, ec);
-    if (!ec) SSL_set_tlsext_host_name(impl_->secure->next_layer().native_handle(),
-                                      e.host.c_str());
-    if (!ec) impl_->secure->next_layer().handshake(ssl::stream_base::client, ec);
-    if (ec) throw NetworkError("cannot connect to " + options.server + ": " +
-                               ec.message());
+    if (!ec)
+      SSL_set_tlsext_host_name(impl_->secure->next_layer().native_handle(),
+                               e.host.c_str());
+    if (!ec)
+      impl_->secure->next_layer().handshake(ssl::stream_base::client, ec);
+    if (ec)
+      throw NetworkError("cannot connect to " + options.server + ": " +
+                         ec.message());
     impl_->handshake(*impl_->secure, e, target, options.token);
     impl_->reader = std::thread([this] { impl_->read_loop(*impl_->secure); });
   } else {
     impl_->plain =
         std::make_unique<websocket::stream<beast::tcp_stream>>(impl_->ioc);
     beast::get_lowest_layer(*impl_->plain).connect(addresses, ec);
-    if (ec) throw NetworkError("cannot connect to " + options.server + ": " +
-                               ec.message());
+    if (ec)
+      throw NetworkError("cannot connect to " + options.server + ": " +
+                         ec.message());
     impl_->handshake(*impl_->plain, e, target, options.token);
     impl_->reader = std::thread([this] { impl_->read_loop(*impl_->plain); });
   }

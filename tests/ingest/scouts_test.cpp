@@ -51,10 +51,13 @@ class ScoutsTest : public ::testing::TestWithParam<std::string> {
       const std::string& token, const std::string& images,
       const std::string& log, std::vector<std::string> extra = {}) {
     std::vector<std::string> args = {
-        "scout",   "--server",
+        "scout",
+        "--server",
         "http://127.0.0.1:" + std::to_string(server_->port()),
-        "--token", token,
-        "--dir",   images};
+        "--token",
+        token,
+        "--dir",
+        images};
     args.insert(args.end(), extra.begin(), extra.end());
     return std::make_unique<testing::ToolProcess>(ARSCOUT_CLI, args,
                                                   dir_ + "/" + log);
@@ -81,8 +84,10 @@ TEST_P(ScoutsTest, FourConcurrentScoutsStoreEachPhotoExactlyOnce) {
   auto b1 = scout(bob_, fountain_images, "b1.log", {"--gps-csv", csv});
   auto a2 = scout(alice_, lund_images, "a2.log");  // the same photos again
   auto b2 = scout(bob_, fountain_images, "b2.log", {"--gps-csv", csv});
-  for (auto [p, log] : {std::pair{a1.get(), "a1.log"}, {b1.get(), "b1.log"},
-                        {a2.get(), "a2.log"}, {b2.get(), "b2.log"}}) {
+  for (auto [p, log] : {std::pair{a1.get(), "a1.log"},
+                        {b1.get(), "b1.log"},
+                        {a2.get(), "a2.log"},
+                        {b2.get(), "b2.log"}}) {
     std::string result = finish(*p, log);
     EXPECT_EQ(result.rfind("exit 0", 0), 0u) << log << ": " << result;
   }

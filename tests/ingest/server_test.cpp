@@ -99,9 +99,9 @@ class ServerTest : public ::testing::TestWithParam<std::string> {
   HttpResult upload(const std::string& token, const std::string& body,
                     const std::string& meta) {
     Client c(as(token));
-    return c.request("POST", "/v1/captures", body,
-                     {{"Content-Type", "image/jpeg"},
-                      {"X-Capture-Metadata", meta}});
+    return c.request(
+        "POST", "/v1/captures", body,
+        {{"Content-Type", "image/jpeg"}, {"X-Capture-Metadata", meta}});
   }
 
   // The change log and document count, to show a request changed nothing.
@@ -192,66 +192,204 @@ TEST_P(ServerTest, BadInputGetsItsOwnStatusAndChangesNothing) {
   const std::string jpeg_head = "image/jpeg";
   std::vector<BadCase> cases = {
       {"zero-byte body", "POST", "/v1/captures", "alice", "", {}, 422, "empty"},
-      {"truncated JPEG", "POST", "/v1/captures", "alice",
-       image.substr(0, image.size() / 2), {}, 422, "truncated"},
-      {"a PDF", "POST", "/v1/captures", "alice", "%PDF-1.4\n1 0 obj\n",
-       {{"Content-Type", "application/pdf"}}, 422, "not a JPEG or PNG"},
-      {"latitude 200", "POST", "/v1/captures", "alice", image,
-       {{"X-Capture-Metadata", metadata("c-lat", 200, 10)}}, 422, "gps.lat"},
-      {"NaN altitude", "POST", "/v1/captures", "alice", image,
-       {{"X-Capture-Metadata",
-         R"({"gps":{"lat":1,"lon":2,"alt":"NaN"}})"}},
-       422, "gps.alt"},
-      {"negative accuracy", "POST", "/v1/captures", "alice", image,
+      {"truncated JPEG",
+       "POST",
+       "/v1/captures",
+       "alice",
+       image.substr(0, image.size() / 2),
+       {},
+       422,
+       "truncated"},
+      {"a PDF",
+       "POST",
+       "/v1/captures",
+       "alice",
+       "%PDF-1.4\n1 0 obj\n",
+       {{"Content-Type", "application/pdf"}},
+       422,
+       "not a JPEG or PNG"},
+      {"latitude 200",
+       "POST",
+       "/v1/captures",
+       "alice",
+       image,
+       {{"X-Capture-Metadata", metadata("c-lat", 200, 10)}},
+       422,
+       "gps.lat"},
+      {"NaN altitude",
+       "POST",
+       "/v1/captures",
+       "alice",
+       image,
+       {{"X-Capture-Metadata", R"({"gps":{"lat":1,"lon":2,"alt":"NaN"}})"}},
+       422,
+       "gps.alt"},
+      {"negative accuracy",
+       "POST",
+       "/v1/captures",
+       "alice",
+       image,
        {{"X-Capture-Metadata", R"({"gps":{"lat":1,"lon":2,"h_acc":-3}})"}},
-       422, "h_acc"},
-      {"malformed JSON metadata", "POST", "/v1/captures", "alice", image,
-       {{"X-Capture-Metadata", R"({"gps": {"lat": 1,)"}}, 400, "at byte"},
-      {"'..' as capture id", "POST", "/v1/captures", "alice", image,
-       {{"X-Capture-Metadata", R"({"capture_id":".."})"}}, 400, "'..'"},
-      {"multipart without image", "POST", "/v1/captures", "alice",
+       422,
+       "h_acc"},
+      {"malformed JSON metadata",
+       "POST",
+       "/v1/captures",
+       "alice",
+       image,
+       {{"X-Capture-Metadata", R"({"gps": {"lat": 1,)"}},
+       400,
+       "at byte"},
+      {"'..' as capture id",
+       "POST",
+       "/v1/captures",
+       "alice",
+       image,
+       {{"X-Capture-Metadata", R"({"capture_id":".."})"}},
+       400,
+       "'..'"},
+      {"multipart without image",
+       "POST",
+       "/v1/captures",
+       "alice",
        "--b\r\nContent-Disposition: form-data; name=\"metadata\"\r\n\r\n{}"
        "\r\n--b--\r\n",
-       {{"Content-Type", "multipart/form-data; boundary=b"}}, 422, "image"},
-      {"capture id of another upload", "POST", "/v1/captures", "alice", image,
-       {{"X-Capture-Metadata", metadata("alice-x")}}, 409, "different upload"},
-      {"planner uploads", "POST", "/v1/captures", "planner", image, {}, 403,
+       {{"Content-Type", "multipart/form-data; boundary=b"}},
+       422,
+       "image"},
+      {"capture id of another upload",
+       "POST",
+       "/v1/captures",
+       "alice",
+       image,
+       {{"X-Capture-Metadata", metadata("alice-x")}},
+       409,
+       "different upload"},
+      {"planner uploads",
+       "POST",
+       "/v1/captures",
+       "planner",
+       image,
+       {},
+       403,
        "planners"},
-      {"wrong token", "GET", "/v1/docs/sites/s1", "wrong", "", {}, 401,
+      {"wrong token",
+       "GET",
+       "/v1/docs/sites/s1",
+       "wrong",
+       "",
+       {},
+       401,
        "not valid"},
       {"no token", "GET", "/v1/docs/sites/s1", "", "", {}, 401, "required"},
-      {"unknown capture on DELETE", "DELETE", "/v1/captures/never-was",
-       "alice", "", {}, 404, "no capture"},
-      {"another scout's capture", "DELETE", "/v1/captures/alice-x", "bob", "",
-       {}, 403, "own scout"},
-      {"'..' in a document path", "GET", "/v1/docs/sites/../auth", "alice", "",
-       {}, 400, "'..'"},
-      {"encoded '..' in a path", "GET", "/v1/docs/sites/%2e%2e/x", "alice", "",
-       {}, 400, "'..'"},
-      {"bad percent-encoding", "GET", "/v1/docs/sites/%zz", "alice", "", {},
-       400, "percent"},
+      {"unknown capture on DELETE",
+       "DELETE",
+       "/v1/captures/never-was",
+       "alice",
+       "",
+       {},
+       404,
+       "no capture"},
+      {"another scout's capture",
+       "DELETE",
+       "/v1/captures/alice-x",
+       "bob",
+       "",
+       {},
+       403,
+       "own scout"},
+      {"'..' in a document path",
+       "GET",
+       "/v1/docs/sites/../auth",
+       "alice",
+       "",
+       {},
+       400,
+       "'..'"},
+      {"encoded '..' in a path",
+       "GET",
+       "/v1/docs/sites/%2e%2e/x",
+       "alice",
+       "",
+       {},
+       400,
+       "'..'"},
+      {"bad percent-encoding",
+       "GET",
+       "/v1/docs/sites/%zz",
+       "alice",
+       "",
+       {},
+       400,
+       "percent"},
       {"unknown route", "GET", "/v1/nowhere", "alice", "", {}, 404, "no route"},
       {"wrong method", "PATCH", "/v1/changes", "alice", "", {}, 405, "GET"},
-      {"scout writes a document", "PUT", "/v1/docs/sites/s1", "alice",
-       R"({"kind":"site","attrs":{}})", {}, 403, "admin"},
-      {"stale If-Match", "PUT", "/v1/docs/sites/s1", "admin",
-       R"({"kind":"site","attrs":{}})", {{"If-Match", "\"9\""}}, 409,
+      {"scout writes a document",
+       "PUT",
+       "/v1/docs/sites/s1",
+       "alice",
+       R"({"kind":"site","attrs":{}})",
+       {},
+       403,
+       "admin"},
+      {"stale If-Match",
+       "PUT",
+       "/v1/docs/sites/s1",
+       "admin",
+       R"({"kind":"site","attrs":{}})",
+       {{"If-Match", "\"9\""}},
+       409,
        "current is version 1"},
-      {"malformed document JSON", "PUT", "/v1/docs/sites/s2", "admin",
-       R"({"kind":)", {}, 400, "at byte"},
-      {"tokens are admin-only", "GET", "/v1/docs/auth/tokens", "planner", "",
-       {}, 403, "admins"},
-      {"bad since", "GET", "/v1/changes?since=abc", "alice", "", {}, 400,
+      {"malformed document JSON",
+       "PUT",
+       "/v1/docs/sites/s2",
+       "admin",
+       R"({"kind":)",
+       {},
+       400,
+       "at byte"},
+      {"tokens are admin-only",
+       "GET",
+       "/v1/docs/auth/tokens",
+       "planner",
+       "",
+       {},
+       403,
+       "admins"},
+      {"bad since",
+       "GET",
+       "/v1/changes?since=abc",
+       "alice",
+       "",
+       {},
+       400,
        "since"},
       {"bad blob hash", "GET", "/v1/blobs/xyz", "alice", "", {}, 400, "hex"},
-      {"unknown blob", "GET", "/v1/blobs/" + std::string(64, 'a'), "alice", "",
-       {}, 404, "no blob"},
-      {"bad near", "GET", "/v1/sites?near=north", "alice", "", {}, 400,
+      {"unknown blob",
+       "GET",
+       "/v1/blobs/" + std::string(64, 'a'),
+       "alice",
+       "",
+       {},
+       404,
+       "no blob"},
+      {"bad near",
+       "GET",
+       "/v1/sites?near=north",
+       "alice",
+       "",
+       {},
+       400,
        "LAT,LON"},
-      {"camera with negative focal length", "PUT", "/v1/cameras/cam1", "alice",
+      {"camera with negative focal length",
+       "PUT",
+       "/v1/cameras/cam1",
+       "alice",
        R"({"fx":-1,"fy":800,"cx":320,"cy":240,"width":640,"height":480,)"
        R"("source":"calibrated"})",
-       {}, 422, "fx"},
+       {},
+       422,
+       "fx"},
   };
   std::map<std::string, std::string> tokens = {{"alice", alice_},
                                                {"bob", bob_},
@@ -264,7 +402,8 @@ TEST_P(ServerTest, BadInputGetsItsOwnStatusAndChangesNothing) {
     Client client(as(tokens.at(c.token_role)));
     HttpResult r = client.request(c.method, c.target, c.body, c.headers);
     EXPECT_EQ(r.status, c.status) << c.name << ": " << r.body;
-    EXPECT_NE(r.body.find(c.says), std::string::npos) << c.name << ": " << r.body;
+    EXPECT_NE(r.body.find(c.says), std::string::npos)
+        << c.name << ": " << r.body;
     EXPECT_EQ(client.get("/healthz").status, 200) << "after " << c.name;
   }
   EXPECT_EQ(snapshot(), before);
@@ -279,16 +418,16 @@ TEST_P(ServerTest, ProtocolAbuseIsRefusedAndTheServerKeepsServing) {
                 alice_ + "\r\nContent-Length: 104857600\r\n\r\n");
   EXPECT_NE(huge.find("413"), std::string::npos) << huge;
   // Headers over 16 KiB.
-  std::string big_header = raw_exchange(
-      port, "GET /healthz HTTP/1.1\r\nHost: x\r\nX-Pad: " +
-                std::string(20000, 'a') + "\r\n\r\n");
+  std::string big_header =
+      raw_exchange(port, "GET /healthz HTTP/1.1\r\nHost: x\r\nX-Pad: " +
+                             std::string(20000, 'a') + "\r\n\r\n");
   EXPECT_NE(big_header.find("431"), std::string::npos) << big_header;
   // Not HTTP at all: the connection is dropped.
   EXPECT_EQ(raw_exchange(port, "\x16\x03\x01 hello\r\n\r\n"), "");
   // One byte a second never completes a header within the 3 s allowed.
   auto start = std::chrono::steady_clock::now();
-  std::string slow = raw_exchange(
-      port, "GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n", 1000ms);
+  std::string slow =
+      raw_exchange(port, "GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n", 1000ms);
   auto took = std::chrono::steady_clock::now() - start;
   EXPECT_EQ(slow.find("200 OK"), std::string::npos) << slow;
   EXPECT_LT(took, 10s);
@@ -304,18 +443,18 @@ TEST_P(ServerTest, DocumentsCarryVersionsAsEtags) {
                                      {{"If-None-Match", "*"}});
   ASSERT_EQ(created.status, 201) << created.body;
   EXPECT_EQ(created.headers["etag"], "\"1\"");
-  HttpResult patched = admin.request("PATCH", "/v1/docs/sites/s9",
-                                     R"({"b":2})", {{"If-Match", "\"1\""}});
+  HttpResult patched = admin.request("PATCH", "/v1/docs/sites/s9", R"({"b":2})",
+                                     {{"If-Match", "\"1\""}});
   ASSERT_EQ(patched.status, 200) << patched.body;
   EXPECT_EQ(patched.headers["etag"], "\"2\"");
   HttpResult got = planner.get("/v1/docs/sites/s9");
   EXPECT_EQ(got.json()["attrs"], (Json{{"a", 1}, {"b", 2}}));
   HttpResult tree = planner.get("/v1/docs/sites?depth=1");
   EXPECT_EQ(tree.json()["documents"].size(), 1u);
-  EXPECT_EQ(admin.request("DELETE", "/v1/docs/sites/s9", "",
-                          {{"If-Match", "\"1\""}})
-                .status,
-            409);
+  EXPECT_EQ(
+      admin.request("DELETE", "/v1/docs/sites/s9", "", {{"If-Match", "\"1\""}})
+          .status,
+      409);
   EXPECT_EQ(admin.request("DELETE", "/v1/docs/sites/s9").status, 200);
   EXPECT_EQ(planner.get("/v1/docs/sites/s9").status, 404);
 }
@@ -330,24 +469,26 @@ TEST_P(ServerTest, BlobsServeRangesWithTheirContentType) {
   EXPECT_EQ(whole.status, 200);
   EXPECT_EQ(whole.headers["content-type"], "image/jpeg");
   EXPECT_EQ(whole.body, image);
-  HttpResult part = c.request("GET", "/v1/blobs/" + hash, "",
-                              {{"Range", "bytes=10-19"}});
+  HttpResult part =
+      c.request("GET", "/v1/blobs/" + hash, "", {{"Range", "bytes=10-19"}});
   EXPECT_EQ(part.status, 206);
   EXPECT_EQ(part.body, image.substr(10, 10));
   EXPECT_EQ(part.headers["content-range"],
             "bytes 10-19/" + std::to_string(image.size()));
-  HttpResult tail = c.request("GET", "/v1/blobs/" + hash, "",
-                              {{"Range", "bytes=-5"}});
+  HttpResult tail =
+      c.request("GET", "/v1/blobs/" + hash, "", {{"Range", "bytes=-5"}});
   EXPECT_EQ(tail.body, image.substr(image.size() - 5));
-  EXPECT_EQ(c.request("GET", "/v1/blobs/" + hash, "",
-                      {{"Range", "bytes=999999-"}})
-                .status,
-            416);
+  EXPECT_EQ(
+      c.request("GET", "/v1/blobs/" + hash, "", {{"Range", "bytes=999999-"}})
+          .status,
+      416);
 }
 
 TEST_P(ServerTest, SitesNearAPlace) {
-  store_->put("/sites/graz", "site", Json{{"gps", {{"lat", 47.07}, {"lon", 15.44}}}});
-  store_->put("/sites/lund", "site", Json{{"gps", {{"lat", 55.7}, {"lon", 13.19}}}});
+  store_->put("/sites/graz", "site",
+              Json{{"gps", {{"lat", 47.07}, {"lon", 15.44}}}});
+  store_->put("/sites/lund", "site",
+              Json{{"gps", {{"lat", 55.7}, {"lon", 13.19}}}});
   Client c(as(planner_));
   HttpResult near = c.get("/v1/sites?near=47.0701,15.4401&radius=500");
   ASSERT_EQ(near.status, 200) << near.body;
@@ -412,14 +553,17 @@ TEST_P(ServerTest, MetricsCountRequestsUploadsAndConnections) {
   HttpResult m = c.get("/metrics");  // no token needed, but one is fine
   ASSERT_EQ(m.status, 200);
   EXPECT_EQ(m.headers["content-type"], "text/plain; version=0.0.4");
-  EXPECT_NE(m.body.find(R"(arscout_http_requests_total{route="POST /v1/captures",status="201"} 1)"),
-            std::string::npos)
+  EXPECT_NE(
+      m.body.find(
+          R"(arscout_http_requests_total{route="POST /v1/captures",status="201"} 1)"),
+      std::string::npos)
       << m.body;
   EXPECT_NE(m.body.find(R"(route="GET /v1/docs/*",status="404"} 1)"),
             std::string::npos);
-  EXPECT_NE(m.body.find(
-                R"(arscout_http_request_duration_seconds_count{route="POST /v1/captures"} 1)"),
-            std::string::npos);
+  EXPECT_NE(
+      m.body.find(
+          R"(arscout_http_request_duration_seconds_count{route="POST /v1/captures"} 1)"),
+      std::string::npos);
   EXPECT_NE(m.body.find("arscout_upload_bytes_total " +
                         std::to_string(jpeg_bytes(8).size())),
             std::string::npos);

@@ -52,14 +52,15 @@ std::optional<std::string> shared_data(const std::string& sub);
 
 // Sets `dir` to ../shared/data/`sub`, or skips (fails under CI, where the
 // data is always present).
-#define ARSCOUT_SHARED_DATA_OR_SKIP(dir, sub)                              \
-  do {                                                                     \
-    auto maybe_ = ::arscout::testing::shared_data(sub);                    \
-    if (!maybe_) {                                                         \
-      std::string why_ = std::string("shared data folder '") + (sub) +     \
-                         "' not found (../shared/data or ARSCOUT_SHARED_DATA)"; \
-      if (::arscout::testing::in_ci()) FAIL() << why_;                     \
-      GTEST_SKIP() << why_;                                                \
-    }                                                                      \
-    dir = *maybe_;                                                         \
+#define ARSCOUT_SHARED_DATA_OR_SKIP(dir, sub)                    \
+  do {                                                           \
+    auto maybe_ = ::arscout::testing::shared_data(sub);          \
+    if (!maybe_) {                                               \
+      std::string why_ =                                         \
+          std::string("shared data folder '") + (sub) +          \
+          "' not found (../shared/data or ARSCOUT_SHARED_DATA)"; \
+      if (::arscout::testing::in_ci()) FAIL() << why_;           \
+      GTEST_SKIP() << why_;                                      \
+    }                                                            \
+    dir = *maybe_;                                               \
   } while (0)

@@ -45,10 +45,10 @@ class Client {
 
   // Sends one request; any HTTP status is a result, not an error. Reconnects
   // if the kept-alive connection was closed. Throws NetworkError.
-  HttpResult request(const std::string& method, const std::string& target,
-                     const std::string& body = "",
-                     const std::vector<std::pair<std::string, std::string>>&
-                         headers = {});
+  HttpResult request(
+      const std::string& method, const std::string& target,
+      const std::string& body = "",
+      const std::vector<std::pair<std::string, std::string>>& headers = {});
   HttpResult get(const std::string& target) { return request("GET", target); }
 
  private:

@@ -21,7 +21,7 @@ using Json = nlohmann::json;
 struct GpsFix {
   double lat = 0;
   double lon = 0;
-  std::optional<double> alt;         // ellipsoidal height, metres
+  std::optional<double> alt;  // ellipsoidal height, metres
   std::optional<double> h_acc;
   std::optional<double> v_acc;
   std::optional<int> satellites;
@@ -42,15 +42,15 @@ std::string validate_gps(const GpsFix& fix);
 // What the EXIF of a JPEG (or PNG with an eXIf chunk) says, as far as it
 // says it. Never throws on bad metadata: fields stay empty.
 struct ExifInfo {
-  std::optional<GpsFix> gps;         // source "exif"
-  std::string taken;                 // DateTimeOriginal, "YYYY-MM-DDTHH:MM:SS"
+  std::optional<GpsFix> gps;  // source "exif"
+  std::string taken;          // DateTimeOriginal, "YYYY-MM-DDTHH:MM:SS"
   std::optional<double> focal_mm;
-  std::optional<double> focal_35mm;  // 35 mm equivalent focal length
+  std::optional<double> focal_35mm;         // 35 mm equivalent focal length
   std::optional<double> focal_plane_x_res;  // pixels per unit
   std::optional<double> focal_plane_unit_mm;
   std::string make;
   std::string model;
-  int width = 0;                     // from EXIF, 0 if absent
+  int width = 0;  // from EXIF, 0 if absent
   int height = 0;
 };
 ExifInfo read_exif(std::string_view image_bytes);
