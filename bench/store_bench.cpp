@@ -7,10 +7,7 @@
 //                                         that server and dropped afterwards
 //
 // bench/run-store-bench.sh runs both backends; bench/RESULTS.md has figures.
-#include <libpq-fe.h>
-
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -18,8 +15,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
-#include <filesystem>
-#include <iostream>
 #include <latch>
 #include <memory>
 #include <mutex>
@@ -32,19 +27,21 @@
 #include <unordered_map>
 #include <vector>
 
-#include <fcntl.h>
 #include <unistd.h>
 
-#include <spdlog/sinks/stdout_sinks.h>
-#include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 
 #include "arscout/db/store.h"
+#include "bench_support.h"
 
 namespace {
 
 namespace db = arscout::db;
-using Clock = std::chrono::steady_clock;
+using arscout::bench::Clock;
+using arscout::bench::ms_between;
+using arscout::bench::percentile;
+using arscout::bench::Results;
+using arscout::bench::seconds_since;
 
 struct Config {
   std::string url;
@@ -60,123 +57,6 @@ struct Config {
   bool reuse_db = false;  // use --db as given instead of fresh databases
   std::string tmp_dir;
 };
-
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-double ms_between(Clock::time_point from, Clock::time_point to) {
-  return std::chrono::duration<double, std::milli>(to - from).count();
-}
-
-// Nearest-rank percentile of unsorted samples (q in [0, 1]).
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  auto rank = static_cast<std::size_t>(q * static_cast<double>(v.size()));
-  return v[std::min(rank, v.size() - 1)];
-}
-
-bool starts_with(const std::string& s, const std::string& prefix) {
-  return s.compare(0, prefix.size(), prefix) == 0;
-}
-
-// --- scratch databases -------------------------------------------------------
-
-// The database one run works on. Fresh ones are deleted on destruction, so
-// every run starts from an empty store and none inherits another's bloat.
-class ScratchDb {
- public:
-  virtual ~ScratchDb() = default;
-  virtual std::string url() const = 0;
-};
-
-class GivenDb : public ScratchDb {
- public:
-  explicit GivenDb(std::string url) : url_(std::move(url)) {}
-  std::string url() const override { return url_; }
-
- private:
-  std::string url_;
-};
-
-class SqliteScratch : public ScratchDb {
- public:
-  explicit SqliteScratch(const std::string& parent) {
-    std::string templ = parent + "/store-bench.XXXXXX";
-    if (mkdtemp(templ.data()) == nullptr)
-      throw std::runtime_error("cannot create a temp dir under " + parent);
-    dir_ = templ;
-  }
-  ~SqliteScratch() override {
-    std::error_code ignored;
-    std::filesystem::remove_all(dir_, ignored);
-  }
-  std::string url() const override { return "sqlite:" + dir_ + "/bench.db"; }
-
- private:
-  std::string dir_;
-};
-
-// Runs one statement on the server through libpq (the store has no API for
-// creating databases).
-void pg_exec(const std::string& url, const std::string& sql) {
-  std::unique_ptr<PGconn, decltype(&PQfinish)> conn(PQconnectdb(url.c_str()),
-                                                    &PQfinish);
-  if (PQstatus(conn.get()) != CONNECTION_OK)
-    throw std::runtime_error("cannot connect to PostgreSQL: " +
-                             std::string(PQerrorMessage(conn.get())));
-  std::unique_ptr<PGresult, decltype(&PQclear)> result(
-      PQexec(conn.get(), sql.c_str()), &PQclear);
-  if (PQresultStatus(result.get()) != PGRES_COMMAND_OK)
-    throw std::runtime_error(sql + ": " +
-                             std::string(PQerrorMessage(conn.get())));
-}
-
-// The URL with its database name replaced by name.
-std::string with_database(const std::string& url, const std::string& name) {
-  std::size_t authority = url.find("://") + 3;
-  std::size_t query = url.find('?', authority);
-  std::size_t end = query == std::string::npos ? url.size() : query;
-  std::size_t slash = url.find('/', authority);
-  if (slash == std::string::npos || slash > end)
-    return url.substr(0, end) + "/" + name + url.substr(end);
-  return url.substr(0, slash + 1) + name + url.substr(end);
-}
-
-class PgScratch : public ScratchDb {
- public:
-  PgScratch(std::string admin_url, int run)
-      : admin_url_(std::move(admin_url)),
-        name_("arscout_bench_" + std::to_string(getpid()) + "_" +
-              std::to_string(run)) {
-    pg_exec(admin_url_, "CREATE DATABASE " + name_);
-  }
-  ~PgScratch() override {
-    try {
-      // FORCE: a connection the store left behind must not keep it alive.
-      pg_exec(admin_url_, "DROP DATABASE IF EXISTS " + name_ + " WITH (FORCE)");
-    } catch (const std::exception& e) {
-      std::cerr << "store_bench: warning: " << e.what() << "\n";
-    }
-  }
-  std::string url() const override { return with_database(admin_url_, name_); }
-
- private:
-  std::string admin_url_;
-  std::string name_;
-};
-
-std::unique_ptr<ScratchDb> make_scratch(const Config& cfg, int run) {
-  if (cfg.reuse_db) return std::make_unique<GivenDb>(cfg.url);
-  if (starts_with(cfg.url, "sqlite:"))
-    return std::make_unique<SqliteScratch>(cfg.tmp_dir);
-  if (starts_with(cfg.url, "postgresql://") ||
-      starts_with(cfg.url, "postgres://"))
-    return std::make_unique<PgScratch>(cfg.url, run);
-  throw std::runtime_error("--db " + cfg.url +
-                           ": must start with sqlite: or postgresql://");
-}
 
 // --- streams -----------------------------------------------------------------
 
@@ -232,48 +112,6 @@ std::vector<std::string> doc_paths(const std::string& prefix, int n) {
   for (int i = 0; i < n; ++i)
     paths.push_back(prefix + "/d" + std::to_string(i));
   return paths;
-}
-
-struct Results {
-  struct Metric {
-    std::string name;
-    std::string unit;
-    std::vector<double> values;  // one per run
-  };
-  std::vector<Metric> metrics;  // in the order first added
-
-  void add(const std::string& name, const std::string& unit, double value) {
-    for (Metric& m : metrics) {
-      if (m.name == name) {
-        m.values.push_back(value);
-        return;
-      }
-    }
-    metrics.push_back({name, unit, {value}});
-  }
-};
-
-// Median time of an 8 KiB write + fdatasync in dir, the floor under every
-// durable commit. Cloud disks vary it several-fold from minute to minute, so
-// each run records it beside the figures it explains.
-void measure_fdatasync(const std::string& dir, Results& out) {
-  std::string path = dir + "/store-bench-fsync." + std::to_string(getpid());
-  int fd = open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-  if (fd < 0) throw std::runtime_error("cannot create " + path);
-  std::string page(8192, 'x');
-  std::vector<double> ms;
-  for (int i = 0; i < 200; ++i) {
-    auto t0 = Clock::now();
-    bool ok = pwrite(fd, page.data(), page.size(), 0) ==
-                  static_cast<ssize_t>(page.size()) &&
-              fdatasync(fd) == 0;
-    ms.push_back(ms_between(t0, Clock::now()));
-    if (!ok) break;
-  }
-  close(fd);
-  unlink(path.c_str());
-  out.add("disk: 8 KiB write+fdatasync p50", "ms", percentile(ms, 0.50));
-  out.add("disk: 8 KiB write+fdatasync p99", "ms", percentile(ms, 0.99));
 }
 
 void measure_single_writes(db::Store& store,
@@ -443,13 +281,15 @@ db::OpenOptions open_options(const Config& cfg) {
 }
 
 void run_once(const Config& cfg, int run, Results& out) {
-  auto scratch = make_scratch(cfg, run);  // outlives the stores below
+  // The scratch database outlives the stores below.
+  auto scratch = arscout::bench::make_scratch(
+      {cfg.url, cfg.tmp_dir, "store_bench", cfg.reuse_db}, run);
   auto store = db::Store::open(scratch->url(), open_options(cfg));
   // Unique per run, so that --reuse-db runs never write the same paths.
   std::string prefix =
       "/bench/p" + std::to_string(getpid()) + "-r" + std::to_string(run);
 
-  measure_fdatasync(cfg.tmp_dir, out);
+  arscout::bench::measure_fdatasync(cfg.tmp_dir, out);
   auto paths = doc_paths(prefix + "/single", cfg.docs);
   measure_single_writes(*store, paths, out);
   measure_reads(*store, paths, cfg.reads, out);
@@ -464,12 +304,6 @@ void run_once(const Config& cfg, int run, Results& out) {
 
 // --- output ------------------------------------------------------------------
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : (v[n / 2 - 1] + v[n / 2]) / 2;
-}
-
 void print_table(const std::string& backend, const Config& cfg,
                  const Results& results) {
   std::printf(
@@ -478,14 +312,7 @@ void print_table(const std::string& backend, const Config& cfg,
       backend.c_str(), cfg.runs, cfg.docs, cfg.reads, cfg.writers,
       cfg.writer_docs, cfg.blob_mib, cfg.wakeups, cfg.wake_gap_ms,
       cfg.pool > 0 ? std::to_string(cfg.pool).c_str() : "default");
-  std::printf("%-40s %12s %12s %12s  %s\n", "metric", "median", "min", "max",
-              "unit");
-  for (const auto& m : results.metrics) {
-    auto [lo, hi] = std::minmax_element(m.values.begin(), m.values.end());
-    std::printf("%-40s %12.2f %12.2f %12.2f  %s\n", m.name.c_str(),
-                median(m.values), *lo, *hi, m.unit.c_str());
-  }
-  std::fflush(stdout);
+  arscout::bench::print_metrics(results);
 }
 
 void add_options(CLI::App& app, Config& cfg) {
@@ -519,13 +346,6 @@ void add_options(CLI::App& app, Config& cfg) {
       ->check(CLI::ExistingDirectory);
 }
 
-// The store logs warnings through spdlog; keep them off the table (stdout).
-void configure_logging() {
-  auto logger = spdlog::stderr_logger_mt("store_bench");
-  spdlog::set_default_logger(logger);
-  spdlog::set_level(spdlog::level::warn);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -535,15 +355,14 @@ int main(int argc, char** argv) {
   cfg.tmp_dir = tmp && *tmp ? tmp : "/tmp";
   add_options(app, cfg);
   CLI11_PARSE(app, argc, argv);
-  configure_logging();
+  arscout::bench::configure_logging("store_bench");
   try {
     Results results;
     for (int run = 0; run < cfg.runs; ++run) {
       std::fprintf(stderr, "store_bench: run %d/%d\n", run + 1, cfg.runs);
       run_once(cfg, run, results);
     }
-    print_table(starts_with(cfg.url, "sqlite:") ? "sqlite" : "postgresql", cfg,
-                results);
+    print_table(arscout::bench::backend_name(cfg.url), cfg, results);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "store_bench: error: %s\n", e.what());
     return 1;

@@ -17,15 +17,6 @@ struct Upload {
   Json meta = Json::object();
 };
 
-std::string now_rfc3339() {
-  std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
-
 // Splits the request into image bytes and metadata; an error response when
 // the body or metadata is malformed.
 std::optional<HttpResponse> read_upload(const HttpRequest& req, Upload* up) {
@@ -129,7 +120,7 @@ Json capture_attrs(const CaptureFields& f, const Principal& who,
   std::optional<GpsFix> gps = f.gps ? f.gps : exif.gps;
   if (gps && !validate_gps(*gps).empty()) gps.reset();  // implausible EXIF
   Json attrs{{"scout", who.name},
-             {"received", now_rfc3339()},
+             {"received", format_time_utc(std::time(nullptr))},
              {"format", probe.format},
              {"width", probe.width},
              {"height", probe.height},
