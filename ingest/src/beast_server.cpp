@@ -164,6 +164,10 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
   HttpSession(Stream&& stream, Shared shared)
       : stream_(std::move(stream)), shared_(shared) {
     shared_.api.metrics().connection_opened();
+    // Beast reads at most the buffer's free capacity (512 bytes minimum),
+    // and the body parser empties it after each read: without room here a
+    // 3 MB upload takes ~6,000 reads.
+    buffer_.reserve(kReadChunk);
   }
   ~HttpSession() { shared_.api.metrics().connection_closed(); }
 
@@ -181,6 +185,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
   }
 
  private:
+  static constexpr std::size_t kReadChunk = 64 * 1024;
+
   void read_header(std::chrono::seconds timeout) {
     parser_.emplace();
     parser_->header_limit(
@@ -209,10 +215,28 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     auto body_time = std::chrono::seconds(30) +
                      std::chrono::seconds(length.value_or(0) / (64 * 1024));
     tcp_of(stream_).expires_after(body_time);
+    if (beast::iequals(parser_->get()[http::field::expect], "100-continue"))
+      return send_continue();
+    read_body();
+  }
+
+  // Clients such as curl send "Expect: 100-continue" with large bodies and
+  // wait (a second, for curl) for this interim answer before sending.
+  void send_continue() {
+    auto interim = std::make_shared<http::response<http::empty_body>>(
+        http::status::continue_, parser_->get().version());
+    http::async_write(stream_, *interim,
+                      [self = this->shared_from_this(), interim](
+                          beast::error_code ec, std::size_t) {
+                        if (!ec) self->read_body();
+                      });
+  }
+
+  void read_body() {
     http::async_read(
         stream_, buffer_, *parser_,
-        [self = this->shared_from_this()](beast::error_code ec2, std::size_t) {
-          self->on_body(ec2);
+        [self = this->shared_from_this()](beast::error_code ec, std::size_t) {
+          self->on_body(ec);
         });
   }
 

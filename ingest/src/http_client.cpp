@@ -137,6 +137,9 @@ struct Client::Impl {
 
   explicit Impl(ClientOptions o)
       : options(std::move(o)), url(parse_server(options.server)) {
+    // Beast reads at most the buffer's free capacity (512 bytes minimum);
+    // room here makes a 3 MB download ~50 reads instead of ~6,000.
+    buffer.reserve(64 * 1024);
     if (url.tls) tls_context = make_tls_context();
   }
 

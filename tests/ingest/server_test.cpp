@@ -436,6 +436,33 @@ TEST_P(ServerTest, ProtocolAbuseIsRefusedAndTheServerKeepsServing) {
   EXPECT_EQ(snapshot(), before);
 }
 
+TEST_P(ServerTest, AnswersExpectContinueBeforeTheBodyIsSent) {
+  const std::string image = jpeg_bytes(9);
+  int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(server_->port());
+  inet_pton(AF_INET, "127.0.0.1", &addr.sin_addr);
+  ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  timeval tv{5, 0};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  std::string head =
+      "POST /v1/captures HTTP/1.1\r\nHost: x\r\n"
+      "Authorization: Bearer " +
+      alice_ + "\r\nExpect: 100-continue\r\nContent-Length: " +
+      std::to_string(image.size()) + "\r\nConnection: close\r\n\r\n";
+  send(fd, head.data(), head.size(), MSG_NOSIGNAL);
+  char buf[4096];
+  ssize_t n = recv(fd, buf, sizeof buf, 0);  // before any body byte is sent
+  ASSERT_GT(n, 0) << "no interim answer";
+  EXPECT_EQ(std::string(buf, n).rfind("HTTP/1.1 100 Continue", 0), 0u);
+  send(fd, image.data(), image.size(), MSG_NOSIGNAL);
+  std::string reply;
+  while ((n = recv(fd, buf, sizeof buf, 0)) > 0) reply.append(buf, n);
+  close(fd);
+  EXPECT_EQ(reply.rfind("HTTP/1.1 201", 0), 0u) << reply;
+}
+
 TEST_P(ServerTest, DocumentsCarryVersionsAsEtags) {
   Client admin(as(admin_)), planner(as(planner_));
   HttpResult created = admin.request("PUT", "/v1/docs/sites/s9",
