@@ -7,7 +7,7 @@ namespace {
 
 // "?N" or "$N". (Appending, rather than "?" + to_string(n), also avoids a
 // GCC 12 -O3 -Wrestrict false positive.)
-std::string placeholder(Dialect dialect, std::size_t n) {
+std::string parameter_marker(Dialect dialect, std::size_t n) {
   std::string out(1, dialect == Dialect::kSqlite ? '?' : '$');
   out += std::to_string(n);
   return out;
@@ -23,7 +23,7 @@ class Builder {
   template <typename T>
   std::string param(const T& value) {
     params_.emplace_back(std::in_place_type<T>, value);
-    return placeholder(dialect_, params_.size());
+    return parameter_marker(dialect_, params_.size());
   }
   void where(const std::string& condition) {
     sql_ += (first_ ? " WHERE " : " AND ") + condition;
@@ -85,7 +85,7 @@ SqlStatement make_sql(Dialect dialect, std::string_view sql,
       out.sql.push_back(c);
       continue;
     }
-    out.sql += placeholder(dialect, ++n);
+    out.sql += parameter_marker(dialect, ++n);
   }
   return out;
 }

@@ -146,11 +146,11 @@ HttpResponse post_capture(ApiContext& ctx, const HttpRequest& req) {
   if (auto bad = read_upload(req, &up)) return *bad;
   CaptureFields f;
   if (auto bad = read_fields(up.meta, &f)) return *bad;
-  const std::string hash = sha256_hex(up.image);
-  if (f.id.empty()) f.id = ctx.who.name + "-" + hash.substr(0, 16);
-  const std::string path = "/captures/" + f.id;
-  if (auto existing = ctx.store.get(path))
-    return replay_or_conflict(*existing, ctx.who, hash);
+  // A known capture id is checked before any work: a retry costs a hash.
+  std::string path = "/captures/" + f.id;
+  if (!f.id.empty())
+    if (auto existing = ctx.store.get(path))
+      return replay_or_conflict(*existing, ctx.who, sha256_hex(up.image));
 
   ImageProbe probe = probe_image(up.image);
   if (!probe.ok) return HttpResponse::error(422, "unprocessable", probe.error);
@@ -158,11 +158,17 @@ HttpResponse post_capture(ApiContext& ctx, const HttpRequest& req) {
 
   // The blob first: the document may only refer to stored bytes. If the
   // document write then fails, the orphaned blob is collected by `db gc`.
-  std::string stored = ctx.store.put_blob(up.image);
+  const std::string hash = ctx.store.put_blob(up.image);
+  if (f.id.empty()) {  // named by its content: a re-upload is a replay
+    f.id = ctx.who.name + "-" + hash.substr(0, 16);
+    path = "/captures/" + f.id;
+    if (auto existing = ctx.store.get(path))
+      return replay_or_conflict(*existing, ctx.who, hash);
+  }
   db::WriteOp op = db::WriteOp::put(
       path, "capture", capture_attrs(f, ctx.who, probe, exif, up.image.size()),
       0);
-  op.blobs = db::BlobRefs{{"image", stored}};
+  op.blobs = db::BlobRefs{{"image", hash}};
   op.author = ctx.who.name;
   try {
     ctx.store.write(op);
