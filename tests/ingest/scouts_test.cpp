@@ -2,9 +2,11 @@
 // photos of ../shared/data/opensfm/lund (EXIF GPS) and strecha/fountain-P11
 // (gps.csv) at once, two of them repeating another's uploads as a retrying
 // device would. Each photo must be stored exactly once, with the right GPS.
+#include <csignal>
 #include <filesystem>
 #include <map>
 #include <set>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -139,6 +141,36 @@ TEST_P(ScoutsTest, WrongTokensAndPlannersStoreNothing) {
   db::Query all;
   all.pattern = "/captures/*";
   EXPECT_TRUE(store_->query(all).empty());
+}
+
+// A camera syncing into a folder: --watch uploads each photo once it has
+// fully arrived, and stops cleanly on SIGTERM.
+TEST_P(ScoutsTest, WatchUploadsPhotosAsTheyAppear) {
+  const std::string inbox = testing::make_temp_dir("inbox");
+  auto watcher = scout(alice_, inbox, "watch.log", {"--watch"});
+  std::vector<std::string> names = {"01.jpg", "02.jpg", "03.jpg"};
+  // Let it scan the empty folder first, so the photos arrive while it
+  // watches rather than in its first listing.
+  std::this_thread::sleep_for(1500ms);
+  for (const auto& name : names) {
+    fs::copy_file(lund_ + "/images/" + name, inbox + "/" + name + ".part");
+    fs::rename(inbox + "/" + name + ".part", inbox + "/" + name);
+  }
+  db::Query all;
+  all.pattern = "/captures/*";
+  auto deadline = std::chrono::steady_clock::now() + 60s;
+  while (store_->query(all).size() < names.size() &&
+         std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(100ms);
+  watcher->signal(SIGTERM);
+  std::string result = finish(*watcher, "watch.log");
+  EXPECT_EQ(result.rfind("exit 0", 0), 0u) << result;
+  auto captures = store_->query(all);
+  ASSERT_EQ(captures.size(), names.size()) << result;
+  std::set<std::string> stored;
+  for (const auto& doc : captures)
+    stored.insert(doc.attrs.value("filename", ""));
+  EXPECT_EQ(stored, std::set<std::string>(names.begin(), names.end()));
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, ScoutsTest,

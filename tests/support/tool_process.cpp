@@ -63,6 +63,10 @@ int ToolProcess::kill_now() {
   return *status_;
 }
 
+void ToolProcess::signal(int signo) {
+  if (!status_) ::kill(pid_, signo);
+}
+
 std::string describe_status(int status) {
   if (WIFEXITED(status)) return "exit " + std::to_string(WEXITSTATUS(status));
   if (WIFSIGNALED(status)) return "signal " + std::to_string(WTERMSIG(status));

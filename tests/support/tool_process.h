@@ -26,6 +26,8 @@ class ToolProcess {
   bool running();
   // SIGKILL unless it already ended; returns the wait status.
   int kill_now();
+  // Sends a signal (e.g. SIGTERM) if it is still running.
+  void signal(int signo);
 
  private:
   pid_t pid_ = -1;
