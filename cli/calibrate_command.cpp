@@ -33,29 +33,6 @@ struct CalibrateArgs {
   std::string db;
 };
 
-bool is_image_file(const fs::path& p) {
-  std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  for (const char* e : {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp"})
-    if (ext == e) return true;
-  return false;
-}
-
-// The image files directly in dir, by name, so the report is reproducible.
-std::vector<std::string> list_images(const std::string& dir) {
-  std::vector<std::string> paths;
-  for (const auto& entry : fs::directory_iterator(dir))
-    if (entry.is_regular_file() && is_image_file(entry.path()))
-      paths.push_back(entry.path().string());
-  std::sort(paths.begin(), paths.end());
-  if (paths.empty())
-    throw StoreError(
-        ErrorCode::kInvalidArgument,
-        "no images (.jpg, .jpeg, .png, .tif, .tiff, .bmp) in " + dir);
-  return paths;
-}
-
 void print_result(const ingest::CameraCalibration& c, int images_seen,
                   std::ostream& out) {
   out << std::fixed << std::setprecision(2) << "calibrated from "
@@ -159,7 +136,7 @@ int run_calibrate(const CalibrateArgs& a) {
   const bool print_only = a.server.empty() && a.db.empty();
   std::ostream& out = print_only ? std::cerr : std::cout;
 
-  auto images = list_images(a.images);
+  auto images = list_image_files(a.images);
   out << "looking for a chessboard with " << board->cols << "x" << board->rows
       << " inner corners in " << images.size() << " images" << std::endl;
   auto report = [&out](const std::string& path, const std::string& problem) {

@@ -1,6 +1,9 @@
 #include "cli_support.h"
 
+#include <algorithm>
 #include <atomic>
+#include <cctype>
+#include <filesystem>
 #include <csignal>
 #include <iostream>
 
@@ -14,6 +17,15 @@ std::atomic<bool> g_stop{false};
 int g_exit_code = kExitOk;
 
 extern "C" void on_stop_signal(int) { g_stop = true; }
+
+bool is_image_file(const std::filesystem::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  for (const char* e : {".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp"})
+    if (ext == e) return true;
+  return false;
+}
 
 int exit_code_for(db::ErrorCode code) {
   switch (code) {
@@ -48,6 +60,19 @@ int guarded(const std::function<int()>& body) {
 
 void run_command(const std::function<int()>& body) {
   g_exit_code = guarded(body);
+}
+
+std::vector<std::string> list_image_files(const std::string& dir) {
+  std::vector<std::string> paths;
+  for (const auto& entry : std::filesystem::directory_iterator(dir))
+    if (entry.is_regular_file() && is_image_file(entry.path()))
+      paths.push_back(entry.path().string());
+  std::sort(paths.begin(), paths.end());
+  if (paths.empty())
+    throw db::StoreError(
+        db::ErrorCode::kInvalidArgument,
+        "no images (.jpg, .jpeg, .png, .tif, .tiff, .bmp) in " + dir);
+  return paths;
 }
 
 int last_exit_code() { return g_exit_code; }

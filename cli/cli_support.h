@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "arscout/db/document.h"
 
@@ -17,6 +18,11 @@ int last_exit_code();
 
 // Parses text as JSON or throws StoreError(kInvalidJson) naming the position.
 db::Json parse_json_argument(const std::string& text, const std::string& what);
+
+// The image files (.jpg .jpeg .png .tif .tiff .bmp, any case) directly in
+// `dir`, sorted by name so runs are reproducible. Throws
+// StoreError(kInvalidArgument) when there are none.
+std::vector<std::string> list_image_files(const std::string& dir);
 
 // Installs SIGINT/SIGTERM handlers; stop_requested() turns true after one.
 void install_stop_handlers();

@@ -1,0 +1,38 @@
+// Bundle adjustment in Ceres: reprojection error with a robust loss,
+// intrinsics refinement shared per camera, and GPS priors on camera centres
+// weighted by each fix's horizontal and vertical accuracy (the paper's
+// section 3.3). The only translation unit that includes Ceres.
+#pragma once
+
+#include <vector>
+
+#include "scene.h"
+
+namespace arscout::engine {
+
+struct BundleOptions {
+  bool gps_priors = false;   // scene is in ENU and fixes pull the centres
+  double loss_scale_px = 1.0;  // Cauchy loss scale
+  int max_iterations = 50;
+  int threads = 1;
+};
+
+struct BundleReport {
+  int iterations = 0;
+  double initial_rms_px = 0;
+  double final_rms_px = 0;
+  int images = 0;
+  int points = 0;
+};
+
+// Adjusts the poses of `free_images` and every point they observe; other
+// registered images observing those points are held constant. With
+// `global`, all registered images and points are free (free_images is
+// ignored). Cameras with SceneCamera::refine set refine their focal length
+// and radial terms in a global adjustment only. Without GPS priors the
+// gauge is held by Scene::reference_image (and the scale by one coordinate
+// of Scene::scale_image in a global adjustment).
+BundleReport adjust_bundle(Scene& scene, const std::vector<int>& free_images,
+                           bool global, const BundleOptions& options);
+
+}  // namespace arscout::engine

@@ -1,0 +1,68 @@
+// Geometric estimators, each robust (RANSAC) where its input has outliers.
+// Image points are normalized camera coordinates (z = 1), so thresholds are
+// angles-ish: pixels divided by the focal length.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace arscout::engine {
+
+// --- Relative pose (5-point essential matrix in RANSAC) ---------------------
+struct RelativePose {
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();  // x2 = R x1 + t
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();      // unit length
+  std::vector<int> inliers;        // indices of inlier correspondences
+  double median_angle_deg = 0;     // triangulation angle over the inliers
+  double homography_ratio = 0;     // homography inliers / essential inliers
+};
+// nullopt when fewer than `min_inliers` correspondences agree.
+std::optional<RelativePose> estimate_relative_pose(
+    const std::vector<Eigen::Vector2d>& x1, const std::vector<Eigen::Vector2d>& x2,
+    double threshold, int min_inliers);
+
+// --- Absolute pose (P3P in RANSAC, then refinement on the inliers) ---------
+struct AbsolutePose {
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();  // world-to-camera
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  std::vector<int> inliers;
+};
+std::optional<AbsolutePose> estimate_absolute_pose(
+    const std::vector<Eigen::Vector3d>& world,
+    const std::vector<Eigen::Vector2d>& image, double threshold,
+    int min_inliers);
+
+// --- Triangulation ----------------------------------------------------------
+// Linear (DLT) triangulation from two or more views, each a world-to-camera
+// [R | t] and a normalized image point. nullopt when degenerate.
+std::optional<Eigen::Vector3d> triangulate(
+    const std::vector<Eigen::Matrix<double, 3, 4>>& poses,
+    const std::vector<Eigen::Vector2d>& points);
+// Angle in degrees at `point` between the rays from two camera centres.
+double triangulation_angle_deg(const Eigen::Vector3d& centre1,
+                               const Eigen::Vector3d& centre2,
+                               const Eigen::Vector3d& point);
+
+// --- Similarity (Umeyama in RANSAC) -----------------------------------------
+struct Similarity {
+  double scale = 1;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  Eigen::Vector3d apply(const Eigen::Vector3d& x) const { return scale * (R * x) + t; }
+};
+// Least-squares similarity from >= 3 point pairs (Umeyama, 1991).
+std::optional<Similarity> fit_similarity(const std::vector<Eigen::Vector3d>& from,
+                                         const std::vector<Eigen::Vector3d>& to);
+// Robust version: minimal samples of 3 drawn with a generator seeded by
+// `seed`, inliers within `threshold` (in `to` units), then a refit on all
+// inliers. nullopt when fewer than 3 points agree.
+std::optional<Similarity> estimate_similarity(
+    const std::vector<Eigen::Vector3d>& from,
+    const std::vector<Eigen::Vector3d>& to, double threshold, uint64_t seed,
+    std::vector<int>* inliers);
+
+}  // namespace arscout::engine

@@ -1,0 +1,470 @@
+#include "mapper.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <set>
+
+#include "bundle_adjuster.h"
+#include "estimators.h"
+
+namespace arscout::engine {
+namespace {
+
+class StageClock {
+ public:
+  explicit StageClock(double& total)
+      : total_(total), start_(std::chrono::steady_clock::now()) {}
+  ~StageClock() {
+    total_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_)
+                  .count();
+  }
+
+ private:
+  double& total_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+Eigen::Matrix<double, 3, 4> pose_matrix(const SceneImage& image) {
+  Eigen::Matrix<double, 3, 4> P;
+  P << image.q.toRotationMatrix(), image.t;
+  return P;
+}
+
+// The matches of a pair oriented so that `.first` is a keypoint of `image`.
+std::vector<std::pair<int, int>> oriented_matches(int image, int other,
+                                                  const ImagePair& pair) {
+  if (image < other) return pair.matches;
+  std::vector<std::pair<int, int>> flipped;
+  flipped.reserve(pair.matches.size());
+  for (const auto& [a, b] : pair.matches) flipped.emplace_back(b, a);
+  return flipped;
+}
+
+bool has_observation_in(const ScenePoint& point, int image) {
+  return std::any_of(point.track.begin(), point.track.end(),
+                     [image](const Observation& obs) { return obs.image == image; });
+}
+
+}  // namespace
+
+IncrementalMapper::IncrementalMapper(Scene& scene,
+                                     const ReconstructionOptions& options,
+                                     StageTimings& timings)
+    : scene_(scene), options_(options), timings_(timings) {}
+
+double IncrementalMapper::threshold_normalized(int image) const {
+  const SceneCamera& camera = scene_.cameras[scene_.images[image].camera];
+  return options_.max_reprojection_px / camera.params[0];
+}
+
+std::vector<int> IncrementalMapper::update() {
+  std::vector<int> registered;
+  if (!scene_.initialized) {
+    if (!initialize()) return registered;
+    for (size_t i = 0; i < scene_.images.size(); ++i) {
+      if (scene_.images[i].registered) registered.push_back(static_cast<int>(i));
+    }
+  }
+  // Register the image with the most 2D-3D correspondences first; a
+  // registration adds points, which may let an image that failed succeed.
+  std::set<int> failed;
+  for (;;) {
+    int best = -1;
+    size_t best_count = 0;
+    for (size_t i = 0; i < scene_.images.size(); ++i) {
+      const SceneImage& image = scene_.images[i];
+      if (image.removed || image.registered || failed.count(static_cast<int>(i))) continue;
+      const size_t count = correspondences(static_cast<int>(i)).size();
+      if (count > best_count) {
+        best = static_cast<int>(i);
+        best_count = count;
+      }
+    }
+    if (best < 0) break;
+    if (static_cast<int>(best_count) < options_.min_pose_inliers) {
+      scene_.images[best].reason = "too few matches to the model (" +
+                                   std::to_string(best_count) + " 2D-3D)";
+      failed.insert(best);
+      continue;
+    }
+    if (!register_image(best)) {
+      failed.insert(best);
+      continue;
+    }
+    registered.push_back(best);
+    failed.clear();
+    triangulate_image(best);
+    adjust_local(best);
+    geo_register();
+    if (scene_.registered_count() >=
+        options_.global_ba_growth * scene_.registered_at_last_global_ba) {
+      adjust_global();
+    }
+  }
+  return registered;
+}
+
+std::vector<std::pair<int, int64_t>> IncrementalMapper::correspondences(
+    int image) const {
+  std::vector<std::pair<int, int64_t>> result;
+  std::set<int> seen;
+  for (const auto& [other, pair] : scene_.pairs_of(image)) {
+    const SceneImage& o = scene_.images[other];
+    if (!o.registered) continue;
+    for (const auto& [mine, theirs] : oriented_matches(image, other, *pair)) {
+      const int64_t point = o.point_of[theirs];
+      if (point < 0 || !seen.insert(mine).second) continue;
+      result.emplace_back(mine, point);
+    }
+  }
+  return result;
+}
+
+bool IncrementalMapper::initialize() {
+  int usable = 0;
+  for (const SceneImage& image : scene_.images) usable += image.removed ? 0 : 1;
+  if (usable < 3) return false;
+  // Best-conditioned pairs first: many inliers, enough parallax, and not
+  // explained by a homography (a plane or a pure rotation).
+  std::vector<std::pair<double, std::pair<int, int>>> ranked;
+  for (const auto& [key, pair] : scene_.pairs) {
+    if (pair.median_angle_deg < options_.min_triangulation_angle_deg * 2) continue;
+    if (pair.homography_ratio > 0.95) continue;
+    ranked.push_back({static_cast<double>(pair.matches.size()), key});
+  }
+  std::sort(ranked.begin(), ranked.end(), [](const auto& x, const auto& y) {
+    return x.first != y.first ? x.first > y.first : x.second < y.second;
+  });
+  const size_t attempts = std::min<size_t>(ranked.size(), 3);
+  for (size_t i = 0; i < attempts; ++i) {
+    const auto [a, b] = ranked[i].second;
+    if (try_initial_pair(a, b, scene_.pairs.at({a, b}))) return true;
+  }
+  for (SceneImage& image : scene_.images) {
+    if (!image.removed) image.reason = "waiting for a well-conditioned initial pair";
+  }
+  return false;
+}
+
+bool IncrementalMapper::try_initial_pair(int a, int b, const ImagePair& pair) {
+  reset_model();
+  SceneImage& first = scene_.images[a];
+  SceneImage& second = scene_.images[b];
+  first.q.setIdentity();
+  first.t.setZero();
+  second.q = Eigen::Quaterniond(pair.R).normalized();
+  second.t = pair.t;
+  first.registered = second.registered = true;
+  scene_.reference_image = a;
+  scene_.scale_image = b;
+  {
+    StageClock clock(timings_.triangulation_s);
+    for (const auto& [ka, kb] : pair.matches) {
+      triangulate_pair_match({a, ka}, {b, kb});
+    }
+  }
+  if (scene_.points.size() < 50) {
+    reset_model();
+    return false;
+  }
+  adjust_global();
+  // The model exists once a third image registers against it.
+  scene_.initialized = true;
+  std::set<int> failed;
+  bool third = false;
+  for (int attempt = 0; attempt < 5 && !third; ++attempt) {
+    int best = -1;
+    size_t best_count = 0;
+    for (size_t i = 0; i < scene_.images.size(); ++i) {
+      const SceneImage& image = scene_.images[i];
+      if (image.removed || image.registered || failed.count(static_cast<int>(i))) continue;
+      const size_t count = correspondences(static_cast<int>(i)).size();
+      if (count > best_count) {
+        best = static_cast<int>(i);
+        best_count = count;
+      }
+    }
+    if (best < 0 || static_cast<int>(best_count) < options_.min_pose_inliers) break;
+    if (register_image(best)) {
+      third = true;
+      triangulate_image(best);
+      adjust_global();
+    } else {
+      failed.insert(best);
+    }
+  }
+  if (!third) {
+    reset_model();
+    return false;
+  }
+  geo_register();
+  return true;
+}
+
+bool IncrementalMapper::register_image(int index) {
+  StageClock clock(timings_.pose_s);
+  SceneImage& image = scene_.images[index];
+  const SceneCamera& camera = scene_.cameras[image.camera];
+  const auto corr = correspondences(index);
+  std::vector<Eigen::Vector3d> world;
+  std::vector<Eigen::Vector2d> points;
+  for (const auto& [keypoint, point] : corr) {
+    world.push_back(scene_.points.at(point).xyz);
+    points.push_back(normalize(camera, image.keypoints[keypoint]));
+  }
+  const auto pose = estimate_absolute_pose(world, points, threshold_normalized(index),
+                                           options_.min_pose_inliers);
+  if (!pose) {
+    image.reason = "absolute pose failed (" + std::to_string(corr.size()) +
+                   " 2D-3D correspondences, too few agree)";
+    return false;
+  }
+  image.q = pose->q;
+  image.t = pose->t;
+  image.registered = true;
+  image.status = CaptureStatus::kRegistered;
+  image.reason.clear();
+  image.pose_inliers = static_cast<int>(pose->inliers.size());
+  for (int i : pose->inliers) {
+    const auto& [keypoint, point] = corr[i];
+    if (image.point_of[keypoint] < 0 && !has_observation_in(scene_.points.at(point), index)) {
+      scene_.add_observation(point, {index, keypoint});
+    }
+  }
+  return true;
+}
+
+void IncrementalMapper::extend_track(int64_t point_id, Observation obs) {
+  ScenePoint& point = scene_.points.at(point_id);
+  if (has_observation_in(point, obs.image)) return;
+  const SceneImage& image = scene_.images[obs.image];
+  Eigen::Vector2d projected;
+  if (!project(scene_.cameras[image.camera], image, point.xyz, &projected)) return;
+  if ((projected - image.keypoints[obs.keypoint]).norm() > options_.max_reprojection_px) return;
+  scene_.add_observation(point_id, obs);
+}
+
+bool IncrementalMapper::triangulate_pair_match(Observation first, Observation second) {
+  const SceneImage& a = scene_.images[first.image];
+  const SceneImage& b = scene_.images[second.image];
+  const SceneCamera& ca = scene_.cameras[a.camera];
+  const SceneCamera& cb = scene_.cameras[b.camera];
+  const auto X = triangulate(
+      {pose_matrix(a), pose_matrix(b)},
+      {normalize(ca, a.keypoints[first.keypoint]), normalize(cb, b.keypoints[second.keypoint])});
+  if (!X) return false;
+  if (triangulation_angle_deg(a.centre(), b.centre(), *X) <
+      options_.min_triangulation_angle_deg) {
+    return false;
+  }
+  Eigen::Vector2d pa, pb;
+  if (!project(ca, a, *X, &pa) || !project(cb, b, *X, &pb)) return false;
+  if ((pa - a.keypoints[first.keypoint]).norm() > options_.max_reprojection_px ||
+      (pb - b.keypoints[second.keypoint]).norm() > options_.max_reprojection_px) {
+    return false;
+  }
+  scene_.add_point(*X, {first, second});
+  return true;
+}
+
+void IncrementalMapper::triangulate_image(int index) {
+  StageClock clock(timings_.triangulation_s);
+  for (const auto& [other, pair] : scene_.pairs_of(index)) {
+    if (!scene_.images[other].registered) continue;
+    for (const auto& [mine, theirs] : oriented_matches(index, other, *pair)) {
+      const int64_t p_mine = scene_.images[index].point_of[mine];
+      const int64_t p_theirs = scene_.images[other].point_of[theirs];
+      if (p_mine >= 0 && p_theirs >= 0) continue;
+      if (p_theirs >= 0) {
+        extend_track(p_theirs, {index, mine});
+      } else if (p_mine >= 0) {
+        extend_track(p_mine, {other, theirs});
+      } else {
+        triangulate_pair_match({index, mine}, {other, theirs});
+      }
+    }
+  }
+}
+
+std::vector<int> IncrementalMapper::covisible_images(int index, int limit) const {
+  std::map<int, int> shared;
+  const SceneImage& image = scene_.images[index];
+  for (int64_t point : image.point_of) {
+    if (point < 0) continue;
+    for (const Observation& obs : scene_.points.at(point).track) {
+      if (obs.image != index) ++shared[obs.image];
+    }
+  }
+  std::vector<std::pair<int, int>> ranked;
+  for (const auto& [other, count] : shared) ranked.push_back({count, other});
+  std::sort(ranked.begin(), ranked.end(), [](const auto& x, const auto& y) {
+    return x.first != y.first ? x.first > y.first : x.second < y.second;
+  });
+  std::vector<int> result;
+  for (size_t i = 0; i < ranked.size() && static_cast<int>(i) < limit; ++i) {
+    result.push_back(ranked[i].second);
+  }
+  return result;
+}
+
+void IncrementalMapper::adjust_local(int index) {
+  StageClock clock(timings_.bundle_adjustment_s);
+  std::vector<int> free = covisible_images(index, options_.local_ba_images - 1);
+  free.push_back(index);
+  BundleOptions ba;
+  ba.gps_priors = scene_.geo_registered;
+  ba.max_iterations = 25;
+  ba.threads = options_.deterministic ? 1 : options_.threads;
+  adjust_bundle(scene_, free, false, ba);
+  filter_points(free);
+}
+
+void IncrementalMapper::adjust_global() {
+  StageClock clock(timings_.bundle_adjustment_s);
+  BundleOptions ba;
+  ba.gps_priors = scene_.geo_registered;
+  ba.max_iterations = 50;
+  ba.threads = options_.deterministic ? 1 : options_.threads;
+  adjust_bundle(scene_, {}, true, ba);
+  std::vector<int> all;
+  for (size_t i = 0; i < scene_.images.size(); ++i) {
+    if (scene_.images[i].registered) all.push_back(static_cast<int>(i));
+  }
+  const size_t before = scene_.points.size();
+  filter_points(all);
+  // Outliers pull a robust adjustment less than a plain one, but they still
+  // pull: adjust once more when the filter removed a noticeable share.
+  if (scene_.points.size() + before / 50 < before) adjust_bundle(scene_, {}, true, ba);
+  scene_.registered_at_last_global_ba = scene_.registered_count();
+}
+
+// Drops observations that reproject badly, then points left with fewer than
+// two observations or with too little parallax to be trusted.
+void IncrementalMapper::filter_points(const std::vector<int>& images) {
+  std::set<int64_t> touched;
+  for (int index : images) {
+    for (int64_t point : scene_.images[index].point_of) {
+      if (point >= 0) touched.insert(point);
+    }
+  }
+  for (int64_t id : touched) {
+    ScenePoint& point = scene_.points.at(id);
+    std::vector<Observation> kept;
+    for (const Observation& obs : point.track) {
+      SceneImage& image = scene_.images[obs.image];
+      Eigen::Vector2d projected;
+      const bool good = project(scene_.cameras[image.camera], image, point.xyz, &projected) &&
+                        (projected - image.keypoints[obs.keypoint]).norm() <=
+                            options_.max_reprojection_px;
+      if (good) {
+        kept.push_back(obs);
+      } else {
+        image.point_of[obs.keypoint] = -1;
+      }
+    }
+    point.track = std::move(kept);
+    double best_angle = 0;
+    for (size_t i = 0; i < point.track.size(); ++i) {
+      for (size_t j = i + 1; j < point.track.size(); ++j) {
+        best_angle = std::max(best_angle, triangulation_angle_deg(
+                                              scene_.images[point.track[i].image].centre(),
+                                              scene_.images[point.track[j].image].centre(),
+                                              point.xyz));
+      }
+    }
+    if (point.track.size() < 2 || best_angle < options_.min_triangulation_angle_deg / 3) {
+      scene_.remove_point(id);
+    }
+  }
+}
+
+// Moves the model into the site's ENU frame with a robust similarity from
+// camera centres to GPS positions, whenever the two disagree by more than
+// the adjustment itself would fix (the first time, and while few fixes make
+// the early fit uncertain).
+void IncrementalMapper::geo_register() {
+  if (!scene_.enu_origin) return;
+  std::vector<Eigen::Vector3d> centres, fixes;
+  double accuracy = 0;
+  for (const SceneImage& image : scene_.images) {
+    if (!image.registered || !image.gps) continue;
+    centres.push_back(image.centre());
+    fixes.push_back(image.gps_enu);
+    accuracy += std::hypot(image.gps->h_acc * std::sqrt(2.0), image.gps->v_acc);
+  }
+  if (centres.size() < 3) return;
+  accuracy /= centres.size();
+  std::vector<int> inliers;
+  const auto sim = estimate_similarity(centres, fixes, std::max(3 * accuracy, 5.0),
+                                       scene_.images.size(), &inliers);
+  if (!sim) return;
+  const double angle = Eigen::AngleAxisd(sim->R).angle() * 180 / M_PI;
+  const bool far = !scene_.geo_registered || angle > 2 ||
+                   std::abs(std::log(sim->scale)) > 0.02 || sim->t.norm() > 1.0;
+  if (!far) return;
+  for (auto& [id, point] : scene_.points) point.xyz = sim->apply(point.xyz);
+  const Eigen::Quaterniond rotation(sim->R);
+  for (SceneImage& image : scene_.images) {
+    if (!image.registered) continue;
+    const Eigen::Vector3d centre = sim->apply(image.centre());
+    image.q = (image.q * rotation.conjugate()).normalized();
+    image.t = -(image.q * centre);
+  }
+  scene_.geo_registered = true;
+  adjust_global();
+}
+
+void IncrementalMapper::reset_model() {
+  scene_.points.clear();
+  for (SceneImage& image : scene_.images) {
+    std::fill(image.point_of.begin(), image.point_of.end(), -1);
+    image.registered = false;
+    if (image.status == CaptureStatus::kRegistered) image.status = CaptureStatus::kPending;
+    image.q.setIdentity();
+    image.t.setZero();
+  }
+  scene_.initialized = false;
+  scene_.geo_registered = false;
+  scene_.reference_image = scene_.scale_image = -1;
+  scene_.registered_at_last_global_ba = 0;
+}
+
+void IncrementalMapper::repair_after_removal() {
+  if (scene_.registered_count() < 3) {
+    reset_model();
+    return;
+  }
+  auto first_registered = [&](int not_this) {
+    for (size_t i = 0; i < scene_.images.size(); ++i) {
+      if (scene_.images[i].registered && static_cast<int>(i) != not_this) {
+        return static_cast<int>(i);
+      }
+    }
+    return -1;
+  };
+  if (scene_.reference_image < 0 || !scene_.images[scene_.reference_image].registered) {
+    scene_.reference_image = first_registered(scene_.scale_image);
+  }
+  if (scene_.scale_image < 0 || !scene_.images[scene_.scale_image].registered) {
+    scene_.scale_image = first_registered(scene_.reference_image);
+  }
+  adjust_global();
+}
+
+double IncrementalMapper::mean_reprojection_px() const {
+  double sum = 0;
+  size_t count = 0;
+  for (const auto& [id, point] : scene_.points) {
+    for (const Observation& obs : point.track) {
+      const SceneImage& image = scene_.images[obs.image];
+      Eigen::Vector2d projected;
+      if (!project(scene_.cameras[image.camera], image, point.xyz, &projected)) continue;
+      sum += (projected - image.keypoints[obs.keypoint]).norm();
+      ++count;
+    }
+  }
+  return count ? sum / count : 0;
+}
+
+}  // namespace arscout::engine

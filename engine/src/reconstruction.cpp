@@ -1,0 +1,307 @@
+#include "arscout/engine/reconstruction.h"
+
+#include <algorithm>
+#include <chrono>
+#include <set>
+#include <stdexcept>
+
+#include "feature_extractor.h"
+#include "image_loader.h"
+#include "mapper.h"
+#include "matcher.h"
+#include "estimators.h"
+#include "scene.h"
+#include "model_builder.h"
+#include "serialization.h"
+
+namespace arscout::engine {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Two-view verification is strict: its inliers seed every track.
+constexpr double kEssentialThresholdPx = 1.0;
+
+std::string camera_key(const CaptureInput& capture) {
+  if (!capture.camera_id.empty()) return capture.camera_id;
+  return "capture:" + capture.id;  // no shared camera named: its own
+}
+
+}  // namespace
+
+const char* to_string(CaptureStatus status) {
+  switch (status) {
+    case CaptureStatus::kRegistered: return "registered";
+    case CaptureStatus::kPending: return "pending";
+    case CaptureStatus::kRejected: return "rejected";
+  }
+  return "unknown";
+}
+
+struct Reconstruction::Impl {
+  ReconstructionOptions options;
+  Scene scene;
+  std::map<int, Undistorter> undistorters;  // per camera; rebuilt on demand
+
+  int camera_for(const CaptureInput& capture, const WorkingImage& image);
+  const Undistorter& undistorter(int camera, cv::Size size);
+  std::vector<int> neighbours(int image) const;
+  int match_image(int image, StageTimings& timings);
+  void set_gps(SceneImage& image, const std::optional<GeoFix>& fix);
+};
+
+int Reconstruction::Impl::camera_for(const CaptureInput& capture,
+                                     const WorkingImage& image) {
+  const std::string key = camera_key(capture);
+  for (size_t i = 0; i < scene.cameras.size(); ++i) {
+    const SceneCamera& camera = scene.cameras[i];
+    if (camera.id != key) continue;
+    if (camera.original.width != image.original_width ||
+        camera.original.height != image.original_height) {
+      throw std::invalid_argument("capture " + capture.id + " is " +
+                                  std::to_string(image.original_width) + "x" +
+                                  std::to_string(image.original_height) + " but camera " +
+                                  key + " is " + std::to_string(camera.original.width) + "x" +
+                                  std::to_string(camera.original.height));
+    }
+    return static_cast<int>(i);
+  }
+  SceneCamera camera;
+  camera.id = key;
+  camera.original = capture.camera ? *capture.camera
+                                   : guessed_camera(image.original_width, image.original_height);
+  camera.scale = image.scale;
+  const cv::Matx33d k = working_k(camera.original, image.scale);
+  camera.params = {k(0, 0), k(1, 1), k(0, 2), k(1, 2), 0, 0};
+  camera.refine = options.refine_intrinsics == "on" ||
+                  (options.refine_intrinsics == "auto" && camera.original.source != "calibrated");
+  scene.cameras.push_back(camera);
+  return static_cast<int>(scene.cameras.size() - 1);
+}
+
+const Undistorter& Reconstruction::Impl::undistorter(int camera, cv::Size size) {
+  auto it = undistorters.find(camera);
+  if (it == undistorters.end()) {
+    const SceneCamera& c = scene.cameras[camera];
+    it = undistorters.emplace(camera, Undistorter(c.original, c.scale, size)).first;
+  }
+  return it->second;
+}
+
+void Reconstruction::Impl::set_gps(SceneImage& image, const std::optional<GeoFix>& fix) {
+  image.gps = fix;
+  if (!fix) return;
+  if (!scene.enu_origin) scene.enu_origin = Geodetic{fix->lat, fix->lon, fix->alt.value_or(0)};
+  const EnuFrame frame(*scene.enu_origin);
+  const auto enu = frame.to_enu({fix->lat, fix->lon, fix->alt.value_or(scene.enu_origin->alt)});
+  image.gps_enu = {enu[0], enu[1], enu[2]};
+}
+
+// GPS neighbours (k nearest within the radius), the captures added just
+// before, and registered captures that share points with those: never all
+// pairs.
+std::vector<int> Reconstruction::Impl::neighbours(int index) const {
+  std::set<int> chosen;
+  const SceneImage& image = scene.images[index];
+  if (image.gps) {
+    std::vector<std::pair<double, int>> by_distance;
+    for (int i = 0; i < index; ++i) {
+      const SceneImage& other = scene.images[i];
+      if (other.removed || !other.gps) continue;
+      const double d = (other.gps_enu - image.gps_enu).head<2>().norm();
+      if (d <= options.gps_radius_m) by_distance.push_back({d, i});
+    }
+    std::sort(by_distance.begin(), by_distance.end());
+    for (size_t i = 0; i < by_distance.size() && static_cast<int>(i) < options.gps_neighbours; ++i) {
+      chosen.insert(by_distance[i].second);
+    }
+  }
+  int recent = 0;
+  for (int i = index - 1; i >= 0 && recent < options.recent_neighbours; --i) {
+    if (scene.images[i].removed) continue;
+    chosen.insert(i);
+    ++recent;
+  }
+  std::map<int, int> shared;
+  for (int i : chosen) {
+    for (int64_t point : scene.images[i].point_of) {
+      if (point < 0) continue;
+      for (const Observation& obs : scene.points.at(point).track) {
+        if (!chosen.count(obs.image)) ++shared[obs.image];
+      }
+    }
+  }
+  std::vector<std::pair<int, int>> ranked;
+  for (const auto& [other, count] : shared) ranked.push_back({-count, other});
+  std::sort(ranked.begin(), ranked.end());
+  for (size_t i = 0; i < ranked.size() && static_cast<int>(i) < options.visual_neighbours; ++i) {
+    chosen.insert(ranked[i].second);
+  }
+  return {chosen.begin(), chosen.end()};
+}
+
+int Reconstruction::Impl::match_image(int index, StageTimings& timings) {
+  const auto start = std::chrono::steady_clock::now();
+  int verified = 0;
+  const SceneImage& image = scene.images[index];
+  const SceneCamera& camera = scene.cameras[image.camera];
+  for (int other_index : neighbours(index)) {
+    const SceneImage& other = scene.images[other_index];
+    const SceneCamera& other_camera = scene.cameras[other.camera];
+    const auto matches = match_descriptors(other.descriptors, image.descriptors, options.ratio,
+                                           options.threads);
+    std::vector<Eigen::Vector2d> x1, x2;
+    for (const auto& [a, b] : matches) {
+      x1.push_back(normalize(other_camera, other.keypoints[a]));
+      x2.push_back(normalize(camera, image.keypoints[b]));
+    }
+    const double threshold =
+        kEssentialThresholdPx * 2 / (camera.params[0] + other_camera.params[0]);
+    const auto pose = estimate_relative_pose(x1, x2, threshold, options.min_pair_inliers);
+    if (!pose) continue;
+    ImagePair pair;
+    for (int i : pose->inliers) pair.matches.push_back(matches[i]);
+    pair.R = pose->R;
+    pair.t = pose->t;
+    pair.median_angle_deg = pose->median_angle_deg;
+    pair.homography_ratio = pose->homography_ratio;
+    scene.pairs[{other_index, index}] = std::move(pair);
+    ++verified;
+  }
+  timings.matching_s += seconds_since(start);
+  return verified;
+}
+
+Reconstruction::Reconstruction(ReconstructionOptions options)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->options = std::move(options);
+}
+Reconstruction::~Reconstruction() = default;
+Reconstruction::Reconstruction(Reconstruction&&) noexcept = default;
+Reconstruction& Reconstruction::operator=(Reconstruction&&) noexcept = default;
+
+AddResult Reconstruction::add_capture(const CaptureInput& capture) {
+  const auto start = std::chrono::steady_clock::now();
+  Scene& scene = impl_->scene;
+  const ReconstructionOptions& options = impl_->options;
+  if (capture.id.empty()) throw std::invalid_argument("a capture needs an id");
+  if (scene.find_image(capture.id) >= 0) {
+    throw std::invalid_argument("capture " + capture.id + " is already in the model");
+  }
+  if (capture.camera) {
+    if (std::string problem = validate(*capture.camera); !problem.empty()) {
+      throw std::invalid_argument("capture " + capture.id + ": camera: " + problem);
+    }
+  }
+  AddResult result;
+  result.id = capture.id;
+  StageTimings& timings = result.timings;
+  auto stage = std::chrono::steady_clock::now();
+  const cv::Size known = capture.camera ? cv::Size(capture.camera->width, capture.camera->height)
+                                        : cv::Size();
+  WorkingImage working = decode_working_image(capture.image_bytes, options.long_side, known);
+  timings.decode_s = seconds_since(stage);
+  const int camera = impl_->camera_for(capture, working);
+
+  stage = std::chrono::steady_clock::now();
+  const Undistorter& undistort = impl_->undistorter(camera, working.color.size());
+  const cv::Mat color = undistort.apply(working.color);
+  const cv::Mat gray = undistort.apply(working.gray);
+  timings.undistort_s = seconds_since(stage);
+
+  stage = std::chrono::steady_clock::now();
+  FeatureOptions feature_options;
+  feature_options.max_features = options.max_features;
+  Features features = extract_features(gray, color, feature_options);
+  timings.features_s = seconds_since(stage);
+
+  SceneImage image;
+  image.id = capture.id;
+  image.camera = camera;
+  image.width = working.color.cols;
+  image.height = working.color.rows;
+  image.keypoints = std::move(features.keypoints);
+  image.descriptors = features.descriptors;
+  image.colors = std::move(features.colors);
+  image.point_of.assign(image.keypoints.size(), -1);
+  impl_->set_gps(image, capture.gps);
+  result.features = static_cast<int>(image.keypoints.size());
+  scene.images.push_back(std::move(image));
+  const int index = static_cast<int>(scene.images.size() - 1);
+  result.matched_pairs = impl_->match_image(index, timings);
+
+  IncrementalMapper mapper(scene, options, timings);
+  const std::vector<int> registered = mapper.update();
+  for (int i : registered) {
+    if (i != index) result.also_registered.push_back(scene.images[i].id);
+  }
+  const SceneImage& added = scene.images[index];
+  result.status = added.registered ? CaptureStatus::kRegistered : CaptureStatus::kPending;
+  result.reason = added.registered ? "" : added.reason;
+  if (!added.registered && result.matched_pairs == 0) {
+    result.reason = "no verified matches with any nearby capture";
+    scene.images[index].reason = result.reason;
+  }
+  result.pose_inliers = added.registered ? added.pose_inliers : 0;
+  result.mean_reprojection_px = mapper.mean_reprojection_px();
+  result.geo_registered = scene.geo_registered;
+  timings.total_s = seconds_since(start);
+  return result;
+}
+
+bool Reconstruction::remove_capture(const std::string& id) {
+  Scene& scene = impl_->scene;
+  const int index = scene.find_image(id);
+  if (index < 0) return false;
+  SceneImage& image = scene.images[index];
+  for (size_t k = 0; k < image.point_of.size(); ++k) {
+    const int64_t point_id = image.point_of[k];
+    if (point_id < 0) continue;
+    ScenePoint& point = scene.points.at(point_id);
+    std::erase(point.track, Observation{index, static_cast<int>(k)});
+    image.point_of[k] = -1;
+    if (point.track.size() < 2) scene.remove_point(point_id);
+  }
+  std::erase_if(scene.pairs, [index](const auto& entry) {
+    return entry.first.first == index || entry.first.second == index;
+  });
+  image.removed = true;
+  image.registered = false;
+  image.keypoints.clear();
+  image.descriptors = cv::Mat();
+  image.colors.clear();
+  image.point_of.clear();
+  StageTimings timings;
+  IncrementalMapper mapper(scene, impl_->options, timings);
+  mapper.repair_after_removal();
+  mapper.update();
+  return true;
+}
+
+std::vector<CaptureState> Reconstruction::captures() const {
+  std::vector<CaptureState> states;
+  for (const SceneImage& image : impl_->scene.images) {
+    if (image.removed) continue;
+    states.push_back({image.id,
+                      image.registered ? CaptureStatus::kRegistered : image.status,
+                      image.registered ? "" : image.reason});
+  }
+  return states;
+}
+
+int Reconstruction::registered_count() const { return impl_->scene.registered_count(); }
+
+std::string Reconstruction::serialize() const { return serialize_scene(impl_->scene); }
+
+Reconstruction Reconstruction::restore(const std::string& bytes,
+                                       ReconstructionOptions options) {
+  Reconstruction result(std::move(options));
+  result.impl_->scene = deserialize_scene(bytes);
+  return result;
+}
+
+Model Reconstruction::model() const { return build_model(impl_->scene); }
+
+}  // namespace arscout::engine

@@ -1,0 +1,117 @@
+// The engine's state for one site: everything Reconstruction::serialize
+// writes. Images are kept in order of addition and never renumbered (a
+// withdrawn one stays as a tombstone), so indices in tracks and pairs stay
+// valid.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "arscout/engine/camera.h"
+#include "arscout/engine/geo.h"
+#include "arscout/engine/reconstruction.h"
+
+namespace arscout::engine {
+
+// Intrinsics at the working resolution after the look-up-table
+// undistortion: a pinhole plus a residual radial term (k1, k2) that bundle
+// adjustment may refine. params = {fx, fy, cx, cy, k1, k2}.
+struct SceneCamera {
+  std::string id;
+  CameraIntrinsics original;  // as given, original-photo pixels
+  double scale = 1;           // working / original
+  std::array<double, 6> params{};
+  bool refine = false;
+};
+
+struct Observation {
+  int image = 0;
+  int keypoint = 0;
+  bool operator==(const Observation&) const = default;
+};
+
+struct ScenePoint {
+  Eigen::Vector3d xyz = Eigen::Vector3d::Zero();
+  std::array<uint8_t, 3> rgb{0, 0, 0};
+  std::vector<Observation> track;
+};
+
+struct SceneImage {
+  std::string id;
+  int camera = 0;
+  bool removed = false;
+  int width = 0;  // working resolution
+  int height = 0;
+  std::optional<GeoFix> gps;
+  Eigen::Vector3d gps_enu = Eigen::Vector3d::Zero();
+  // Undistorted keypoints, working pixels; RootSIFT rows (CV_32F).
+  std::vector<Eigen::Vector2d> keypoints;
+  cv::Mat descriptors;
+  std::vector<std::array<uint8_t, 3>> colors;
+  std::vector<int64_t> point_of;  // per keypoint, -1 for none
+  bool registered = false;
+  CaptureStatus status = CaptureStatus::kPending;
+  std::string reason;
+  int pose_inliers = 0;
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();  // world-to-camera
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+
+  Eigen::Vector3d centre() const { return -(q.conjugate() * t); }
+};
+
+// Verified matches between two images (first < second) and their relative
+// pose from the essential matrix (second = R * first + t, |t| = 1).
+struct ImagePair {
+  std::vector<std::pair<int, int>> matches;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  double median_angle_deg = 0;  // triangulation angle of the inliers
+  double homography_ratio = 0;  // homography inliers / essential inliers
+};
+
+struct Scene {
+  std::vector<SceneCamera> cameras;
+  std::vector<SceneImage> images;
+  std::map<std::pair<int, int>, ImagePair> pairs;
+  std::map<int64_t, ScenePoint> points;
+  int64_t next_point_id = 0;
+  std::optional<Geodetic> enu_origin;  // fixed by the first fix
+  bool geo_registered = false;          // world frame is ENU
+  bool initialized = false;
+  int registered_at_last_global_ba = 0;
+  // Gauge for models without GPS: the first pose is held fixed, and one
+  // coordinate of the second image's position fixes the scale.
+  int reference_image = -1;
+  int scale_image = -1;
+
+  int registered_count() const;
+  int find_image(const std::string& id) const;  // -1 when absent
+  const ImagePair* pair(int a, int b) const;
+  // Pointers into `pairs` for every pair touching `image`, with the other
+  // image's index.
+  std::vector<std::pair<int, const ImagePair*>> pairs_of(int image) const;
+  void remove_point(int64_t id);
+  void add_observation(int64_t point, Observation obs);
+  int64_t add_point(const Eigen::Vector3d& xyz,
+                    const std::vector<Observation>& track);
+};
+
+// Projects a world point with the working-resolution camera; false when it
+// is behind the camera.
+bool project(const SceneCamera& camera, const SceneImage& image,
+             const Eigen::Vector3d& world, Eigen::Vector2d* pixel);
+
+// Undistorted working pixel -> normalized camera ray (z = 1), removing the
+// residual radial term by fixed-point iteration.
+Eigen::Vector2d normalize(const SceneCamera& camera, const Eigen::Vector2d& px);
+
+}  // namespace arscout::engine

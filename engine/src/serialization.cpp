@@ -1,0 +1,341 @@
+#include "serialization.h"
+
+#include <bit>
+#include <cstring>
+#include <stdexcept>
+#include <type_traits>
+
+namespace arscout::engine {
+namespace {
+
+constexpr char kMagic[8] = {'A', 'R', 'S', 'C', 'E', 'N', 'E', '1'};
+constexpr uint32_t kVersion = 1;
+
+static_assert(std::endian::native == std::endian::little,
+              "the state format is little-endian; add byte swapping here");
+
+class Writer {
+ public:
+  template <typename T>
+  void pod(const T& value) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    out_.append(reinterpret_cast<const char*>(&value), sizeof(T));
+  }
+  void size(size_t n) { pod<uint64_t>(n); }
+  void str(const std::string& s) {
+    size(s.size());
+    out_.append(s);
+  }
+  template <typename T>
+  void vec(const std::vector<T>& v) {
+    size(v.size());
+    if (!v.empty()) out_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+  // Fixed-size Eigen matrices: their coefficients, column-major.
+  template <typename Derived>
+  void matrix(const Eigen::MatrixBase<Derived>& m) {
+    for (Eigen::Index i = 0; i < m.size(); ++i) pod<double>(m.derived().data()[i]);
+  }
+  void points2(const std::vector<Eigen::Vector2d>& points) {
+    size(points.size());
+    for (const auto& p : points) matrix(p);
+  }
+  void index_pairs(const std::vector<std::pair<int, int>>& pairs) {
+    size(pairs.size());
+    for (const auto& [a, b] : pairs) {
+      pod(a);
+      pod(b);
+    }
+  }
+  std::string take() { return std::move(out_); }
+
+ private:
+  std::string out_;
+};
+
+class Reader {
+ public:
+  explicit Reader(const std::string& in) : in_(in) {}
+  template <typename T>
+  T pod() {
+    static_assert(std::is_trivially_copyable_v<T>);
+    need(sizeof(T));
+    T value;
+    std::memcpy(&value, in_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return value;
+  }
+  size_t size() {
+    const uint64_t n = pod<uint64_t>();
+    if (n > in_.size()) fail("a length beyond the end");
+    return static_cast<size_t>(n);
+  }
+  std::string str() {
+    const size_t n = size();
+    need(n);
+    std::string s = in_.substr(pos_, n);
+    pos_ += n;
+    return s;
+  }
+  template <typename T>
+  std::vector<T> vec() {
+    const size_t n = size();
+    need(n * sizeof(T));
+    std::vector<T> v(n);
+    if (n) std::memcpy(v.data(), in_.data() + pos_, n * sizeof(T));
+    pos_ += n * sizeof(T);
+    return v;
+  }
+  template <typename Matrix>
+  Matrix matrix() {
+    Matrix m;
+    for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = pod<double>();
+    return m;
+  }
+  std::vector<Eigen::Vector2d> points2() {
+    const size_t n = size();
+    need(n * 2 * sizeof(double));
+    std::vector<Eigen::Vector2d> points(n);
+    for (auto& p : points) p = matrix<Eigen::Vector2d>();
+    return points;
+  }
+  std::vector<std::pair<int, int>> index_pairs() {
+    const size_t n = size();
+    need(n * 2 * sizeof(int));
+    std::vector<std::pair<int, int>> pairs(n);
+    for (auto& [a, b] : pairs) {
+      a = pod<int>();
+      b = pod<int>();
+    }
+    return pairs;
+  }
+  bool done() const { return pos_ == in_.size(); }
+  [[noreturn]] void fail(const std::string& what) const {
+    throw std::runtime_error("engine state is damaged or from another version: " + what);
+  }
+
+ private:
+  void need(size_t n) const {
+    if (in_.size() - pos_ < n) fail("truncated");
+  }
+  const std::string& in_;
+  size_t pos_ = 0;
+};
+
+void write_intrinsics(Writer& w, const CameraIntrinsics& c) {
+  w.pod(c.width);
+  w.pod(c.height);
+  for (double v : {c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.p1, c.p2, c.k3}) w.pod(v);
+  w.str(c.source);
+}
+
+CameraIntrinsics read_intrinsics(Reader& r) {
+  CameraIntrinsics c;
+  c.width = r.pod<int>();
+  c.height = r.pod<int>();
+  for (double* v : {&c.fx, &c.fy, &c.cx, &c.cy, &c.k1, &c.k2, &c.p1, &c.p2, &c.k3}) {
+    *v = r.pod<double>();
+  }
+  c.source = r.str();
+  return c;
+}
+
+void write_fix(Writer& w, const std::optional<GeoFix>& fix) {
+  w.pod<uint8_t>(fix ? 1 : 0);
+  if (!fix) return;
+  w.pod(fix->lat);
+  w.pod(fix->lon);
+  w.pod<uint8_t>(fix->alt ? 1 : 0);
+  w.pod(fix->alt.value_or(0));
+  w.pod(fix->h_acc);
+  w.pod(fix->v_acc);
+}
+
+std::optional<GeoFix> read_fix(Reader& r) {
+  if (!r.pod<uint8_t>()) return std::nullopt;
+  GeoFix fix;
+  fix.lat = r.pod<double>();
+  fix.lon = r.pod<double>();
+  const bool has_alt = r.pod<uint8_t>();
+  const double alt = r.pod<double>();
+  if (has_alt) fix.alt = alt;
+  fix.h_acc = r.pod<double>();
+  fix.v_acc = r.pod<double>();
+  return fix;
+}
+
+void write_image(Writer& w, const SceneImage& image) {
+  w.str(image.id);
+  w.pod(image.camera);
+  w.pod<uint8_t>(image.removed);
+  w.pod(image.width);
+  w.pod(image.height);
+  write_fix(w, image.gps);
+  w.matrix(image.gps_enu);
+  w.points2(image.keypoints);
+  w.pod(image.descriptors.rows);
+  if (image.descriptors.rows > 0) {
+    w.vec(std::vector<float>(image.descriptors.ptr<float>(0),
+                             image.descriptors.ptr<float>(0) + image.descriptors.total()));
+  }
+  w.vec(image.colors);
+  w.vec(image.point_of);
+  w.pod<uint8_t>(image.registered);
+  w.pod(static_cast<int>(image.status));
+  w.str(image.reason);
+  w.pod(image.pose_inliers);
+  w.matrix(image.q.coeffs());
+  w.matrix(image.t);
+}
+
+SceneImage read_image(Reader& r) {
+  SceneImage image;
+  image.id = r.str();
+  image.camera = r.pod<int>();
+  image.removed = r.pod<uint8_t>();
+  image.width = r.pod<int>();
+  image.height = r.pod<int>();
+  image.gps = read_fix(r);
+  image.gps_enu = r.matrix<Eigen::Vector3d>();
+  image.keypoints = r.points2();
+  const int rows = r.pod<int>();
+  image.descriptors = cv::Mat(std::max(rows, 0), 128, CV_32F);
+  if (rows > 0) {
+    const std::vector<float> values = r.vec<float>();
+    if (values.size() != image.descriptors.total()) r.fail("descriptor size");
+    std::memcpy(image.descriptors.ptr<float>(0), values.data(), values.size() * sizeof(float));
+  }
+  image.colors = r.vec<std::array<uint8_t, 3>>();
+  image.point_of = r.vec<int64_t>();
+  image.registered = r.pod<uint8_t>();
+  image.status = static_cast<CaptureStatus>(r.pod<int>());
+  image.reason = r.str();
+  image.pose_inliers = r.pod<int>();
+  image.q.coeffs() = r.matrix<Eigen::Vector4d>();
+  image.t = r.matrix<Eigen::Vector3d>();
+  if (image.point_of.size() != image.keypoints.size() ||
+      image.colors.size() != image.keypoints.size() ||
+      image.descriptors.rows != static_cast<int>(image.keypoints.size())) {
+    r.fail("per-keypoint arrays of image " + image.id + " differ in length");
+  }
+  return image;
+}
+
+void write_pair(Writer& w, const std::pair<int, int>& key, const ImagePair& pair) {
+  w.pod(key.first);
+  w.pod(key.second);
+  w.index_pairs(pair.matches);
+  w.matrix(pair.R);
+  w.matrix(pair.t);
+  w.pod(pair.median_angle_deg);
+  w.pod(pair.homography_ratio);
+}
+
+void read_pair(Reader& r, Scene& scene) {
+  const int first = r.pod<int>();
+  const int second = r.pod<int>();
+  ImagePair& pair = scene.pairs[{first, second}];
+  pair.matches = r.index_pairs();
+  pair.R = r.matrix<Eigen::Matrix3d>();
+  pair.t = r.matrix<Eigen::Vector3d>();
+  pair.median_angle_deg = r.pod<double>();
+  pair.homography_ratio = r.pod<double>();
+}
+
+}  // namespace
+
+std::string serialize_scene(const Scene& scene) {
+  Writer w;
+  w.pod(kMagic);
+  w.pod(kVersion);
+  w.size(scene.cameras.size());
+  for (const SceneCamera& camera : scene.cameras) {
+    w.str(camera.id);
+    write_intrinsics(w, camera.original);
+    w.pod(camera.scale);
+    w.pod(camera.params);
+    w.pod<uint8_t>(camera.refine);
+  }
+  w.size(scene.images.size());
+  for (const SceneImage& image : scene.images) write_image(w, image);
+  w.size(scene.pairs.size());
+  for (const auto& [key, pair] : scene.pairs) write_pair(w, key, pair);
+  w.size(scene.points.size());
+  for (const auto& [id, point] : scene.points) {
+    w.pod(id);
+    w.matrix(point.xyz);
+    w.pod(point.rgb);
+    w.vec(point.track);
+  }
+  w.pod(scene.next_point_id);
+  w.pod<uint8_t>(scene.enu_origin ? 1 : 0);
+  w.pod(scene.enu_origin.value_or(Geodetic{}));
+  w.pod<uint8_t>(scene.geo_registered);
+  w.pod<uint8_t>(scene.initialized);
+  w.pod(scene.registered_at_last_global_ba);
+  w.pod(scene.reference_image);
+  w.pod(scene.scale_image);
+  return w.take();
+}
+
+Scene deserialize_scene(const std::string& bytes) {
+  Reader r(bytes);
+  const auto magic = r.pod<std::array<char, 8>>();
+  if (std::memcmp(magic.data(), kMagic, 8) != 0) r.fail("not an arscout engine state");
+  if (r.pod<uint32_t>() != kVersion) r.fail("unsupported version");
+  Scene scene;
+  scene.cameras.resize(r.size());
+  for (SceneCamera& camera : scene.cameras) {
+    camera.id = r.str();
+    camera.original = read_intrinsics(r);
+    camera.scale = r.pod<double>();
+    camera.params = r.pod<std::array<double, 6>>();
+    camera.refine = r.pod<uint8_t>();
+  }
+  const size_t images = r.size();
+  for (size_t i = 0; i < images; ++i) scene.images.push_back(read_image(r));
+  const size_t pairs = r.size();
+  for (size_t i = 0; i < pairs; ++i) read_pair(r, scene);
+  const size_t points = r.size();
+  for (size_t i = 0; i < points; ++i) {
+    const auto id = r.pod<int64_t>();
+    ScenePoint& point = scene.points[id];
+    point.xyz = r.matrix<Eigen::Vector3d>();
+    point.rgb = r.pod<std::array<uint8_t, 3>>();
+    point.track = r.vec<Observation>();
+  }
+  scene.next_point_id = r.pod<int64_t>();
+  const bool has_origin = r.pod<uint8_t>();
+  const auto origin = r.pod<Geodetic>();
+  if (has_origin) scene.enu_origin = origin;
+  scene.geo_registered = r.pod<uint8_t>();
+  scene.initialized = r.pod<uint8_t>();
+  scene.registered_at_last_global_ba = r.pod<int>();
+  scene.reference_image = r.pod<int>();
+  scene.scale_image = r.pod<int>();
+  if (!r.done()) r.fail("trailing bytes");
+  // Indices must stay in range, or a damaged state would crash later.
+  for (const SceneImage& image : scene.images) {
+    if (image.camera < 0 || image.camera >= static_cast<int>(scene.cameras.size())) {
+      r.fail("camera index");
+    }
+  }
+  for (const auto& [key, pair] : scene.pairs) {
+    if (key.first < 0 || key.second >= static_cast<int>(scene.images.size()) ||
+        key.first >= key.second) {
+      r.fail("pair index");
+    }
+  }
+  for (const auto& [id, point] : scene.points) {
+    for (const Observation& obs : point.track) {
+      if (obs.image < 0 || obs.image >= static_cast<int>(scene.images.size()) ||
+          obs.keypoint < 0 ||
+          obs.keypoint >= static_cast<int>(scene.images[obs.image].keypoints.size())) {
+        r.fail("observation index");
+      }
+    }
+  }
+  return scene;
+}
+
+}  // namespace arscout::engine
