@@ -1,6 +1,9 @@
 #include "bundle_adjuster.h"
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
 #include <set>
 
 #include <ceres/ceres.h>
@@ -68,6 +71,28 @@ struct GpsPriorCost {
   Eigen::Vector3d enu, inverse_sigma;
 };
 
+// The camera's x axis in the world is the first row of R (world-to-camera);
+// its up component is the sine of the roll, zero for a level camera.
+struct UprightCost {
+  explicit UprightCost(double inverse_sigma) : inverse_sigma(inverse_sigma) {}
+
+  template <typename T>
+  bool operator()(const T* q, T* residual) const {
+    const T q_inverse[4] = {q[3], -q[0], -q[1], -q[2]};
+    const T x_axis[3] = {T(1), T(0), T(0)};
+    T world[3];
+    ceres::QuaternionRotatePoint(q_inverse, x_axis, world);
+    residual[0] = world[2] * T(inverse_sigma);
+    return true;
+  }
+
+  static ceres::CostFunction* create(double inverse_sigma) {
+    return new ceres::AutoDiffCostFunction<UprightCost, 1, 4>(new UprightCost(inverse_sigma));
+  }
+
+  double inverse_sigma;
+};
+
 Eigen::Vector3d inverse_sigma(const GeoFix& fix) {
   const double h = 1.0 / std::max(fix.h_acc, 0.01);
   const double v = fix.alt ? 1.0 / std::max(fix.v_acc, 0.01) : 0.0;
@@ -78,10 +103,20 @@ double aspect_of(const SceneCamera& camera) {
   return camera.params[1] / camera.params[0];
 }
 
+ceres::Problem::Options problem_options() {
+  ceres::Problem::Options options;
+  options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  return options;
+}
+
 class ProblemBuilder {
  public:
   ProblemBuilder(Scene& scene, const BundleOptions& options)
-      : scene_(scene), options_(options), loss_(new ceres::CauchyLoss(options.loss_scale_px)) {}
+      : scene_(scene),
+        options_(options),
+        loss_(std::make_unique<ceres::CauchyLoss>(options.loss_scale_px)),
+        upright_loss_(std::make_unique<ceres::CauchyLoss>(3.0)),
+        problem_(problem_options()) {}
 
   void select(const std::vector<int>& free_images, bool global) {
     global_ = global;
@@ -107,6 +142,7 @@ class ProblemBuilder {
       for (const Observation& obs : point.track) add_observation(point, obs);
     }
     if (options_.gps_priors) add_gps_priors();
+    if (options_.gps_priors && options_.upright_sigma_deg > 0) add_upright_priors();
     hold_gauge();
     hold_cameras();
   }
@@ -131,7 +167,7 @@ class ProblemBuilder {
     aspects_.emplace(image.camera, aspect_of(camera));
     problem_.AddResidualBlock(
         ReprojectionCost::create(image.keypoints[obs.keypoint], aspect_of(camera)),
-        loss_, image.q.coeffs().data(), image.t.data(), point.xyz.data(),
+        loss_.get(), image.q.coeffs().data(), image.t.data(), point.xyz.data(),
         camera.params.data());
     add_image(obs.image);
     cameras_.insert(image.camera);
@@ -154,6 +190,15 @@ class ProblemBuilder {
       problem_.AddResidualBlock(
           GpsPriorCost::create(image.gps_enu, inverse_sigma(*image.gps)), nullptr,
           image.q.coeffs().data(), image.t.data());
+    }
+  }
+
+  void add_upright_priors() {
+    const double inverse_sigma = 1.0 / std::sin(options_.upright_sigma_deg * M_PI / 180);
+    for (int index : images_) {
+      if (!free_.count(index)) continue;
+      problem_.AddResidualBlock(UprightCost::create(inverse_sigma), upright_loss_.get(),
+                                scene_.images[index].q.coeffs().data());
     }
   }
 
@@ -189,7 +234,9 @@ class ProblemBuilder {
 
   Scene& scene_;
   const BundleOptions& options_;
-  ceres::LossFunction* loss_;  // owned by the problem
+  // Declared before the problem, which uses but does not own them.
+  std::unique_ptr<ceres::LossFunction> loss_;
+  std::unique_ptr<ceres::LossFunction> upright_loss_;  // in units of sigma
   ceres::Problem problem_;
   bool global_ = false;
   std::set<int> free_;
@@ -199,7 +246,72 @@ class ProblemBuilder {
   std::set<int64_t> points_;
 };
 
+// A camera's centre and orientation after the similarity (log scale, R as
+// a quaternion, t) against its fix and the upright prior.
+struct SimilarityPriorCost {
+  SimilarityPriorCost(const Eigen::Vector3d& centre, const Eigen::Vector3d& x_axis,
+                      const Eigen::Vector3d& enu, const Eigen::Vector3d& inverse_sigma,
+                      double upright_inverse_sigma)
+      : centre(centre),
+        x_axis(x_axis),
+        enu(enu),
+        inverse_sigma(inverse_sigma),
+        upright_inverse_sigma(upright_inverse_sigma) {}
+
+  template <typename T>
+  bool operator()(const T* log_scale, const T* q, const T* t, T* residual) const {
+    const T q_wxyz[4] = {q[3], q[0], q[1], q[2]};
+    const T c[3] = {T(centre[0]), T(centre[1]), T(centre[2])};
+    const T x[3] = {T(x_axis[0]), T(x_axis[1]), T(x_axis[2])};
+    T rotated[3], axis[3];
+    ceres::QuaternionRotatePoint(q_wxyz, c, rotated);
+    ceres::QuaternionRotatePoint(q_wxyz, x, axis);
+    const T scale = exp(log_scale[0]);
+    for (int i = 0; i < 3; ++i) {
+      residual[i] = (scale * rotated[i] + t[i] - T(enu[i])) * T(inverse_sigma[i]);
+    }
+    residual[3] = axis[2] * T(upright_inverse_sigma);
+    return true;
+  }
+
+  Eigen::Vector3d centre, x_axis, enu, inverse_sigma;
+  double upright_inverse_sigma;
+};
+
 }  // namespace
+
+std::optional<Similarity> fit_model_to_priors(const Scene& scene, const BundleOptions& options) {
+  const double upright =
+      options.upright_sigma_deg > 0 ? 1.0 / std::sin(options.upright_sigma_deg * M_PI / 180) : 0;
+  double log_scale = 0;
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  ceres::Problem problem;
+  int fixes = 0;
+  for (const SceneImage& image : scene.images) {
+    if (!image.registered || !image.gps) continue;
+    ++fixes;
+    const Eigen::Vector3d x_axis = image.q.toRotationMatrix().row(0).transpose();
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<SimilarityPriorCost, 4, 1, 4, 3>(new SimilarityPriorCost(
+            image.centre(), x_axis, image.gps_enu, inverse_sigma(*image.gps), upright)),
+        new ceres::CauchyLoss(3.0), &log_scale, q.coeffs().data(), t.data());
+  }
+  if (fixes < 3) return std::nullopt;
+  problem.SetManifold(q.coeffs().data(), new ceres::EigenQuaternionManifold);
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_QR;
+  solver.max_num_iterations = 100;
+  solver.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  if (!summary.IsSolutionUsable()) return std::nullopt;
+  Similarity sim;
+  sim.scale = std::exp(log_scale);
+  sim.R = q.normalized().toRotationMatrix();
+  sim.t = t;
+  return sim;
+}
 
 BundleReport adjust_bundle(Scene& scene, const std::vector<int>& free_images,
                            bool global, const BundleOptions& options) {
@@ -218,13 +330,17 @@ BundleReport adjust_bundle(Scene& scene, const std::vector<int>& free_images,
   }
   solver.max_num_iterations = options.max_iterations;
   solver.num_threads = std::max(1, options.threads);
-  solver.function_tolerance = 1e-7;
+  solver.function_tolerance = 1e-6;
   solver.parameter_tolerance = 1e-9;
   solver.logging_type = ceres::SILENT;
   solver.minimizer_progress_to_stdout = false;
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &builder.problem(), &summary);
   builder.normalize_quaternions();
+  if (std::getenv("ARSCOUT_DEBUG_BA")) {
+    fprintf(stderr, "BA %s images %d points %d: %s time %.3f\n", global ? "global" : "local",
+            report.images, report.points, summary.BriefReport().c_str(), summary.total_time_in_seconds);
+  }
   report.iterations = static_cast<int>(summary.iterations.size());
   report.initial_rms_px = std::sqrt(2 * summary.initial_cost / std::max(1, summary.num_residuals));
   report.final_rms_px = std::sqrt(2 * summary.final_cost / std::max(1, summary.num_residuals));

@@ -4,14 +4,17 @@
 // section 3.3). The only translation unit that includes Ceres.
 #pragma once
 
+#include <optional>
 #include <vector>
 
+#include "estimators.h"
 #include "scene.h"
 
 namespace arscout::engine {
 
 struct BundleOptions {
   bool gps_priors = false;   // scene is in ENU and fixes pull the centres
+  double upright_sigma_deg = 0;  // > 0: camera x axes held horizontal (ENU)
   double loss_scale_px = 1.0;  // Cauchy loss scale
   int max_iterations = 50;
   int threads = 1;
@@ -32,6 +35,13 @@ struct BundleReport {
 // and radial terms in a global adjustment only. Without GPS priors the
 // gauge is held by Scene::reference_image (and the scale by one coordinate
 // of Scene::scale_image in a global adjustment).
+// The similarity that best moves the registered cameras onto their GPS
+// fixes (weighted per axis, as in the adjustment) while keeping them level
+// (the upright prior): the directions in which reprojection errors do not
+// constrain the model, solved on their own so that the adjustment starts
+// at their optimum. nullopt with fewer than 3 fixes.
+std::optional<Similarity> fit_model_to_priors(const Scene& scene, const BundleOptions& options);
+
 BundleReport adjust_bundle(Scene& scene, const std::vector<int>& free_images,
                            bool global, const BundleOptions& options);
 

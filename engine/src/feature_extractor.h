@@ -16,7 +16,9 @@ struct FeatureOptions {
   int max_features = 4000;
   double quality = 0.001;      // of the strongest Harris response
   double min_distance = 5;     // pixels between corners
-  float descriptor_size = 12;  // SIFT support, pixels
+  // SIFT support, pixels: small windows suit corners (bench/FEATURES.md),
+  // and the cost grows with the square of this.
+  float descriptor_size = 6;
 };
 
 struct Features {

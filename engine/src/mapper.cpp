@@ -8,6 +8,8 @@
 #include "bundle_adjuster.h"
 #include "estimators.h"
 
+#include <Eigen/Eigenvalues>
+
 namespace arscout::engine {
 namespace {
 
@@ -312,20 +314,16 @@ void IncrementalMapper::adjust_local(int index) {
   StageClock clock(timings_.bundle_adjustment_s);
   std::vector<int> free = covisible_images(index, options_.local_ba_images - 1);
   free.push_back(index);
-  BundleOptions ba;
-  ba.gps_priors = scene_.geo_registered;
-  ba.max_iterations = 25;
-  ba.threads = options_.deterministic ? 1 : options_.threads;
+  const BundleOptions ba = bundle_options(15);
+  align_to_priors(ba);
   adjust_bundle(scene_, free, false, ba);
   filter_points(free);
 }
 
 void IncrementalMapper::adjust_global() {
   StageClock clock(timings_.bundle_adjustment_s);
-  BundleOptions ba;
-  ba.gps_priors = scene_.geo_registered;
-  ba.max_iterations = 50;
-  ba.threads = options_.deterministic ? 1 : options_.threads;
+  const BundleOptions ba = bundle_options(30);
+  align_to_priors(ba);
   adjust_bundle(scene_, {}, true, ba);
   std::vector<int> all;
   for (size_t i = 0; i < scene_.images.size(); ++i) {
@@ -379,6 +377,43 @@ void IncrementalMapper::filter_points(const std::vector<int>& images) {
   }
 }
 
+// The model's up direction from its cameras: level cameras have horizontal
+// x axes, so up is the direction most nearly perpendicular to all of them;
+// the mean of the cameras' up axes (-y) breaks the tie when the x axes are
+// nearly parallel (cameras all facing one way).
+Eigen::Vector3d IncrementalMapper::model_up() const {
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d mean_up = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (const SceneImage& image : scene_.images) {
+    if (!image.registered) continue;
+    const Eigen::Matrix3d R = image.q.toRotationMatrix();
+    const Eigen::Vector3d x_axis = R.row(0).transpose();
+    scatter += x_axis * x_axis.transpose();
+    mean_up -= R.row(1).transpose();
+    ++count;
+  }
+  mean_up.normalize();
+  scatter += 0.05 * count * (Eigen::Matrix3d::Identity() - mean_up * mean_up.transpose());
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(scatter);
+  Eigen::Vector3d up = eigen.eigenvectors().col(0);  // smallest eigenvalue
+  return up.dot(mean_up) < 0 ? -up : up;
+}
+
+// Turns a similarity about the fixes' centroid so the model's up maps to
+// ENU up: the GPS heights are too noisy to fix the tilt.
+void IncrementalMapper::level(Similarity& sim, const std::vector<Eigen::Vector3d>& fixes,
+                              const std::vector<int>& inliers) const {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (int i : inliers) centroid += fixes[i];
+  centroid /= std::max<size_t>(1, inliers.size());
+  const Eigen::Matrix3d fix =
+      Eigen::Quaterniond::FromTwoVectors(sim.R * model_up(), Eigen::Vector3d::UnitZ())
+          .toRotationMatrix();
+  sim.R = fix * sim.R;
+  sim.t = fix * (sim.t - centroid) + centroid;
+}
+
 // Moves the model into the site's ENU frame with a robust similarity from
 // camera centres to GPS positions, whenever the two disagree by more than
 // the adjustment itself would fix (the first time, and while few fixes make
@@ -396,23 +431,45 @@ void IncrementalMapper::geo_register() {
   if (centres.size() < 3) return;
   accuracy /= centres.size();
   std::vector<int> inliers;
-  const auto sim = estimate_similarity(centres, fixes, std::max(3 * accuracy, 5.0),
+  auto sim = estimate_similarity(centres, fixes, std::max(3 * accuracy, 5.0),
                                        scene_.images.size(), &inliers);
   if (!sim) return;
+  if (options_.upright_sigma_deg > 0) level(*sim, fixes, inliers);
   const double angle = Eigen::AngleAxisd(sim->R).angle() * 180 / M_PI;
   const bool far = !scene_.geo_registered || angle > 2 ||
                    std::abs(std::log(sim->scale)) > 0.02 || sim->t.norm() > 1.0;
   if (!far) return;
-  for (auto& [id, point] : scene_.points) point.xyz = sim->apply(point.xyz);
-  const Eigen::Quaterniond rotation(sim->R);
+  transform_model(*sim);
+  scene_.geo_registered = true;
+  adjust_global();
+}
+
+void IncrementalMapper::transform_model(const Similarity& sim) {
+  for (auto& [id, point] : scene_.points) point.xyz = sim.apply(point.xyz);
+  const Eigen::Quaterniond rotation(sim.R);
   for (SceneImage& image : scene_.images) {
     if (!image.registered) continue;
-    const Eigen::Vector3d centre = sim->apply(image.centre());
+    const Eigen::Vector3d centre = sim.apply(image.centre());
     image.q = (image.q * rotation.conjugate()).normalized();
     image.t = -(image.q * centre);
   }
-  scene_.geo_registered = true;
-  adjust_global();
+}
+
+BundleOptions IncrementalMapper::bundle_options(int max_iterations) const {
+  BundleOptions ba;
+  ba.gps_priors = scene_.geo_registered;
+  ba.upright_sigma_deg = options_.upright_sigma_deg;
+  ba.max_iterations = max_iterations;
+  ba.threads = options_.deterministic ? 1 : options_.threads;
+  return ba;
+}
+
+// Reprojection errors leave the model's position, orientation and scale to
+// the priors alone, and a joint adjustment creeps along such weak
+// directions; solving them first lets it converge in a few iterations.
+void IncrementalMapper::align_to_priors(const BundleOptions& ba) {
+  if (!scene_.geo_registered) return;
+  if (auto sim = fit_model_to_priors(scene_, ba)) transform_model(*sim);
 }
 
 void IncrementalMapper::reset_model() {

@@ -8,6 +8,8 @@
 #include <vector>
 
 #include "arscout/engine/reconstruction.h"
+#include "bundle_adjuster.h"
+#include "estimators.h"
 #include "scene.h"
 
 namespace arscout::engine {
@@ -39,6 +41,12 @@ class IncrementalMapper {
   void adjust_global();
   void filter_points(const std::vector<int>& images);
   void geo_register();
+  void transform_model(const Similarity& sim);
+  BundleOptions bundle_options(int max_iterations) const;
+  void align_to_priors(const BundleOptions& ba);
+  Eigen::Vector3d model_up() const;
+  void level(Similarity& sim, const std::vector<Eigen::Vector3d>& fixes,
+             const std::vector<int>& inliers) const;
   void reset_model();
   double threshold_normalized(int image) const;
   std::vector<int> covisible_images(int image, int limit) const;

@@ -49,6 +49,11 @@ struct ReconstructionOptions {
   // "auto": refine focal length and radial distortion of cameras whose
   // intrinsics were not calibrated; "on": refine all; "off": keep as given.
   std::string refine_intrinsics = "auto";
+  // Scouts hold the camera level: once the model is in ENU, each camera's
+  // x axis (image right) is held horizontal with this standard deviation,
+  // which keeps the vertical GPS noise from tilting the model. Portrait
+  // photos are outliers to a robust loss. 0 turns the prior off.
+  double upright_sigma_deg = 2.0;
   int local_ba_images = 6;
   // A global adjustment runs when the model has grown by this factor since
   // the last one (COLMAP's rule), and always for small models.
