@@ -1,8 +1,6 @@
 #include "bundle_adjuster.h"
 
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <memory>
 #include <set>
 
@@ -337,10 +335,6 @@ BundleReport adjust_bundle(Scene& scene, const std::vector<int>& free_images,
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &builder.problem(), &summary);
   builder.normalize_quaternions();
-  if (std::getenv("ARSCOUT_DEBUG_BA")) {
-    fprintf(stderr, "BA %s images %d points %d: %s time %.3f\n", global ? "global" : "local",
-            report.images, report.points, summary.BriefReport().c_str(), summary.total_time_in_seconds);
-  }
   report.iterations = static_cast<int>(summary.iterations.size());
   report.initial_rms_px = std::sqrt(2 * summary.initial_cost / std::max(1, summary.num_residuals));
   report.final_rms_px = std::sqrt(2 * summary.final_cost / std::max(1, summary.num_residuals));

@@ -127,13 +127,14 @@ bool IncrementalMapper::initialize() {
   int usable = 0;
   for (const SceneImage& image : scene_.images) usable += image.removed ? 0 : 1;
   if (usable < 3) return false;
-  // Best-conditioned pairs first: many inliers, enough parallax, and not
-  // explained by a homography (a plane or a pure rotation).
+  // Best-conditioned pairs first: many inliers with enough parallax, and
+  // not explained by a homography (a plane or a pure rotation). Parallax
+  // below 4 degrees discounts a pair in proportion; below 1 it is skipped.
   std::vector<std::pair<double, std::pair<int, int>>> ranked;
   for (const auto& [key, pair] : scene_.pairs) {
-    if (pair.median_angle_deg < options_.min_triangulation_angle_deg * 2) continue;
-    if (pair.homography_ratio > 0.95) continue;
-    ranked.push_back({static_cast<double>(pair.matches.size()), key});
+    if (pair.median_angle_deg < 1.0 || pair.homography_ratio > 0.95) continue;
+    const double parallax = std::min(1.0, pair.median_angle_deg / 4.0);
+    ranked.push_back({pair.matches.size() * parallax, key});
   }
   std::sort(ranked.begin(), ranked.end(), [](const auto& x, const auto& y) {
     return x.first != y.first ? x.first > y.first : x.second < y.second;

@@ -159,4 +159,40 @@ std::vector<std::pair<int, int>> match_descriptors(const cv::Mat& a,
   return matches;
 }
 
+cv::Mat rotate_descriptors(const cv::Mat& descriptors, int quarter_turns) {
+  const int turns = ((quarter_turns % 4) + 4) % 4;
+  if (turns == 0) return descriptors;
+  cv::Mat rotated(descriptors.size(), descriptors.type());
+  for (int r = 0; r < descriptors.rows; ++r) {
+    const float* in = descriptors.ptr<float>(r);
+    float* out = rotated.ptr<float>(r);
+    for (int row = 0; row < 4; ++row) {
+      for (int col = 0; col < 4; ++col) {
+        // Undoing a clockwise quarter turn moves cell (row, col) to
+        // (3 - col, row) and turns every gradient by two of the eight bins.
+        int new_row = row, new_col = col;
+        for (int t = 0; t < turns; ++t) {
+          const int previous_row = new_row;
+          new_row = 3 - new_col;
+          new_col = previous_row;
+        }
+        for (int bin = 0; bin < 8; ++bin) {
+          out[(new_row * 4 + new_col) * 8 + (bin + 2 * turns) % 8] = in[(row * 4 + col) * 8 + bin];
+        }
+      }
+    }
+  }
+  return rotated;
+}
+
+int overlap_score(const cv::Mat& a, const cv::Mat& b, double ratio, int samples) {
+  if (a.rows == 0 || b.rows < 2) return 0;
+  const int n = std::min(samples, a.rows);
+  cv::Mat sample(n, a.cols, a.type());
+  for (int i = 0; i < n; ++i) {
+    a.row(static_cast<int>(static_cast<int64_t>(i) * a.rows / n)).copyTo(sample.row(i));
+  }
+  return static_cast<int>(match_descriptors(sample, b, ratio, 1).size());
+}
+
 }  // namespace arscout::engine

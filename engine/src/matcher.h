@@ -17,4 +17,17 @@ std::vector<std::pair<int, int>> match_descriptors(const cv::Mat& a,
                                                    const cv::Mat& b,
                                                    double ratio, int threads);
 
+// Descriptors of a photo that was turned clockwise by `quarter_turns` x 90
+// degrees, as they would be had it been held upright: match a's descriptors
+// against rotate_descriptors(b, t) when b is a's view turned t quarter turns.
+// A SIFT descriptor is a 4 x 4 grid of 8-bin orientation histograms, so
+// turning the patch permutes cells and bins.
+// This lets upright descriptors match a photo held sideways or upside down
+// without computing orientations.
+cv::Mat rotate_descriptors(const cv::Mat& descriptors, int quarter_turns);
+
+// How many of (at most) `samples` rows of `a`, spread evenly, find a
+// ratio-test match in `b`: a cheap estimate of the overlap of two photos.
+int overlap_score(const cv::Mat& a, const cv::Mat& b, double ratio, int samples);
+
 }  // namespace arscout::engine

@@ -24,6 +24,20 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 // Two-view verification is strict: its inliers seed every track.
 constexpr double kEssentialThresholdPx = 1.0;
 
+// The visual screen: how many descriptors of a new image it samples, how
+// many of those must match for a photo to count as overlapping, and how
+// many earlier photos it looks at (the most recent).
+constexpr int kScreenSamples = 256;
+constexpr int kScreenMinimum = 12;
+constexpr int kScreenMaxImages = 60;
+
+// An image to match against, and the quarter turns that align the new
+// image's descriptors with its own.
+struct Candidate {
+  int image = 0;
+  int turns = 0;
+};
+
 std::string camera_key(const CaptureInput& capture) {
   if (!capture.camera_id.empty()) return capture.camera_id;
   return "capture:" + capture.id;  // no shared camera named: its own
@@ -47,7 +61,10 @@ struct Reconstruction::Impl {
 
   int camera_for(const CaptureInput& capture, const WorkingImage& image);
   const Undistorter& undistorter(int camera, cv::Size size);
-  std::vector<int> neighbours(int image) const;
+  std::vector<Candidate> neighbours(int image) const;
+  std::vector<int> covisible_with(const std::set<int>& images) const;
+  std::pair<int, int> best_rotation(int image, int other) const;
+  std::vector<Candidate> visual_screen(int image, const std::set<int>& skip) const;
   int match_image(int image, StageTimings& timings);
   void set_gps(SceneImage& image, const std::optional<GeoFix>& fix);
 };
@@ -100,9 +117,10 @@ void Reconstruction::Impl::set_gps(SceneImage& image, const std::optional<GeoFix
 }
 
 // GPS neighbours (k nearest within the radius), the captures added just
-// before, and registered captures that share points with those: never all
-// pairs.
-std::vector<int> Reconstruction::Impl::neighbours(int index) const {
+// before, registered captures that share points with those, and the best of
+// a cheap visual screen over the rest (which also finds photos turned
+// sideways or upside down): never all pairs.
+std::vector<Candidate> Reconstruction::Impl::neighbours(int index) const {
   std::set<int> chosen;
   const SceneImage& image = scene.images[index];
   if (image.gps) {
@@ -124,22 +142,73 @@ std::vector<int> Reconstruction::Impl::neighbours(int index) const {
     chosen.insert(i);
     ++recent;
   }
+  for (int other : covisible_with(chosen)) chosen.insert(other);
+  // A photo with a fix is matched upright against its neighbours; one
+  // without is screened against the recent photos of the site, in all four
+  // quarter turns.
+  std::vector<Candidate> result;
+  if (image.gps) {
+    for (int other : chosen) result.push_back({other, 0});
+    return result;
+  }
+  for (int other : chosen) result.push_back({other, best_rotation(index, other).first});
+  for (const Candidate& c : visual_screen(index, chosen)) result.push_back(c);
+  return result;
+}
+
+// Registered images that share the most points with `images`.
+std::vector<int> Reconstruction::Impl::covisible_with(const std::set<int>& images) const {
   std::map<int, int> shared;
-  for (int i : chosen) {
+  for (int i : images) {
     for (int64_t point : scene.images[i].point_of) {
       if (point < 0) continue;
       for (const Observation& obs : scene.points.at(point).track) {
-        if (!chosen.count(obs.image)) ++shared[obs.image];
+        if (!images.count(obs.image)) ++shared[obs.image];
       }
     }
   }
   std::vector<std::pair<int, int>> ranked;
   for (const auto& [other, count] : shared) ranked.push_back({-count, other});
   std::sort(ranked.begin(), ranked.end());
+  std::vector<int> result;
   for (size_t i = 0; i < ranked.size() && static_cast<int>(i) < options.visual_neighbours; ++i) {
-    chosen.insert(ranked[i].second);
+    result.push_back(ranked[i].second);
   }
-  return {chosen.begin(), chosen.end()};
+  return result;
+}
+
+// The quarter turns under which `index` best matches `other`, and the
+// screen's score; upright first, turned only when upright finds little.
+std::pair<int, int> Reconstruction::Impl::best_rotation(int index, int other) const {
+  const cv::Mat& mine = scene.images[index].descriptors;
+  const cv::Mat& theirs = scene.images[other].descriptors;
+  std::pair<int, int> best{0, overlap_score(mine, theirs, options.ratio, kScreenSamples)};
+  if (best.second >= kScreenMinimum) return best;
+  for (int turns = 1; turns < 4; ++turns) {
+    const int score =
+        overlap_score(rotate_descriptors(mine, turns), theirs, options.ratio, kScreenSamples);
+    if (score > best.second) best = {turns, score};
+  }
+  return best;
+}
+
+std::vector<Candidate> Reconstruction::Impl::visual_screen(int index,
+                                                           const std::set<int>& skip) const {
+  std::vector<std::pair<int, Candidate>> scored;
+  int screened = 0;
+  for (int i = index - 1; i >= 0 && screened < kScreenMaxImages; --i) {
+    if (scene.images[i].removed || skip.count(i)) continue;
+    ++screened;
+    const auto [turns, score] = best_rotation(index, i);
+    if (score >= kScreenMinimum) scored.push_back({-score, {i, turns}});
+  }
+  std::sort(scored.begin(), scored.end(),
+            [](const auto& x, const auto& y) { return x.first != y.first ? x.first < y.first : x.second.image < y.second.image; });
+  std::vector<Candidate> result;
+  for (size_t i = 0; i < scored.size() && static_cast<int>(i) < options.visual_neighbours; ++i) {
+    result.push_back(scored[i].second);
+  }
+  return result;
 }
 
 int Reconstruction::Impl::match_image(int index, StageTimings& timings) {
@@ -147,11 +216,12 @@ int Reconstruction::Impl::match_image(int index, StageTimings& timings) {
   int verified = 0;
   const SceneImage& image = scene.images[index];
   const SceneCamera& camera = scene.cameras[image.camera];
-  for (int other_index : neighbours(index)) {
+  for (const auto& [other_index, turns] : neighbours(index)) {
     const SceneImage& other = scene.images[other_index];
     const SceneCamera& other_camera = scene.cameras[other.camera];
-    const auto matches = match_descriptors(other.descriptors, image.descriptors, options.ratio,
-                                           options.threads);
+    const auto matches = match_descriptors(
+        other.descriptors, rotate_descriptors(image.descriptors, turns), options.ratio,
+        options.threads);
     std::vector<Eigen::Vector2d> x1, x2;
     for (const auto& [a, b] : matches) {
       x1.push_back(normalize(other_camera, other.keypoints[a]));

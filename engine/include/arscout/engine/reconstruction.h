@@ -36,16 +36,16 @@ namespace arscout::engine {
 
 struct ReconstructionOptions {
   int long_side = 1600;       // working resolution (long side, pixels)
-  int max_features = 4000;    // Harris corners per image
+  int max_features = 3000;    // Harris corners per image (the strongest)
   int gps_neighbours = 6;     // k nearest captures by GPS to match against
   double gps_radius_m = 150;  // ... within this distance
   int recent_neighbours = 3;  // and the captures added just before
   int visual_neighbours = 4;  // plus registered captures sharing points
   double ratio = 0.8;         // Lowe's ratio test
   double max_reprojection_px = 4.0;  // at the working resolution
-  int min_pair_inliers = 30;
-  int min_pose_inliers = 25;
-  double min_triangulation_angle_deg = 1.5;
+  int min_pair_inliers = 20;
+  int min_pose_inliers = 15;
+  double min_triangulation_angle_deg = 0.75;
   // "auto": refine focal length and radial distortion of cameras whose
   // intrinsics were not calibrated; "on": refine all; "off": keep as given.
   std::string refine_intrinsics = "auto";
