@@ -1,0 +1,107 @@
+// `arscout reconstruct` on the real scenes, against their ground truth.
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "model_eval.h"
+#include "test_stores.h"
+#include "tool_process.h"
+
+namespace arscout {
+namespace {
+
+using testing::ToolProcess;
+
+// Runs the CLI to completion; fails the test (with the log) unless it
+// exits 0.
+void run_cli(const std::vector<std::string>& args, const std::string& log) {
+  ToolProcess cli(ARSCOUT_CLI, args, log);
+  const auto status = cli.wait_for(std::chrono::minutes(10));
+  ASSERT_TRUE(status.has_value()) << "arscout timed out\n" << testing::slurp(log);
+  ASSERT_EQ(*status, 0) << testing::describe_status(*status) << "\n" << testing::slurp(log);
+}
+
+struct StrechaRun {
+  eval::PoseComparison poses;
+  double geo_median_m = 0;
+  int geo_matched = 0;
+};
+
+StrechaRun reconstruct_strecha(const std::string& scene, const std::string& out) {
+  const std::string dir = scene + "/images";
+  run_cli({"reconstruct", "--images", dir, "--gps-csv", scene + "/gps.csv", "--camera",
+           dir + "/K.txt", "--out", out},
+          out + ".log");
+  StrechaRun run;
+  run.poses = eval::compare_to_ground_truth(eval::read_colmap_images_txt(out + "/sparse/images.txt"),
+                                            eval::read_strecha_ground_truth(scene + "/gt_dense_cameras"));
+  run.geo_median_m = eval::median_geo_distance(eval::read_geo_csv(out + "/cameras_geo.csv"),
+                                               eval::read_geo_csv(scene + "/gps_truth.csv"),
+                                               &run.geo_matched);
+  return run;
+}
+
+TEST(ReconstructAcceptance, FountainP11MeetsTheAccuracyTargets) {
+  std::string scene;
+  ARSCOUT_SHARED_DATA_OR_SKIP(scene, "strecha/fountain-P11");
+  const std::string out = testing::make_temp_dir("fountain") + "/out";
+  const StrechaRun run = reconstruct_strecha(scene, out);
+  EXPECT_EQ(run.poses.matched, 11);
+  EXPECT_LE(run.poses.median_centre_error, 0.005);
+  EXPECT_LE(run.poses.median_rotation_error_deg, 0.1);
+  EXPECT_EQ(run.geo_matched, 11);
+  // The raw fixes are off by about 2.5 m.
+  EXPECT_LE(run.geo_median_m, 1.0);
+  EXPECT_TRUE(std::filesystem::file_size(out + "/sparse.ply") > 1000);
+}
+
+// entry-P10 meets the rotation and GPS targets; its median centre error
+// (about 5.7 mm) is above the 5 mm, which stays open. This guards
+// against regressions meanwhile.
+TEST(ReconstructAcceptance, EntryP10RegistersAllWithinTolerance) {
+  std::string scene;
+  ARSCOUT_SHARED_DATA_OR_SKIP(scene, "strecha/entry-P10");
+  const std::string out = testing::make_temp_dir("entry") + "/out";
+  const StrechaRun run = reconstruct_strecha(scene, out);
+  EXPECT_EQ(run.poses.matched, 10);
+  EXPECT_LE(run.poses.median_centre_error, 0.008);
+  EXPECT_LE(run.poses.median_rotation_error_deg, 0.1);
+  EXPECT_LE(run.geo_median_m, 1.0);
+}
+
+// Saving the state after 6 photos and resuming in a new process gives the
+// model an uninterrupted deterministic run gives.
+TEST(ReconstructAcceptance, ResumedRunEqualsUninterruptedRun) {
+  std::string scene;
+  ARSCOUT_SHARED_DATA_OR_SKIP(scene, "strecha/fountain-P11");
+  const std::string work = testing::make_temp_dir("resume");
+  const std::vector<std::string> common = {
+      "reconstruct",  "--images", scene + "/images", "--gps-csv", scene + "/gps.csv",
+      "--camera", scene + "/images/K.txt", "--deterministic"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = common;
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  };
+  run_cli(with({"--out", work + "/whole"}), work + "/whole.log");
+  run_cli(with({"--out", work + "/first", "--limit", "6", "--save-state", work + "/state.bin"}),
+          work + "/first.log");
+  run_cli(with({"--out", work + "/rest", "--resume", work + "/state.bin"}), work + "/rest.log");
+  const auto whole = eval::read_colmap_images_txt(work + "/whole/sparse/images.txt");
+  const auto resumed = eval::read_colmap_images_txt(work + "/rest/sparse/images.txt");
+  ASSERT_EQ(whole.size(), 11u);
+  ASSERT_EQ(resumed.size(), whole.size());
+  for (const auto& [name, pose] : whole) {
+    const auto it = resumed.find(name);
+    ASSERT_NE(it, resumed.end()) << name;
+    const double scale = std::max(1.0, pose.t.norm());
+    EXPECT_LE((it->second.t - pose.t).norm() / scale, 1e-6) << name;
+    EXPECT_LE((it->second.R - pose.R).norm(), 1e-6) << name;
+  }
+}
+
+}  // namespace
+}  // namespace arscout
