@@ -84,13 +84,12 @@ std::vector<int> IncrementalMapper::update() {
       }
     }
     if (best < 0) break;
-    if (static_cast<int>(best_count) < options_.min_pose_inliers) {
-      scene_.images[best].reason = "too few matches to the model (" +
-                                   std::to_string(best_count) + " 2D-3D)";
-      failed.insert(best);
-      continue;
-    }
-    if (!register_image(best)) {
+    const bool enough = static_cast<int>(best_count) >= options_.min_pose_inliers;
+    if (!(enough && register_image(best)) && !register_from_pair(best)) {
+      if (!enough) {
+        scene_.images[best].reason = "too few matches to the model (" +
+                                     std::to_string(best_count) + " 2D-3D)";
+      }
       failed.insert(best);
       continue;
     }
@@ -231,6 +230,80 @@ bool IncrementalMapper::register_image(int index) {
   image.pose_inliers = static_cast<int>(pose->inliers.size());
   for (int i : pose->inliers) {
     const auto& [keypoint, point] = corr[i];
+    if (image.point_of[keypoint] < 0 && !has_observation_in(scene_.points.at(point), index)) {
+      scene_.add_observation(point, {index, keypoint});
+    }
+  }
+  return true;
+}
+
+// When too few 2D-3D matches agree on an absolute pose (a wide step along a
+// chain of photos shares few points with the model), the relative pose to
+// the registered neighbour it matches best gives the orientation and the
+// direction of the baseline; the 2D-3D matches it has then only need to
+// agree on the baseline's length.
+bool IncrementalMapper::register_from_pair(int index) {
+  StageClock clock(timings_.pose_s);
+  int other = -1;
+  const ImagePair* best = nullptr;
+  for (const auto& [candidate, pair] : scene_.pairs_of(index)) {
+    if (!scene_.images[candidate].registered) continue;
+    if (!best || pair->matches.size() > best->matches.size()) {
+      best = pair;
+      other = candidate;
+    }
+  }
+  if (!best) return false;
+  SceneImage& image = scene_.images[index];
+  const SceneImage& anchor = scene_.images[other];
+  const Eigen::Matrix3d R_anchor = anchor.q.toRotationMatrix();
+  Eigen::Matrix3d R;
+  Eigen::Vector3d direction;  // of this camera's centre from the anchor's
+  if (index > other) {        // stored as x_index = R x_other + t
+    R = best->R * R_anchor;
+    direction = R_anchor.transpose() * (-best->R.transpose() * best->t);
+  } else {  // x_other = R x_index + t
+    R = best->R.transpose() * R_anchor;
+    direction = R_anchor.transpose() * best->t;
+  }
+  direction.normalize();
+  const Eigen::Vector3d C0 = anchor.centre();
+  const SceneCamera& camera = scene_.cameras[image.camera];
+  // Each 2D-3D match fixes the length l in C = C0 + l * direction.
+  const auto corr = correspondences(index);
+  std::vector<double> lengths;
+  for (const auto& [keypoint, point] : corr) {
+    const Eigen::Vector2d x = normalize(camera, image.keypoints[keypoint]);
+    const Eigen::Vector3d ray(x.x(), x.y(), 1.0);
+    const Eigen::Vector3d a = ray.cross(R * (scene_.points.at(point).xyz - C0));
+    const Eigen::Vector3d b = ray.cross(R * direction);
+    if (b.squaredNorm() < 1e-12) continue;
+    const double length = a.dot(b) / b.squaredNorm();
+    if (length > 0) lengths.push_back(length);
+  }
+  if (lengths.size() < 3) return false;
+  std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2, lengths.end());
+  const Eigen::Vector3d centre = C0 + lengths[lengths.size() / 2] * direction;
+  const Eigen::Quaterniond q(R);
+  SceneImage trial = image;
+  trial.q = q.normalized();
+  trial.t = -(trial.q * centre);
+  std::vector<std::pair<int, int64_t>> agreeing;
+  for (const auto& [keypoint, point] : corr) {
+    Eigen::Vector2d projected;
+    if (project(camera, trial, scene_.points.at(point).xyz, &projected) &&
+        (projected - image.keypoints[keypoint]).norm() <= options_.max_reprojection_px) {
+      agreeing.emplace_back(keypoint, point);
+    }
+  }
+  if (agreeing.size() < 3) return false;
+  image.q = trial.q;
+  image.t = trial.t;
+  image.registered = true;
+  image.status = CaptureStatus::kRegistered;
+  image.reason.clear();
+  image.pose_inliers = static_cast<int>(agreeing.size());
+  for (const auto& [keypoint, point] : agreeing) {
     if (image.point_of[keypoint] < 0 && !has_observation_in(scene_.points.at(point), index)) {
       scene_.add_observation(point, {index, keypoint});
     }

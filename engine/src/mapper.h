@@ -34,6 +34,7 @@ class IncrementalMapper {
   bool initialize();
   bool try_initial_pair(int a, int b, const ImagePair& pair);
   bool register_image(int image);
+  bool register_from_pair(int image);
   void triangulate_image(int image);
   void extend_track(int64_t point, Observation obs);
   bool triangulate_pair_match(Observation first, Observation second);
