@@ -14,7 +14,9 @@ namespace arscout::engine {
 
 struct FeatureOptions {
   int max_features = 4000;
-  double quality = 0.001;      // of the strongest Harris response
+  // Low, so that small or weakly textured photos still get corners; big
+  // ones keep their max_features strongest.
+  double quality = 0.0001;  // of the strongest Harris response
   double min_distance = 5;     // pixels between corners
   // SIFT support, pixels: small windows suit corners (bench/FEATURES.md),
   // and the cost grows with the square of this.

@@ -311,6 +311,36 @@ bool IncrementalMapper::register_from_pair(int index) {
   return true;
 }
 
+// Two points that a match says are one: merged where one position explains
+// every observation of both, which links the chain of photos into longer
+// tracks (and closes loops).
+void IncrementalMapper::merge_tracks(int64_t a, int64_t b) {
+  if (a == b) return;
+  const ScenePoint& pa = scene_.points.at(a);
+  const ScenePoint& pb = scene_.points.at(b);
+  for (const Observation& obs : pb.track) {
+    if (has_observation_in(pa, obs.image)) return;
+  }
+  const double na = static_cast<double>(pa.track.size());
+  const double nb = static_cast<double>(pb.track.size());
+  const Eigen::Vector3d merged = (pa.xyz * na + pb.xyz * nb) / (na + nb);
+  for (const ScenePoint* point : {&pa, &pb}) {
+    for (const Observation& obs : point->track) {
+      const SceneImage& image = scene_.images[obs.image];
+      Eigen::Vector2d projected;
+      if (!project(scene_.cameras[image.camera], image, merged, &projected) ||
+          (projected - image.keypoints[obs.keypoint]).norm() > options_.max_reprojection_px) {
+        return;
+      }
+    }
+  }
+  if (na >= nb) {
+    scene_.merge_points(a, b, merged);
+  } else {
+    scene_.merge_points(b, a, merged);
+  }
+}
+
 void IncrementalMapper::extend_track(int64_t point_id, Observation obs) {
   ScenePoint& point = scene_.points.at(point_id);
   if (has_observation_in(point, obs.image)) return;
@@ -351,8 +381,9 @@ void IncrementalMapper::triangulate_image(int index) {
     for (const auto& [mine, theirs] : oriented_matches(index, other, *pair)) {
       const int64_t p_mine = scene_.images[index].point_of[mine];
       const int64_t p_theirs = scene_.images[other].point_of[theirs];
-      if (p_mine >= 0 && p_theirs >= 0) continue;
-      if (p_theirs >= 0) {
+      if (p_mine >= 0 && p_theirs >= 0) {
+        merge_tracks(p_mine, p_theirs);
+      } else if (p_theirs >= 0) {
         extend_track(p_theirs, {index, mine});
       } else if (p_mine >= 0) {
         extend_track(p_mine, {other, theirs});

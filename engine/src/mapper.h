@@ -37,6 +37,7 @@ class IncrementalMapper {
   bool register_from_pair(int image);
   void triangulate_image(int image);
   void extend_track(int64_t point, Observation obs);
+  void merge_tracks(int64_t a, int64_t b);
   bool triangulate_pair_match(Observation first, Observation second);
   void adjust_local(int image);
   void adjust_global();

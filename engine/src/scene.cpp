@@ -40,6 +40,16 @@ void Scene::remove_point(int64_t id) {
   points.erase(it);
 }
 
+void Scene::merge_points(int64_t keep, int64_t gone, const Eigen::Vector3d& xyz) {
+  ScenePoint& kept = points.at(keep);
+  for (const Observation& obs : points.at(gone).track) {
+    kept.track.push_back(obs);
+    images[obs.image].point_of[obs.keypoint] = keep;
+  }
+  kept.xyz = xyz;
+  points.erase(gone);
+}
+
 void Scene::add_observation(int64_t point, Observation obs) {
   points.at(point).track.push_back(obs);
   images[obs.image].point_of[obs.keypoint] = point;

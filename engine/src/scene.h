@@ -100,6 +100,8 @@ struct Scene {
   // image's index.
   std::vector<std::pair<int, const ImagePair*>> pairs_of(int image) const;
   void remove_point(int64_t id);
+  // Moves every observation of `gone` to `keep`, which moves to `xyz`.
+  void merge_points(int64_t keep, int64_t gone, const Eigen::Vector3d& xyz);
   void add_observation(int64_t point, Observation obs);
   int64_t add_point(const Eigen::Vector3d& xyz,
                     const std::vector<Observation>& track);
