@@ -42,7 +42,8 @@ struct ReconstructArgs {
 
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw StoreError(ErrorCode::kInvalidArgument, path + ": cannot read");
+  if (!in)
+    throw StoreError(ErrorCode::kInvalidArgument, path + ": cannot read");
   std::ostringstream bytes;
   bytes << in.rdbuf();
   return bytes.str();
@@ -89,16 +90,19 @@ class InputSource {
                         const std::optional<engine::ImageSize>& size) const {
     if (!args_.camera.empty()) return "K:" + args_.camera;
     std::ostringstream id;
-    id << "exif:" << exif.make << ":" << exif.model << ":" << exif.focal_mm.value_or(0) << ":"
-       << (size ? size->width : 0) << "x" << (size ? size->height : 0);
+    id << "exif:" << exif.make << ":" << exif.model << ":"
+       << exif.focal_mm.value_or(0) << ":" << (size ? size->width : 0) << "x"
+       << (size ? size->height : 0);
     return id.str();
   }
 
-  std::optional<engine::CameraIntrinsics> camera(const ingest::ExifInfo& exif,
-                                                 const std::optional<engine::ImageSize>& size,
-                                                 const std::string& path) const {
+  std::optional<engine::CameraIntrinsics> camera(
+      const ingest::ExifInfo& exif,
+      const std::optional<engine::ImageSize>& size,
+      const std::string& path) const {
     if (!size) {
-      throw StoreError(ErrorCode::kInvalidArgument, path + ": not a JPEG or PNG with a size");
+      throw StoreError(ErrorCode::kInvalidArgument,
+                       path + ": not a JPEG or PNG with a size");
     }
     if (!args_.camera.empty()) {
       try {
@@ -107,14 +111,15 @@ class InputSource {
         throw StoreError(ErrorCode::kInvalidArgument, e.what());
       }
     }
-    const auto focal = engine::focal_px_from_exif(size->width, size->height, exif.focal_35mm,
-                                                  exif.focal_mm, exif.focal_plane_x_res,
-                                                  exif.focal_plane_unit_mm);
+    const auto focal = engine::focal_px_from_exif(
+        size->width, size->height, exif.focal_35mm, exif.focal_mm,
+        exif.focal_plane_x_res, exif.focal_plane_unit_mm);
     if (!focal) return std::nullopt;  // the engine guesses, and refines
     return engine::centred_camera(size->width, size->height, *focal, "exif");
   }
 
-  std::optional<engine::GeoFix> gps(const std::string& name, const ingest::ExifInfo& exif) const {
+  std::optional<engine::GeoFix> gps(const std::string& name,
+                                    const ingest::ExifInfo& exif) const {
     if (!args_.gps_csv.empty()) {
       auto it = csv_.find(name);
       if (it == csv_.end()) return std::nullopt;
@@ -130,16 +135,17 @@ class InputSource {
 
 void print_progress(int n, int total, const engine::AddResult& r) {
   const auto& t = r.timings;
-  std::cout << std::fixed << std::setprecision(2) << "[" << n << "/" << total << "] " << r.id
-            << "  " << engine::to_string(r.status);
+  std::cout << std::fixed << std::setprecision(2) << "[" << n << "/" << total
+            << "] " << r.id << "  " << engine::to_string(r.status);
   if (!r.reason.empty()) std::cout << " (" << r.reason << ")";
-  std::cout << "  features " << r.features << "  pairs " << r.matched_pairs << "  inliers "
-            << r.pose_inliers << "  reproj " << std::setprecision(3) << r.mean_reprojection_px
-            << " px" << std::setprecision(2) << (r.geo_registered ? "  geo" : "") << "  | decode "
-            << t.decode_s << " undistort " << t.undistort_s << " features " << t.features_s
-            << " match " << t.matching_s << " pose " << t.pose_s << " triang "
-            << t.triangulation_s << " ba " << t.bundle_adjustment_s << " total " << t.total_s
-            << " s";
+  std::cout << "  features " << r.features << "  pairs " << r.matched_pairs
+            << "  inliers " << r.pose_inliers << "  reproj "
+            << std::setprecision(3) << r.mean_reprojection_px << " px"
+            << std::setprecision(2) << (r.geo_registered ? "  geo" : "")
+            << "  | decode " << t.decode_s << " undistort " << t.undistort_s
+            << " features " << t.features_s << " match " << t.matching_s
+            << " pose " << t.pose_s << " triang " << t.triangulation_s << " ba "
+            << t.bundle_adjustment_s << " total " << t.total_s << " s";
   if (!r.also_registered.empty()) {
     std::cout << "  (also registered:";
     for (const auto& id : r.also_registered) std::cout << ' ' << id;
@@ -157,18 +163,20 @@ engine::Reconstruction start(const ReconstructArgs& a) {
   }
 }
 
-void write_outputs(const engine::Reconstruction& site, const ReconstructArgs& a) {
+void write_outputs(const engine::Reconstruction& site,
+                   const ReconstructArgs& a) {
   const engine::Model model = site.model();
   fs::create_directories(a.out);
   engine::write_colmap_text(model, a.out + "/sparse");
   engine::write_geo_csv(model, a.out + "/cameras_geo.csv");
   engine::write_points_ply(model, a.out + "/sparse.ply");
-  std::cout << "registered " << model.images.size() << " images, " << model.points.size()
-            << " points, mean reprojection error " << std::setprecision(3)
-            << model.mean_reprojection_px << " px"
-            << (model.geo_registered ? ", geo-registered (ENU)" : ", local frame (no GPS)")
-            << "\nwrote " << a.out << "/sparse/, " << a.out << "/cameras_geo.csv, " << a.out
-            << "/sparse.ply" << std::endl;
+  std::cout << "registered " << model.images.size() << " images, "
+            << model.points.size() << " points, mean reprojection error "
+            << std::setprecision(3) << model.mean_reprojection_px << " px"
+            << (model.geo_registered ? ", geo-registered (ENU)"
+                                     : ", local frame (no GPS)")
+            << "\nwrote " << a.out << "/sparse/, " << a.out
+            << "/cameras_geo.csv, " << a.out << "/sparse.ply" << std::endl;
 }
 
 int run_reconstruct(const ReconstructArgs& a) {
@@ -187,50 +195,60 @@ int run_reconstruct(const ReconstructArgs& a) {
     if (stop_requested()) break;
     engine::CaptureInput input = source.load(path);
     try {
-      print_progress(n, static_cast<int>(paths.size()), site.add_capture(input));
+      print_progress(n, static_cast<int>(paths.size()),
+                     site.add_capture(input));
     } catch (const std::invalid_argument& e) {
-      std::cout << "[" << n << "/" << paths.size() << "] " << input.id << "  rejected ("
-                << e.what() << ")" << std::endl;
+      std::cout << "[" << n << "/" << paths.size() << "] " << input.id
+                << "  rejected (" << e.what() << ")" << std::endl;
     }
     ++added;
   }
   const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
-  std::cout << "added " << added << " images in " << std::setprecision(2) << std::fixed << seconds
-            << " s" << std::defaultfloat << std::endl;
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - begin)
+          .count();
+  std::cout << "added " << added << " images in " << std::setprecision(2)
+            << std::fixed << seconds << " s" << std::defaultfloat << std::endl;
   write_outputs(site, a);
   if (!a.save_state.empty()) {
     std::ofstream out(a.save_state, std::ios::binary);
     const std::string bytes = site.serialize();
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    if (!out) throw StoreError(ErrorCode::kInternal, a.save_state + ": write failed");
+    if (!out)
+      throw StoreError(ErrorCode::kInternal, a.save_state + ": write failed");
   }
   return kExitOk;
 }
 
 void add_reconstruct_command(CLI::App& app) {
   static ReconstructArgs args;
-  CLI::App* cmd = app.add_subcommand(
-      "reconstruct",
-      "incremental structure from motion over a folder of photos, fed one at a time in "
-      "file-name order; writes OUT/sparse/ (COLMAP text model), OUT/cameras_geo.csv and "
-      "OUT/sparse.ply");
-  cmd->add_option("--images", args.images, "folder of photos (.jpg .jpeg .png ...)")
+  CLI::App* cmd =
+      app.add_subcommand("reconstruct",
+                         "incremental structure from motion over a folder of "
+                         "photos, fed one at a time in "
+                         "file-name order; writes OUT/sparse/ (COLMAP text "
+                         "model), OUT/cameras_geo.csv and "
+                         "OUT/sparse.ply");
+  cmd->add_option("--images", args.images,
+                  "folder of photos (.jpg .jpeg .png ...)")
       ->required()
       ->check(CLI::ExistingDirectory);
   cmd->add_option("--gps-csv", args.gps_csv,
-                  "fixes per image: image,latitude,longitude,altitude,horizontal_accuracy_m,"
+                  "fixes per image: "
+                  "image,latitude,longitude,altitude,horizontal_accuracy_m,"
                   "vertical_accuracy_m (else the photos' EXIF GPS)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--camera", args.camera,
-                  "3x3 K for every photo, as in Strecha's images/K.txt (else the EXIF focal "
+                  "3x3 K for every photo, as in Strecha's images/K.txt (else "
+                  "the EXIF focal "
                   "length, else a guess; both refined)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--out", args.out, "output folder")->required();
-  cmd->add_option("--long-side", args.options.long_side, "working resolution, long side in px")
+  cmd->add_option("--long-side", args.options.long_side,
+                  "working resolution, long side in px")
       ->capture_default_str()
       ->check(CLI::Range(200, 10000));
-  cmd->add_option("--max-features", args.options.max_features, "Harris corners per image")
+  cmd->add_option("--max-features", args.options.max_features,
+                  "Harris corners per image")
       ->capture_default_str()
       ->check(CLI::Range(100, 50000));
   cmd->add_option("--refine-intrinsics", args.options.refine_intrinsics,
@@ -241,13 +259,16 @@ void add_reconstruct_command(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(1, 256));
   cmd->add_flag("--deterministic", args.options.deterministic,
-                "fixed seeds and single-threaded solvers: identical output for identical input");
+                "fixed seeds and single-threaded solvers: identical output for "
+                "identical input");
   cmd->add_option("--limit", args.limit, "add at most N new photos, then stop")
       ->check(CLI::PositiveNumber);
-  cmd->add_option("--save-state", args.save_state,
-                  "write the engine state here at the end (to continue with --resume)");
-  cmd->add_option("--resume", args.resume,
-                  "continue from a saved state; photos already in it are skipped")
+  cmd->add_option(
+      "--save-state", args.save_state,
+      "write the engine state here at the end (to continue with --resume)");
+  cmd->add_option(
+         "--resume", args.resume,
+         "continue from a saved state; photos already in it are skipped")
       ->check(CLI::ExistingFile);
   cmd->callback([] { run_command([] { return run_reconstruct(args); }); });
 }

@@ -35,7 +35,8 @@ struct ReprojectionCost {
     return true;
   }
 
-  static ceres::CostFunction* create(const Eigen::Vector2d& observed, double aspect) {
+  static ceres::CostFunction* create(const Eigen::Vector2d& observed,
+                                     double aspect) {
     return new ceres::AutoDiffCostFunction<ReprojectionCost, 2, 4, 3, 3, 6>(
         new ReprojectionCost(observed, aspect));
   }
@@ -85,7 +86,8 @@ struct UprightCost {
   }
 
   static ceres::CostFunction* create(double inverse_sigma) {
-    return new ceres::AutoDiffCostFunction<UprightCost, 1, 4>(new UprightCost(inverse_sigma));
+    return new ceres::AutoDiffCostFunction<UprightCost, 1, 4>(
+        new UprightCost(inverse_sigma));
   }
 
   double inverse_sigma;
@@ -119,7 +121,8 @@ class ProblemBuilder {
   void select(const std::vector<int>& free_images, bool global) {
     global_ = global;
     for (size_t i = 0; i < scene_.images.size(); ++i) {
-      if (scene_.images[i].registered && global) free_.insert(static_cast<int>(i));
+      if (scene_.images[i].registered && global)
+        free_.insert(static_cast<int>(i));
     }
     if (!global) {
       for (int i : free_images) free_.insert(i);
@@ -140,7 +143,8 @@ class ProblemBuilder {
       for (const Observation& obs : point.track) add_observation(point, obs);
     }
     if (options_.gps_priors) add_gps_priors();
-    if (options_.gps_priors && options_.upright_sigma_deg > 0) add_upright_priors();
+    if (options_.gps_priors && options_.upright_sigma_deg > 0)
+      add_upright_priors();
     hold_gauge();
     hold_cameras();
   }
@@ -164,7 +168,8 @@ class ProblemBuilder {
     SceneCamera& camera = scene_.cameras[image.camera];
     aspects_.emplace(image.camera, aspect_of(camera));
     problem_.AddResidualBlock(
-        ReprojectionCost::create(image.keypoints[obs.keypoint], aspect_of(camera)),
+        ReprojectionCost::create(image.keypoints[obs.keypoint],
+                                 aspect_of(camera)),
         loss_.get(), image.q.coeffs().data(), image.t.data(), point.xyz.data(),
         camera.params.data());
     add_image(obs.image);
@@ -174,7 +179,8 @@ class ProblemBuilder {
   void add_image(int index) {
     if (!images_.insert(index).second) return;
     SceneImage& image = scene_.images[index];
-    problem_.SetManifold(image.q.coeffs().data(), new ceres::EigenQuaternionManifold);
+    problem_.SetManifold(image.q.coeffs().data(),
+                         new ceres::EigenQuaternionManifold);
     if (!free_.count(index)) {
       problem_.SetParameterBlockConstant(image.q.coeffs().data());
       problem_.SetParameterBlockConstant(image.t.data());
@@ -186,16 +192,18 @@ class ProblemBuilder {
       SceneImage& image = scene_.images[index];
       if (!image.gps || !free_.count(index)) continue;
       problem_.AddResidualBlock(
-          GpsPriorCost::create(image.gps_enu, inverse_sigma(*image.gps)), nullptr,
-          image.q.coeffs().data(), image.t.data());
+          GpsPriorCost::create(image.gps_enu, inverse_sigma(*image.gps)),
+          nullptr, image.q.coeffs().data(), image.t.data());
     }
   }
 
   void add_upright_priors() {
-    const double inverse_sigma = 1.0 / std::sin(options_.upright_sigma_deg * M_PI / 180);
+    const double inverse_sigma =
+        1.0 / std::sin(options_.upright_sigma_deg * M_PI / 180);
     for (int index : images_) {
       if (!free_.count(index)) continue;
-      problem_.AddResidualBlock(UprightCost::create(inverse_sigma), upright_loss_.get(),
+      problem_.AddResidualBlock(UprightCost::create(inverse_sigma),
+                                upright_loss_.get(),
                                 scene_.images[index].q.coeffs().data());
     }
   }
@@ -210,11 +218,14 @@ class ProblemBuilder {
       problem_.SetParameterBlockConstant(scene_.images[ref].t.data());
     }
     const int second = scene_.scale_image;
-    if (!global_ || second < 0 || !images_.count(second) || !free_.count(second)) return;
+    if (!global_ || second < 0 || !images_.count(second) ||
+        !free_.count(second))
+      return;
     SceneImage& image = scene_.images[second];
     int largest = 0;
     image.t.cwiseAbs().maxCoeff(&largest);
-    problem_.SetManifold(image.t.data(), new ceres::SubsetManifold(3, {largest}));
+    problem_.SetManifold(image.t.data(),
+                         new ceres::SubsetManifold(3, {largest}));
   }
 
   // Intrinsics move only in a global adjustment, and only for cameras that
@@ -247,8 +258,9 @@ class ProblemBuilder {
 // A camera's centre and orientation after the similarity (log scale, R as
 // a quaternion, t) against its fix and the upright prior.
 struct SimilarityPriorCost {
-  SimilarityPriorCost(const Eigen::Vector3d& centre, const Eigen::Vector3d& x_axis,
-                      const Eigen::Vector3d& enu, const Eigen::Vector3d& inverse_sigma,
+  SimilarityPriorCost(const Eigen::Vector3d& centre,
+                      const Eigen::Vector3d& x_axis, const Eigen::Vector3d& enu,
+                      const Eigen::Vector3d& inverse_sigma,
                       double upright_inverse_sigma)
       : centre(centre),
         x_axis(x_axis),
@@ -257,7 +269,8 @@ struct SimilarityPriorCost {
         upright_inverse_sigma(upright_inverse_sigma) {}
 
   template <typename T>
-  bool operator()(const T* log_scale, const T* q, const T* t, T* residual) const {
+  bool operator()(const T* log_scale, const T* q, const T* t,
+                  T* residual) const {
     const T q_wxyz[4] = {q[3], q[0], q[1], q[2]};
     const T c[3] = {T(centre[0]), T(centre[1]), T(centre[2])};
     const T x[3] = {T(x_axis[0]), T(x_axis[1]), T(x_axis[2])};
@@ -266,7 +279,8 @@ struct SimilarityPriorCost {
     ceres::QuaternionRotatePoint(q_wxyz, x, axis);
     const T scale = exp(log_scale[0]);
     for (int i = 0; i < 3; ++i) {
-      residual[i] = (scale * rotated[i] + t[i] - T(enu[i])) * T(inverse_sigma[i]);
+      residual[i] =
+          (scale * rotated[i] + t[i] - T(enu[i])) * T(inverse_sigma[i]);
     }
     residual[3] = axis[2] * T(upright_inverse_sigma);
     return true;
@@ -276,11 +290,71 @@ struct SimilarityPriorCost {
   double upright_inverse_sigma;
 };
 
+// First-order (Sampson) distance of a correspondence to E = [t]x R.
+struct SampsonCost {
+  SampsonCost(const Eigen::Vector2d& x1, const Eigen::Vector2d& x2)
+      : x1(x1), x2(x2) {}
+
+  template <typename T>
+  bool operator()(const T* q, const T* t, T* residual) const {
+    const T q_wxyz[4] = {q[3], q[0], q[1], q[2]};
+    const T p1[3] = {T(x1.x()), T(x1.y()), T(1)};
+    T Rp1[3];
+    ceres::QuaternionRotatePoint(q_wxyz, p1, Rp1);
+    T Ex1[3];  // t x (R p1)
+    ceres::CrossProduct(t, Rp1, Ex1);
+    // E^T x2 = -R^T (t x x2); the sign does not matter once squared.
+    const T p2[3] = {T(x2.x()), T(x2.y()), T(1)};
+    T t_cross_p2[3];
+    ceres::CrossProduct(t, p2, t_cross_p2);
+    const T q_inverse[4] = {q[3], -q[0], -q[1], -q[2]};
+    T Etx2[3];
+    ceres::QuaternionRotatePoint(q_inverse, t_cross_p2, Etx2);
+    const T epipolar = p2[0] * Ex1[0] + p2[1] * Ex1[1] + p2[2] * Ex1[2];
+    const T norm2 = Ex1[0] * Ex1[0] + Ex1[1] * Ex1[1] + Etx2[0] * Etx2[0] +
+                    Etx2[1] * Etx2[1];
+    residual[0] = epipolar / sqrt(norm2 + T(1e-30));
+    return true;
+  }
+
+  Eigen::Vector2d x1, x2;
+};
+
 }  // namespace
 
-std::optional<Similarity> fit_model_to_priors(const Scene& scene, const BundleOptions& options) {
+void refine_relative_pose(const std::vector<Eigen::Vector2d>& x1,
+                          const std::vector<Eigen::Vector2d>& x2,
+                          const std::vector<int>& inliers, Eigen::Matrix3d* R,
+                          Eigen::Vector3d* t) {
+  if (inliers.size() < 6) return;
+  Eigen::Quaterniond q(*R);
+  Eigen::Vector3d direction = t->normalized();
+  ceres::Problem problem;
+  for (int i : inliers) {
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<SampsonCost, 1, 4, 3>(
+            new SampsonCost(x1[i], x2[i])),
+        nullptr, q.coeffs().data(), direction.data());
+  }
+  problem.SetManifold(q.coeffs().data(), new ceres::EigenQuaternionManifold);
+  problem.SetManifold(direction.data(), new ceres::SphereManifold<3>);
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_QR;
+  solver.max_num_iterations = 20;
+  solver.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  if (!summary.IsSolutionUsable()) return;
+  *R = q.normalized().toRotationMatrix();
+  *t = direction.normalized();
+}
+
+std::optional<Similarity> fit_model_to_priors(const Scene& scene,
+                                              const BundleOptions& options) {
   const double upright =
-      options.upright_sigma_deg > 0 ? 1.0 / std::sin(options.upright_sigma_deg * M_PI / 180) : 0;
+      options.upright_sigma_deg > 0
+          ? 1.0 / std::sin(options.upright_sigma_deg * M_PI / 180)
+          : 0;
   double log_scale = 0;
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
   Eigen::Vector3d t = Eigen::Vector3d::Zero();
@@ -289,10 +363,12 @@ std::optional<Similarity> fit_model_to_priors(const Scene& scene, const BundleOp
   for (const SceneImage& image : scene.images) {
     if (!image.registered || !image.gps) continue;
     ++fixes;
-    const Eigen::Vector3d x_axis = image.q.toRotationMatrix().row(0).transpose();
+    const Eigen::Vector3d x_axis =
+        image.q.toRotationMatrix().row(0).transpose();
     problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<SimilarityPriorCost, 4, 1, 4, 3>(new SimilarityPriorCost(
-            image.centre(), x_axis, image.gps_enu, inverse_sigma(*image.gps), upright)),
+        new ceres::AutoDiffCostFunction<SimilarityPriorCost, 4, 1, 4, 3>(
+            new SimilarityPriorCost(image.centre(), x_axis, image.gps_enu,
+                                    inverse_sigma(*image.gps), upright)),
         new ceres::CauchyLoss(3.0), &log_scale, q.coeffs().data(), t.data());
   }
   if (fixes < 3) return std::nullopt;
@@ -321,7 +397,8 @@ BundleReport adjust_bundle(Scene& scene, const std::vector<int>& free_images,
   report.points = builder.point_count();
   if (report.points == 0) return report;
   ceres::Solver::Options solver;
-  solver.linear_solver_type = report.images <= 60 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
+  solver.linear_solver_type =
+      report.images <= 60 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
   if (!ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) &&
       solver.linear_solver_type == ceres::SPARSE_SCHUR) {
     solver.linear_solver_type = ceres::ITERATIVE_SCHUR;
@@ -336,8 +413,10 @@ BundleReport adjust_bundle(Scene& scene, const std::vector<int>& free_images,
   ceres::Solve(solver, &builder.problem(), &summary);
   builder.normalize_quaternions();
   report.iterations = static_cast<int>(summary.iterations.size());
-  report.initial_rms_px = std::sqrt(2 * summary.initial_cost / std::max(1, summary.num_residuals));
-  report.final_rms_px = std::sqrt(2 * summary.final_cost / std::max(1, summary.num_residuals));
+  report.initial_rms_px =
+      std::sqrt(2 * summary.initial_cost / std::max(1, summary.num_residuals));
+  report.final_rms_px =
+      std::sqrt(2 * summary.final_cost / std::max(1, summary.num_residuals));
   return report;
 }
 

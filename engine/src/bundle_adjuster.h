@@ -13,9 +13,9 @@
 namespace arscout::engine {
 
 struct BundleOptions {
-  bool gps_priors = false;   // scene is in ENU and fixes pull the centres
+  bool gps_priors = false;       // scene is in ENU and fixes pull the centres
   double upright_sigma_deg = 0;  // > 0: camera x axes held horizontal (ENU)
-  double loss_scale_px = 1.0;  // Cauchy loss scale
+  double loss_scale_px = 1.0;    // Cauchy loss scale
   int max_iterations = 50;
   int threads = 1;
 };
@@ -40,7 +40,16 @@ struct BundleReport {
 // (the upright prior): the directions in which reprojection errors do not
 // constrain the model, solved on their own so that the adjustment starts
 // at their optimum. nullopt with fewer than 3 fixes.
-std::optional<Similarity> fit_model_to_priors(const Scene& scene, const BundleOptions& options);
+std::optional<Similarity> fit_model_to_priors(const Scene& scene,
+                                              const BundleOptions& options);
+
+// Refines a relative pose (x2 = R x1 + t, |t| = 1) on its inlier
+// correspondences (normalized coordinates) by minimizing the Sampson
+// distance: RANSAC's best sample is only as good as its five points.
+void refine_relative_pose(const std::vector<Eigen::Vector2d>& x1,
+                          const std::vector<Eigen::Vector2d>& x2,
+                          const std::vector<int>& inliers, Eigen::Matrix3d* R,
+                          Eigen::Vector3d* t);
 
 BundleReport adjust_bundle(Scene& scene, const std::vector<int>& free_images,
                            bool global, const BundleOptions& options);

@@ -60,8 +60,8 @@ CameraIntrinsics read_k_matrix(const std::string& path, int width, int height) {
     }
   }
   if (k[1] != 0 || k[3] != 0 || k[6] != 0 || k[7] != 0 || k[8] != 1) {
-    throw std::runtime_error(path +
-                             ": not a pinhole K (rows fx 0 cx, 0 fy cy, 0 0 1)");
+    throw std::runtime_error(
+        path + ": not a pinhole K (rows fx 0 cx, 0 fy cy, 0 0 1)");
   }
   CameraIntrinsics c;
   c.width = width;

@@ -16,14 +16,14 @@ namespace arscout::engine {
 struct RelativePose {
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();  // x2 = R x1 + t
   Eigen::Vector3d t = Eigen::Vector3d::Zero();      // unit length
-  std::vector<int> inliers;        // indices of inlier correspondences
-  double median_angle_deg = 0;     // triangulation angle over the inliers
-  double homography_ratio = 0;     // homography inliers / essential inliers
+  std::vector<int> inliers;     // indices of inlier correspondences
+  double median_angle_deg = 0;  // triangulation angle over the inliers
+  double homography_ratio = 0;  // homography inliers / essential inliers
 };
 // nullopt when fewer than `min_inliers` correspondences agree.
 std::optional<RelativePose> estimate_relative_pose(
-    const std::vector<Eigen::Vector2d>& x1, const std::vector<Eigen::Vector2d>& x2,
-    double threshold, int min_inliers);
+    const std::vector<Eigen::Vector2d>& x1,
+    const std::vector<Eigen::Vector2d>& x2, double threshold, int min_inliers);
 
 // --- Absolute pose (P3P in RANSAC, then refinement on the inliers) ---------
 struct AbsolutePose {
@@ -38,7 +38,9 @@ std::optional<AbsolutePose> estimate_absolute_pose(
 
 // --- Triangulation ----------------------------------------------------------
 // Linear (DLT) triangulation from two or more views, each a world-to-camera
-// [R | t] and a normalized image point. nullopt when degenerate.
+// [R | t] and a normalized image point. nullopt when degenerate (rays that
+// coincide or are parallel) or when the point is not in front of every
+// camera.
 std::optional<Eigen::Vector3d> triangulate(
     const std::vector<Eigen::Matrix<double, 3, 4>>& poses,
     const std::vector<Eigen::Vector2d>& points);
@@ -52,11 +54,14 @@ struct Similarity {
   double scale = 1;
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   Eigen::Vector3d t = Eigen::Vector3d::Zero();
-  Eigen::Vector3d apply(const Eigen::Vector3d& x) const { return scale * (R * x) + t; }
+  Eigen::Vector3d apply(const Eigen::Vector3d& x) const {
+    return scale * (R * x) + t;
+  }
 };
 // Least-squares similarity from >= 3 point pairs (Umeyama, 1991).
-std::optional<Similarity> fit_similarity(const std::vector<Eigen::Vector3d>& from,
-                                         const std::vector<Eigen::Vector3d>& to);
+std::optional<Similarity> fit_similarity(
+    const std::vector<Eigen::Vector3d>& from,
+    const std::vector<Eigen::Vector3d>& to);
 // Robust version: minimal samples of 3 drawn with a generator seeded by
 // `seed`, inliers within `threshold` (in `to` units), then a refit on all
 // inliers. nullopt when fewer than 3 points agree.

@@ -17,9 +17,10 @@ std::vector<cv::Point2f> harris_corners(const cv::Mat& gray,
                           /*useHarrisDetector=*/true, 0.04);
   if (corners.empty()) return corners;
   // Sub-pixel corners: the accuracy of every pose downstream rests on them.
-  cv::cornerSubPix(gray, corners, cv::Size(3, 3), cv::Size(-1, -1),
-                   cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
-                                    20, 0.01));
+  cv::cornerSubPix(
+      gray, corners, cv::Size(3, 3), cv::Size(-1, -1),
+      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20,
+                       0.01));
   return corners;
 }
 
@@ -60,8 +61,10 @@ Features extract_features(const cv::Mat& gray, const cv::Mat& color,
   features.colors.reserve(keypoints.size());
   for (const cv::KeyPoint& kp : keypoints) {
     features.keypoints.emplace_back(kp.pt.x, kp.pt.y);
-    const int x = std::clamp(static_cast<int>(std::lround(kp.pt.x)), 0, color.cols - 1);
-    const int y = std::clamp(static_cast<int>(std::lround(kp.pt.y)), 0, color.rows - 1);
+    const int x =
+        std::clamp(static_cast<int>(std::lround(kp.pt.x)), 0, color.cols - 1);
+    const int y =
+        std::clamp(static_cast<int>(std::lround(kp.pt.y)), 0, color.rows - 1);
     const cv::Vec3b bgr = color.at<cv::Vec3b>(y, x);
     features.colors.push_back({bgr[2], bgr[1], bgr[0]});
   }

@@ -17,15 +17,15 @@ struct FeatureOptions {
   // Low, so that small or weakly textured photos still get corners; big
   // ones keep their max_features strongest.
   double quality = 0.0001;  // of the strongest Harris response
-  double min_distance = 5;     // pixels between corners
+  double min_distance = 5;  // pixels between corners
   // SIFT support, pixels: small windows suit corners (bench/FEATURES.md),
   // and the cost grows with the square of this.
   float descriptor_size = 6;
 };
 
 struct Features {
-  std::vector<Eigen::Vector2d> keypoints;  // sub-pixel, image pixels
-  cv::Mat descriptors;                     // CV_32F, one unit row each
+  std::vector<Eigen::Vector2d> keypoints;      // sub-pixel, image pixels
+  cv::Mat descriptors;                         // CV_32F, one unit row each
   std::vector<std::array<uint8_t, 3>> colors;  // RGB at each keypoint
 };
 

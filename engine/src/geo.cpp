@@ -26,7 +26,8 @@ Geodetic EnuFrame::to_geodetic(const std::array<double, 3>& enu) const {
   return g;
 }
 
-std::array<double, 3> EnuFrame::to_ecef(const std::array<double, 3>& enu) const {
+std::array<double, 3> EnuFrame::to_ecef(
+    const std::array<double, 3>& enu) const {
   const Geodetic g = to_geodetic(enu);
   std::array<double, 3> ecef;
   GeographicLib::Geocentric::WGS84().Forward(g.lat, g.lon, g.alt, ecef[0],

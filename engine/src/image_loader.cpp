@@ -14,10 +14,14 @@ namespace {
 
 int reduced_decode_flag(int factor) {
   switch (factor) {
-    case 2: return cv::IMREAD_REDUCED_COLOR_2;
-    case 4: return cv::IMREAD_REDUCED_COLOR_4;
-    case 8: return cv::IMREAD_REDUCED_COLOR_8;
-    default: return cv::IMREAD_COLOR;
+    case 2:
+      return cv::IMREAD_REDUCED_COLOR_2;
+    case 4:
+      return cv::IMREAD_REDUCED_COLOR_4;
+    case 8:
+      return cv::IMREAD_REDUCED_COLOR_8;
+    default:
+      return cv::IMREAD_COLOR;
   }
 }
 
@@ -33,7 +37,8 @@ WorkingImage decode_working_image(const std::string& bytes, int long_side,
   const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8U,
                        const_cast<char*>(bytes.data()));
   if (original_size.width <= 0) {
-    if (auto size = read_image_size(bytes)) original_size = {size->width, size->height};
+    if (auto size = read_image_size(bytes))
+      original_size = {size->width, size->height};
   }
   int factor = 1;
   // Reduced decoding rounds sizes up; only use it when the size is known
@@ -41,7 +46,8 @@ WorkingImage decode_working_image(const std::string& bytes, int long_side,
   // question. A result up to 10 % below `long_side` is accepted: decoding
   // 3072 px photos at 1536 is several times faster than at 1600.
   if (is_jpeg(bytes) && original_size.width > 0) {
-    const int long_original = std::max(original_size.width, original_size.height);
+    const int long_original =
+        std::max(original_size.width, original_size.height);
     while (factor < 8 && long_original / (factor * 2) >= 0.9 * long_side &&
            original_size.width % (factor * 2) == 0 &&
            original_size.height % (factor * 2) == 0) {
@@ -51,15 +57,17 @@ WorkingImage decode_working_image(const std::string& bytes, int long_side,
   WorkingImage result;
   // Sensor orientation (EXIF rotation ignored): the camera model and the
   // size in the header then describe the same pixels.
-  cv::Mat decoded =
-      cv::imdecode(buffer, reduced_decode_flag(factor) | cv::IMREAD_IGNORE_ORIENTATION);
+  cv::Mat decoded = cv::imdecode(
+      buffer, reduced_decode_flag(factor) | cv::IMREAD_IGNORE_ORIENTATION);
   if (decoded.empty()) {
-    throw std::invalid_argument("the image cannot be decoded (not a JPEG or PNG?)");
+    throw std::invalid_argument(
+        "the image cannot be decoded (not a JPEG or PNG?)");
   }
   const bool header_agrees = decoded.cols * factor == original_size.width &&
                              decoded.rows * factor == original_size.height;
   if (factor > 1 && !header_agrees) {
-    throw std::invalid_argument("the image's header and its pixels disagree about its size");
+    throw std::invalid_argument(
+        "the image's header and its pixels disagree about its size");
   }
   result.original_width = factor == 1 ? decoded.cols : original_size.width;
   result.original_height = factor == 1 ? decoded.rows : original_size.height;
@@ -78,9 +86,9 @@ WorkingImage decode_working_image(const std::string& bytes, int long_side,
 }
 
 cv::Matx33d working_k(const CameraIntrinsics& c, double s) {
-  return {s * c.fx, 0, s * (c.cx + 0.5) - 0.5,
-          0, s * c.fy, s * (c.cy + 0.5) - 0.5,
-          0, 0, 1};
+  return {s * c.fx, 0,        s * (c.cx + 0.5) - 0.5,
+          0,        s * c.fy, s * (c.cy + 0.5) - 0.5,
+          0,        0,        1};
 }
 
 Undistorter::Undistorter(const CameraIntrinsics& camera, double scale,

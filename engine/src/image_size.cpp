@@ -28,7 +28,8 @@ std::optional<ImageSize> jpeg_size(std::string_view b) {
       ++at;
       continue;
     }
-    if (marker == 0xD8 || (marker >= 0xD0 && marker <= 0xD7) || marker == 0x01) {
+    if (marker == 0xD8 || (marker >= 0xD0 && marker <= 0xD7) ||
+        marker == 0x01) {
       at += 2;  // markers without a length
       continue;
     }
@@ -49,7 +50,8 @@ std::optional<ImageSize> jpeg_size(std::string_view b) {
 std::optional<ImageSize> png_size(std::string_view b) {
   if (b.size() < 24 || b.substr(12, 4) != "IHDR") return std::nullopt;
   const uint32_t width = big_endian(b, 16, 4), height = big_endian(b, 20, 4);
-  if (width == 0 || height == 0 || width > 1u << 30 || height > 1u << 30) return std::nullopt;
+  if (width == 0 || height == 0 || width > 1u << 30 || height > 1u << 30)
+    return std::nullopt;
   return ImageSize{static_cast<int>(width), static_cast<int>(height)};
 }
 
@@ -61,7 +63,8 @@ std::optional<ImageSize> read_image_size(std::string_view encoded) {
     return jpeg_size(encoded);
   }
   static constexpr char kPngSignature[] = "\x89PNG\r\n\x1a\n";
-  if (encoded.substr(0, 8) == std::string_view(kPngSignature, 8)) return png_size(encoded);
+  if (encoded.substr(0, 8) == std::string_view(kPngSignature, 8))
+    return png_size(encoded);
   return std::nullopt;
 }
 

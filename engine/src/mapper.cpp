@@ -18,8 +18,9 @@ class StageClock {
   explicit StageClock(double& total)
       : total_(total), start_(std::chrono::steady_clock::now()) {}
   ~StageClock() {
-    total_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_)
-                  .count();
+    total_ +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_)
+            .count();
   }
 
  private:
@@ -44,8 +45,9 @@ std::vector<std::pair<int, int>> oriented_matches(int image, int other,
 }
 
 bool has_observation_in(const ScenePoint& point, int image) {
-  return std::any_of(point.track.begin(), point.track.end(),
-                     [image](const Observation& obs) { return obs.image == image; });
+  return std::any_of(
+      point.track.begin(), point.track.end(),
+      [image](const Observation& obs) { return obs.image == image; });
 }
 
 }  // namespace
@@ -65,7 +67,8 @@ std::vector<int> IncrementalMapper::update() {
   if (!scene_.initialized) {
     if (!initialize()) return registered;
     for (size_t i = 0; i < scene_.images.size(); ++i) {
-      if (scene_.images[i].registered) registered.push_back(static_cast<int>(i));
+      if (scene_.images[i].registered)
+        registered.push_back(static_cast<int>(i));
     }
   }
   // Register the image with the most 2D-3D correspondences first; a
@@ -76,7 +79,9 @@ std::vector<int> IncrementalMapper::update() {
     size_t best_count = 0;
     for (size_t i = 0; i < scene_.images.size(); ++i) {
       const SceneImage& image = scene_.images[i];
-      if (image.removed || image.registered || failed.count(static_cast<int>(i))) continue;
+      if (image.removed || image.registered ||
+          failed.count(static_cast<int>(i)))
+        continue;
       const size_t count = correspondences(static_cast<int>(i)).size();
       if (count > best_count) {
         best = static_cast<int>(i);
@@ -84,7 +89,8 @@ std::vector<int> IncrementalMapper::update() {
       }
     }
     if (best < 0) break;
-    const bool enough = static_cast<int>(best_count) >= options_.min_pose_inliers;
+    const bool enough =
+        static_cast<int>(best_count) >= options_.min_pose_inliers;
     if (!(enough && register_image(best)) && !register_from_pair(best)) {
       if (!enough) {
         scene_.images[best].reason = "too few matches to the model (" +
@@ -144,7 +150,8 @@ bool IncrementalMapper::initialize() {
     if (try_initial_pair(a, b, scene_.pairs.at({a, b}))) return true;
   }
   for (SceneImage& image : scene_.images) {
-    if (!image.removed) image.reason = "waiting for a well-conditioned initial pair";
+    if (!image.removed)
+      image.reason = "waiting for a well-conditioned initial pair";
   }
   return false;
 }
@@ -180,14 +187,17 @@ bool IncrementalMapper::try_initial_pair(int a, int b, const ImagePair& pair) {
     size_t best_count = 0;
     for (size_t i = 0; i < scene_.images.size(); ++i) {
       const SceneImage& image = scene_.images[i];
-      if (image.removed || image.registered || failed.count(static_cast<int>(i))) continue;
+      if (image.removed || image.registered ||
+          failed.count(static_cast<int>(i)))
+        continue;
       const size_t count = correspondences(static_cast<int>(i)).size();
       if (count > best_count) {
         best = static_cast<int>(i);
         best_count = count;
       }
     }
-    if (best < 0 || static_cast<int>(best_count) < options_.min_pose_inliers) break;
+    if (best < 0 || static_cast<int>(best_count) < options_.min_pose_inliers)
+      break;
     if (register_image(best)) {
       third = true;
       triangulate_image(best);
@@ -215,8 +225,8 @@ bool IncrementalMapper::register_image(int index) {
     world.push_back(scene_.points.at(point).xyz);
     points.push_back(normalize(camera, image.keypoints[keypoint]));
   }
-  const auto pose = estimate_absolute_pose(world, points, threshold_normalized(index),
-                                           options_.min_pose_inliers);
+  const auto pose = estimate_absolute_pose(
+      world, points, threshold_normalized(index), options_.min_pose_inliers);
   if (!pose) {
     image.reason = "absolute pose failed (" + std::to_string(corr.size()) +
                    " 2D-3D correspondences, too few agree)";
@@ -230,7 +240,8 @@ bool IncrementalMapper::register_image(int index) {
   image.pose_inliers = static_cast<int>(pose->inliers.size());
   for (int i : pose->inliers) {
     const auto& [keypoint, point] = corr[i];
-    if (image.point_of[keypoint] < 0 && !has_observation_in(scene_.points.at(point), index)) {
+    if (image.point_of[keypoint] < 0 &&
+        !has_observation_in(scene_.points.at(point), index)) {
       scene_.add_observation(point, {index, keypoint});
     }
   }
@@ -282,7 +293,8 @@ bool IncrementalMapper::register_from_pair(int index) {
     if (length > 0) lengths.push_back(length);
   }
   if (lengths.size() < 3) return false;
-  std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2, lengths.end());
+  std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2,
+                   lengths.end());
   const Eigen::Vector3d centre = C0 + lengths[lengths.size() / 2] * direction;
   const Eigen::Quaterniond q(R);
   SceneImage trial = image;
@@ -292,7 +304,8 @@ bool IncrementalMapper::register_from_pair(int index) {
   for (const auto& [keypoint, point] : corr) {
     Eigen::Vector2d projected;
     if (project(camera, trial, scene_.points.at(point).xyz, &projected) &&
-        (projected - image.keypoints[keypoint]).norm() <= options_.max_reprojection_px) {
+        (projected - image.keypoints[keypoint]).norm() <=
+            options_.max_reprojection_px) {
       agreeing.emplace_back(keypoint, point);
     }
   }
@@ -304,7 +317,8 @@ bool IncrementalMapper::register_from_pair(int index) {
   image.reason.clear();
   image.pose_inliers = static_cast<int>(agreeing.size());
   for (const auto& [keypoint, point] : agreeing) {
-    if (image.point_of[keypoint] < 0 && !has_observation_in(scene_.points.at(point), index)) {
+    if (image.point_of[keypoint] < 0 &&
+        !has_observation_in(scene_.points.at(point), index)) {
       scene_.add_observation(point, {index, keypoint});
     }
   }
@@ -329,7 +343,8 @@ void IncrementalMapper::merge_tracks(int64_t a, int64_t b) {
       const SceneImage& image = scene_.images[obs.image];
       Eigen::Vector2d projected;
       if (!project(scene_.cameras[image.camera], image, merged, &projected) ||
-          (projected - image.keypoints[obs.keypoint]).norm() > options_.max_reprojection_px) {
+          (projected - image.keypoints[obs.keypoint]).norm() >
+              options_.max_reprojection_px) {
         return;
       }
     }
@@ -346,19 +361,23 @@ void IncrementalMapper::extend_track(int64_t point_id, Observation obs) {
   if (has_observation_in(point, obs.image)) return;
   const SceneImage& image = scene_.images[obs.image];
   Eigen::Vector2d projected;
-  if (!project(scene_.cameras[image.camera], image, point.xyz, &projected)) return;
-  if ((projected - image.keypoints[obs.keypoint]).norm() > options_.max_reprojection_px) return;
+  if (!project(scene_.cameras[image.camera], image, point.xyz, &projected))
+    return;
+  if ((projected - image.keypoints[obs.keypoint]).norm() >
+      options_.max_reprojection_px)
+    return;
   scene_.add_observation(point_id, obs);
 }
 
-bool IncrementalMapper::triangulate_pair_match(Observation first, Observation second) {
+bool IncrementalMapper::triangulate_pair_match(Observation first,
+                                               Observation second) {
   const SceneImage& a = scene_.images[first.image];
   const SceneImage& b = scene_.images[second.image];
   const SceneCamera& ca = scene_.cameras[a.camera];
   const SceneCamera& cb = scene_.cameras[b.camera];
-  const auto X = triangulate(
-      {pose_matrix(a), pose_matrix(b)},
-      {normalize(ca, a.keypoints[first.keypoint]), normalize(cb, b.keypoints[second.keypoint])});
+  const auto X = triangulate({pose_matrix(a), pose_matrix(b)},
+                             {normalize(ca, a.keypoints[first.keypoint]),
+                              normalize(cb, b.keypoints[second.keypoint])});
   if (!X) return false;
   if (triangulation_angle_deg(a.centre(), b.centre(), *X) <
       options_.min_triangulation_angle_deg) {
@@ -366,8 +385,10 @@ bool IncrementalMapper::triangulate_pair_match(Observation first, Observation se
   }
   Eigen::Vector2d pa, pb;
   if (!project(ca, a, *X, &pa) || !project(cb, b, *X, &pb)) return false;
-  if ((pa - a.keypoints[first.keypoint]).norm() > options_.max_reprojection_px ||
-      (pb - b.keypoints[second.keypoint]).norm() > options_.max_reprojection_px) {
+  if ((pa - a.keypoints[first.keypoint]).norm() >
+          options_.max_reprojection_px ||
+      (pb - b.keypoints[second.keypoint]).norm() >
+          options_.max_reprojection_px) {
     return false;
   }
   scene_.add_point(*X, {first, second});
@@ -394,7 +415,8 @@ void IncrementalMapper::triangulate_image(int index) {
   }
 }
 
-std::vector<int> IncrementalMapper::covisible_images(int index, int limit) const {
+std::vector<int> IncrementalMapper::covisible_images(int index,
+                                                     int limit) const {
   std::map<int, int> shared;
   const SceneImage& image = scene_.images[index];
   for (int64_t point : image.point_of) {
@@ -438,7 +460,8 @@ void IncrementalMapper::adjust_global() {
   filter_points(all);
   // Outliers pull a robust adjustment less than a plain one, but they still
   // pull: adjust once more when the filter removed a noticeable share.
-  if (scene_.points.size() + before / 50 < before) adjust_bundle(scene_, {}, true, ba);
+  if (scene_.points.size() + before / 50 < before)
+    adjust_bundle(scene_, {}, true, ba);
   scene_.registered_at_last_global_ba = scene_.registered_count();
 }
 
@@ -457,9 +480,10 @@ void IncrementalMapper::filter_points(const std::vector<int>& images) {
     for (const Observation& obs : point.track) {
       SceneImage& image = scene_.images[obs.image];
       Eigen::Vector2d projected;
-      const bool good = project(scene_.cameras[image.camera], image, point.xyz, &projected) &&
-                        (projected - image.keypoints[obs.keypoint]).norm() <=
-                            options_.max_reprojection_px;
+      const bool good =
+          project(scene_.cameras[image.camera], image, point.xyz, &projected) &&
+          (projected - image.keypoints[obs.keypoint]).norm() <=
+              options_.max_reprojection_px;
       if (good) {
         kept.push_back(obs);
       } else {
@@ -470,13 +494,15 @@ void IncrementalMapper::filter_points(const std::vector<int>& images) {
     double best_angle = 0;
     for (size_t i = 0; i < point.track.size(); ++i) {
       for (size_t j = i + 1; j < point.track.size(); ++j) {
-        best_angle = std::max(best_angle, triangulation_angle_deg(
-                                              scene_.images[point.track[i].image].centre(),
-                                              scene_.images[point.track[j].image].centre(),
-                                              point.xyz));
+        best_angle = std::max(
+            best_angle,
+            triangulation_angle_deg(
+                scene_.images[point.track[i].image].centre(),
+                scene_.images[point.track[j].image].centre(), point.xyz));
       }
     }
-    if (point.track.size() < 2 || best_angle < options_.min_triangulation_angle_deg / 3) {
+    if (point.track.size() < 2 ||
+        best_angle < options_.min_triangulation_angle_deg / 3) {
       scene_.remove_point(id);
     }
   }
@@ -499,7 +525,8 @@ Eigen::Vector3d IncrementalMapper::model_up() const {
     ++count;
   }
   mean_up.normalize();
-  scatter += 0.05 * count * (Eigen::Matrix3d::Identity() - mean_up * mean_up.transpose());
+  scatter += 0.05 * count *
+             (Eigen::Matrix3d::Identity() - mean_up * mean_up.transpose());
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(scatter);
   Eigen::Vector3d up = eigen.eigenvectors().col(0);  // smallest eigenvalue
   return up.dot(mean_up) < 0 ? -up : up;
@@ -507,14 +534,15 @@ Eigen::Vector3d IncrementalMapper::model_up() const {
 
 // Turns a similarity about the fixes' centroid so the model's up maps to
 // ENU up: the GPS heights are too noisy to fix the tilt.
-void IncrementalMapper::level(Similarity& sim, const std::vector<Eigen::Vector3d>& fixes,
+void IncrementalMapper::level(Similarity& sim,
+                              const std::vector<Eigen::Vector3d>& fixes,
                               const std::vector<int>& inliers) const {
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   for (int i : inliers) centroid += fixes[i];
   centroid /= std::max<size_t>(1, inliers.size());
-  const Eigen::Matrix3d fix =
-      Eigen::Quaterniond::FromTwoVectors(sim.R * model_up(), Eigen::Vector3d::UnitZ())
-          .toRotationMatrix();
+  const Eigen::Matrix3d fix = Eigen::Quaterniond::FromTwoVectors(
+                                  sim.R * model_up(), Eigen::Vector3d::UnitZ())
+                                  .toRotationMatrix();
   sim.R = fix * sim.R;
   sim.t = fix * (sim.t - centroid) + centroid;
 }
@@ -537,7 +565,7 @@ void IncrementalMapper::geo_register() {
   accuracy /= centres.size();
   std::vector<int> inliers;
   auto sim = estimate_similarity(centres, fixes, std::max(3 * accuracy, 5.0),
-                                       scene_.images.size(), &inliers);
+                                 scene_.images.size(), &inliers);
   if (!sim) return;
   if (options_.upright_sigma_deg > 0) level(*sim, fixes, inliers);
   const double angle = Eigen::AngleAxisd(sim->R).angle() * 180 / M_PI;
@@ -582,7 +610,8 @@ void IncrementalMapper::reset_model() {
   for (SceneImage& image : scene_.images) {
     std::fill(image.point_of.begin(), image.point_of.end(), -1);
     image.registered = false;
-    if (image.status == CaptureStatus::kRegistered) image.status = CaptureStatus::kPending;
+    if (image.status == CaptureStatus::kRegistered)
+      image.status = CaptureStatus::kPending;
     image.q.setIdentity();
     image.t.setZero();
   }
@@ -605,7 +634,8 @@ void IncrementalMapper::repair_after_removal() {
     }
     return -1;
   };
-  if (scene_.reference_image < 0 || !scene_.images[scene_.reference_image].registered) {
+  if (scene_.reference_image < 0 ||
+      !scene_.images[scene_.reference_image].registered) {
     scene_.reference_image = first_registered(scene_.scale_image);
   }
   if (scene_.scale_image < 0 || !scene_.images[scene_.scale_image].registered) {
@@ -621,7 +651,8 @@ double IncrementalMapper::mean_reprojection_px() const {
     for (const Observation& obs : point.track) {
       const SceneImage& image = scene_.images[obs.image];
       Eigen::Vector2d projected;
-      if (!project(scene_.cameras[image.camera], image, point.xyz, &projected)) continue;
+      if (!project(scene_.cameras[image.camera], image, point.xyz, &projected))
+        continue;
       sum += (projected - image.keypoints[obs.keypoint]).norm();
       ++count;
     }

@@ -56,9 +56,10 @@ __attribute__((target("avx2,fma"))) void dot_block_avx2(const float* a,
       s2 = _mm256_fmadd_ps(_mm256_loadu_ps(a + 2 * kDim + k), v, s2);
       s3 = _mm256_fmadd_ps(_mm256_loadu_ps(a + 3 * kDim + k), v, s3);
     }
-    const __m256 h = _mm256_hadd_ps(_mm256_hadd_ps(s0, s1), _mm256_hadd_ps(s2, s3));
-    const __m128 sums = _mm_add_ps(_mm256_castps256_ps128(h),
-                                   _mm256_extractf128_ps(h, 1));
+    const __m256 h =
+        _mm256_hadd_ps(_mm256_hadd_ps(s0, s1), _mm256_hadd_ps(s2, s3));
+    const __m128 sums =
+        _mm_add_ps(_mm256_castps256_ps128(h), _mm256_extractf128_ps(h, 1));
     float lanes[4];
     _mm_storeu_ps(lanes, sums);
     for (int r = 0; r < kRowBlock; ++r) out[r * nb + j] = lanes[r];
@@ -66,7 +67,8 @@ __attribute__((target("avx2,fma"))) void dot_block_avx2(const float* a,
 }
 
 bool cpu_has_avx2() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  static const bool has =
+      __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
   return has;
 }
 #endif
@@ -134,8 +136,13 @@ std::vector<std::pair<int, int>> match_descriptors(const cv::Mat& a,
   const int chunk = (a.rows + parts - 1) / parts;
   for (int p = 0; p < parts; ++p) {
     const int begin = p * chunk, end = std::min(a.rows, begin + chunk);
-    auto work = [&, p, begin, end] { scan_rows(a, b, begin, end, rows, columns[p]); };
-    if (p + 1 == parts) work(); else workers.emplace_back(work);
+    auto work = [&, p, begin, end] {
+      scan_rows(a, b, begin, end, rows, columns[p]);
+    };
+    if (p + 1 == parts)
+      work();
+    else
+      workers.emplace_back(work);
   }
   for (std::thread& worker : workers) worker.join();
   // Merge the per-part column bests; parts are in row order, so keeping the
@@ -143,15 +150,16 @@ std::vector<std::pair<int, int>> match_descriptors(const cv::Mat& a,
   std::vector<ColumnBest> best_column = columns[0];
   for (int p = 1; p < parts; ++p) {
     for (int j = 0; j < b.rows; ++j) {
-      if (columns[p][j].value > best_column[j].value) best_column[j] = columns[p][j];
+      if (columns[p][j].value > best_column[j].value)
+        best_column[j] = columns[p][j];
     }
   }
   std::vector<std::pair<int, int>> matches;
   for (int i = 0; i < a.rows; ++i) {
     const RowBest& best = rows[i];
     if (best.index < 0 || best_column[best.index].row != i) continue;
-    if (b.rows > 1 &&
-        distance_from_dot(best.first) >= ratio * distance_from_dot(best.second)) {
+    if (b.rows > 1 && distance_from_dot(best.first) >=
+                          ratio * distance_from_dot(best.second)) {
       continue;
     }
     matches.emplace_back(i, best.index);
@@ -177,7 +185,8 @@ cv::Mat rotate_descriptors(const cv::Mat& descriptors, int quarter_turns) {
           new_col = previous_row;
         }
         for (int bin = 0; bin < 8; ++bin) {
-          out[(new_row * 4 + new_col) * 8 + (bin + 2 * turns) % 8] = in[(row * 4 + col) * 8 + bin];
+          out[(new_row * 4 + new_col) * 8 + (bin + 2 * turns) % 8] =
+              in[(row * 4 + col) * 8 + bin];
         }
       }
     }
@@ -185,12 +194,14 @@ cv::Mat rotate_descriptors(const cv::Mat& descriptors, int quarter_turns) {
   return rotated;
 }
 
-int overlap_score(const cv::Mat& a, const cv::Mat& b, double ratio, int samples) {
+int overlap_score(const cv::Mat& a, const cv::Mat& b, double ratio,
+                  int samples) {
   if (a.rows == 0 || b.rows < 2) return 0;
   const int n = std::min(samples, a.rows);
   cv::Mat sample(n, a.cols, a.type());
   for (int i = 0; i < n; ++i) {
-    a.row(static_cast<int>(static_cast<int64_t>(i) * a.rows / n)).copyTo(sample.row(i));
+    a.row(static_cast<int>(static_cast<int64_t>(i) * a.rows / n))
+        .copyTo(sample.row(i));
   }
   return static_cast<int>(match_descriptors(sample, b, ratio, 1).size());
 }

@@ -28,6 +28,7 @@ cv::Mat rotate_descriptors(const cv::Mat& descriptors, int quarter_turns);
 
 // How many of (at most) `samples` rows of `a`, spread evenly, find a
 // ratio-test match in `b`: a cheap estimate of the overlap of two photos.
-int overlap_score(const cv::Mat& a, const cv::Mat& b, double ratio, int samples);
+int overlap_score(const cv::Mat& a, const cv::Mat& b, double ratio,
+                  int samples);
 
 }  // namespace arscout::engine

@@ -5,7 +5,9 @@
 namespace arscout::engine {
 namespace {
 
-double to_original(double working, double scale) { return (working + 0.5) / scale - 0.5; }
+double to_original(double working, double scale) {
+  return (working + 0.5) / scale - 0.5;
+}
 
 // Where an undistorted working keypoint lies in the original photo.
 std::array<double, 2> original_pixel(const SceneCamera& camera,
@@ -13,7 +15,8 @@ std::array<double, 2> original_pixel(const SceneCamera& camera,
                                      const Eigen::Vector2d& keypoint) {
   const Eigen::Vector2d x = normalize(camera, keypoint);
   const double r2 = x.squaredNorm();
-  const double radial = 1 + refined.k1 * r2 + refined.k2 * r2 * r2 + refined.k3 * r2 * r2 * r2;
+  const double radial =
+      1 + refined.k1 * r2 + refined.k2 * r2 * r2 + refined.k3 * r2 * r2 * r2;
   const double xd = x.x() * radial + 2 * refined.p1 * x.x() * x.y() +
                     refined.p2 * (r2 + 2 * x.x() * x.x());
   const double yd = x.y() * radial + refined.p1 * (r2 + 2 * x.y() * x.y()) +
@@ -42,7 +45,8 @@ Model build_model(const Scene& scene) {
   model.enu_origin = scene.enu_origin;
   std::map<int, int> camera_index, image_index;
   std::optional<EnuFrame> frame;
-  if (scene.geo_registered && scene.enu_origin) frame = EnuFrame(*scene.enu_origin);
+  if (scene.geo_registered && scene.enu_origin)
+    frame = EnuFrame(*scene.enu_origin);
   for (size_t i = 0; i < scene.images.size(); ++i) {
     const SceneImage& image = scene.images[i];
     if (!image.registered) continue;
@@ -51,7 +55,8 @@ Model build_model(const Scene& scene) {
       camera_index[image.camera] = static_cast<int>(model.cameras.size());
       model.cameras.push_back({camera.id, refined_intrinsics(camera)});
     }
-    const CameraIntrinsics& refined = model.cameras[camera_index[image.camera]].intrinsics;
+    const CameraIntrinsics& refined =
+        model.cameras[camera_index[image.camera]].intrinsics;
     ModelImage out;
     out.id = image.id;
     out.camera = camera_index[image.camera];
@@ -81,7 +86,8 @@ Model build_model(const Scene& scene) {
       const SceneCamera& camera = scene.cameras[image.camera];
       Eigen::Vector2d projected;
       if (project(camera, image, point.xyz, &projected)) {
-        sum += (projected - image.keypoints[obs.keypoint]).norm() / camera.scale;
+        sum +=
+            (projected - image.keypoints[obs.keypoint]).norm() / camera.scale;
       }
       out.track.push_back({image_index.at(obs.image), obs.keypoint});
     }

@@ -28,9 +28,10 @@ void write_cameras(const Model& model, const std::string& path) {
   for (size_t i = 0; i < model.cameras.size(); ++i) {
     const CameraIntrinsics& c = model.cameras[i].intrinsics;
     // COLMAP puts the centre of the top-left pixel at (0.5, 0.5).
-    out << i + 1 << (c.k3 != 0 ? " FULL_OPENCV " : " OPENCV ") << c.width << ' ' << c.height
-        << ' ' << c.fx << ' ' << c.fy << ' ' << c.cx + 0.5 << ' ' << c.cy + 0.5 << ' ' << c.k1
-        << ' ' << c.k2 << ' ' << c.p1 << ' ' << c.p2;
+    out << i + 1 << (c.k3 != 0 ? " FULL_OPENCV " : " OPENCV ") << c.width << ' '
+        << c.height << ' ' << c.fx << ' ' << c.fy << ' ' << c.cx + 0.5 << ' '
+        << c.cy + 0.5 << ' ' << c.k1 << ' ' << c.k2 << ' ' << c.p1 << ' '
+        << c.p2;
     if (c.k3 != 0) out << ' ' << c.k3 << " 0 0 0";
     out << '\n';
   }
@@ -51,8 +52,8 @@ void write_images(const Model& model, const std::string& path) {
     out << ' ' << image.camera + 1 << ' ' << image.id << '\n';
     for (size_t k = 0; k < image.keypoints.size(); ++k) {
       if (k) out << ' ';
-      out << image.keypoints[k][0] + 0.5 << ' ' << image.keypoints[k][1] + 0.5 << ' '
-          << (image.point_ids[k] >= 0 ? image.point_ids[k] + 1 : -1);
+      out << image.keypoints[k][0] + 0.5 << ' ' << image.keypoints[k][1] + 0.5
+          << ' ' << (image.point_ids[k] >= 0 ? image.point_ids[k] + 1 : -1);
     }
     out << '\n';
   }
@@ -62,14 +63,16 @@ void write_images(const Model& model, const std::string& path) {
 void write_points(const Model& model, const std::string& path) {
   auto out = open_for_writing(path);
   out << "# 3D point list with one line of data per point:\n"
-      << "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n"
+      << "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, "
+         "POINT2D_IDX)\n"
       << "# Number of points: " << model.points.size() << "\n";
   for (const ModelPoint& point : model.points) {
     out << point.id + 1;
     for (double v : point.xyz) out << ' ' << v;
     for (uint8_t v : point.rgb) out << ' ' << static_cast<int>(v);
     out << ' ' << point.error_px;
-    for (const auto& [image, keypoint] : point.track) out << ' ' << image + 1 << ' ' << keypoint;
+    for (const auto& [image, keypoint] : point.track)
+      out << ' ' << image + 1 << ' ' << keypoint;
     out << '\n';
   }
   finish(out, path);
@@ -94,7 +97,8 @@ void write_points_ply(const Model& model, const std::string& path) {
       << "property uchar red\nproperty uchar green\nproperty uchar blue\n"
       << "end_header\n";
   for (const ModelPoint& point : model.points) {
-    const float xyz[3] = {static_cast<float>(point.xyz[0]), static_cast<float>(point.xyz[1]),
+    const float xyz[3] = {static_cast<float>(point.xyz[0]),
+                          static_cast<float>(point.xyz[1]),
                           static_cast<float>(point.xyz[2])};
     out.write(reinterpret_cast<const char*>(xyz), sizeof(xyz));
     out.write(reinterpret_cast<const char*>(point.rgb.data()), 3);
@@ -109,7 +113,8 @@ void write_geo_csv(const Model& model, const std::string& path) {
   for (const ModelImage& image : model.images) {
     if (!image.geodetic) continue;
     out << image.id << ',' << std::setprecision(9) << image.geodetic->lat << ','
-        << image.geodetic->lon << ',' << std::setprecision(3) << image.geodetic->alt << '\n';
+        << image.geodetic->lon << ',' << std::setprecision(3)
+        << image.geodetic->alt << '\n';
   }
   finish(out, path);
 }

@@ -5,20 +5,21 @@
 #include <set>
 #include <stdexcept>
 
+#include "estimators.h"
 #include "feature_extractor.h"
 #include "image_loader.h"
 #include "mapper.h"
 #include "matcher.h"
-#include "estimators.h"
-#include "scene.h"
 #include "model_builder.h"
+#include "scene.h"
 #include "serialization.h"
 
 namespace arscout::engine {
 namespace {
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+      .count();
 }
 
 // Two-view verification is strict: its inliers seed every track.
@@ -47,9 +48,12 @@ std::string camera_key(const CaptureInput& capture) {
 
 const char* to_string(CaptureStatus status) {
   switch (status) {
-    case CaptureStatus::kRegistered: return "registered";
-    case CaptureStatus::kPending: return "pending";
-    case CaptureStatus::kRejected: return "rejected";
+    case CaptureStatus::kRegistered:
+      return "registered";
+    case CaptureStatus::kPending:
+      return "pending";
+    case CaptureStatus::kRejected:
+      return "rejected";
   }
   return "unknown";
 }
@@ -64,7 +68,8 @@ struct Reconstruction::Impl {
   std::vector<Candidate> neighbours(int image) const;
   std::vector<int> covisible_with(const std::set<int>& images) const;
   std::pair<int, int> best_rotation(int image, int other) const;
-  std::vector<Candidate> visual_screen(int image, const std::set<int>& skip) const;
+  std::vector<Candidate> visual_screen(int image,
+                                       const std::set<int>& skip) const;
   int match_image(int image, StageTimings& timings);
   void set_gps(SceneImage& image, const std::optional<GeoFix>& fix);
 };
@@ -79,8 +84,9 @@ int Reconstruction::Impl::camera_for(const CaptureInput& capture,
         camera.original.height != image.original_height) {
       throw std::invalid_argument("capture " + capture.id + " is " +
                                   std::to_string(image.original_width) + "x" +
-                                  std::to_string(image.original_height) + " but camera " +
-                                  key + " is " + std::to_string(camera.original.width) + "x" +
+                                  std::to_string(image.original_height) +
+                                  " but camera " + key + " is " +
+                                  std::to_string(camera.original.width) + "x" +
                                   std::to_string(camera.original.height));
     }
     return static_cast<int>(i);
@@ -88,31 +94,38 @@ int Reconstruction::Impl::camera_for(const CaptureInput& capture,
   SceneCamera camera;
   camera.id = key;
   camera.original = capture.camera ? *capture.camera
-                                   : guessed_camera(image.original_width, image.original_height);
+                                   : guessed_camera(image.original_width,
+                                                    image.original_height);
   camera.scale = image.scale;
   const cv::Matx33d k = working_k(camera.original, image.scale);
   camera.params = {k(0, 0), k(1, 1), k(0, 2), k(1, 2), 0, 0};
   camera.refine = options.refine_intrinsics == "on" ||
-                  (options.refine_intrinsics == "auto" && camera.original.source != "calibrated");
+                  (options.refine_intrinsics == "auto" &&
+                   camera.original.source != "calibrated");
   scene.cameras.push_back(camera);
   return static_cast<int>(scene.cameras.size() - 1);
 }
 
-const Undistorter& Reconstruction::Impl::undistorter(int camera, cv::Size size) {
+const Undistorter& Reconstruction::Impl::undistorter(int camera,
+                                                     cv::Size size) {
   auto it = undistorters.find(camera);
   if (it == undistorters.end()) {
     const SceneCamera& c = scene.cameras[camera];
-    it = undistorters.emplace(camera, Undistorter(c.original, c.scale, size)).first;
+    it = undistorters.emplace(camera, Undistorter(c.original, c.scale, size))
+             .first;
   }
   return it->second;
 }
 
-void Reconstruction::Impl::set_gps(SceneImage& image, const std::optional<GeoFix>& fix) {
+void Reconstruction::Impl::set_gps(SceneImage& image,
+                                   const std::optional<GeoFix>& fix) {
   image.gps = fix;
   if (!fix) return;
-  if (!scene.enu_origin) scene.enu_origin = Geodetic{fix->lat, fix->lon, fix->alt.value_or(0)};
+  if (!scene.enu_origin)
+    scene.enu_origin = Geodetic{fix->lat, fix->lon, fix->alt.value_or(0)};
   const EnuFrame frame(*scene.enu_origin);
-  const auto enu = frame.to_enu({fix->lat, fix->lon, fix->alt.value_or(scene.enu_origin->alt)});
+  const auto enu = frame.to_enu(
+      {fix->lat, fix->lon, fix->alt.value_or(scene.enu_origin->alt)});
   image.gps_enu = {enu[0], enu[1], enu[2]};
 }
 
@@ -132,7 +145,9 @@ std::vector<Candidate> Reconstruction::Impl::neighbours(int index) const {
       if (d <= options.gps_radius_m) by_distance.push_back({d, i});
     }
     std::sort(by_distance.begin(), by_distance.end());
-    for (size_t i = 0; i < by_distance.size() && static_cast<int>(i) < options.gps_neighbours; ++i) {
+    for (size_t i = 0;
+         i < by_distance.size() && static_cast<int>(i) < options.gps_neighbours;
+         ++i) {
       chosen.insert(by_distance[i].second);
     }
   }
@@ -151,13 +166,15 @@ std::vector<Candidate> Reconstruction::Impl::neighbours(int index) const {
     for (int other : chosen) result.push_back({other, 0});
     return result;
   }
-  for (int other : chosen) result.push_back({other, best_rotation(index, other).first});
+  for (int other : chosen)
+    result.push_back({other, best_rotation(index, other).first});
   for (const Candidate& c : visual_screen(index, chosen)) result.push_back(c);
   return result;
 }
 
 // Registered images that share the most points with `images`.
-std::vector<int> Reconstruction::Impl::covisible_with(const std::set<int>& images) const {
+std::vector<int> Reconstruction::Impl::covisible_with(
+    const std::set<int>& images) const {
   std::map<int, int> shared;
   for (int i : images) {
     for (int64_t point : scene.images[i].point_of) {
@@ -171,7 +188,9 @@ std::vector<int> Reconstruction::Impl::covisible_with(const std::set<int>& image
   for (const auto& [other, count] : shared) ranked.push_back({-count, other});
   std::sort(ranked.begin(), ranked.end());
   std::vector<int> result;
-  for (size_t i = 0; i < ranked.size() && static_cast<int>(i) < options.visual_neighbours; ++i) {
+  for (size_t i = 0;
+       i < ranked.size() && static_cast<int>(i) < options.visual_neighbours;
+       ++i) {
     result.push_back(ranked[i].second);
   }
   return result;
@@ -179,21 +198,23 @@ std::vector<int> Reconstruction::Impl::covisible_with(const std::set<int>& image
 
 // The quarter turns under which `index` best matches `other`, and the
 // screen's score; upright first, turned only when upright finds little.
-std::pair<int, int> Reconstruction::Impl::best_rotation(int index, int other) const {
+std::pair<int, int> Reconstruction::Impl::best_rotation(int index,
+                                                        int other) const {
   const cv::Mat& mine = scene.images[index].descriptors;
   const cv::Mat& theirs = scene.images[other].descriptors;
-  std::pair<int, int> best{0, overlap_score(mine, theirs, options.ratio, kScreenSamples)};
+  std::pair<int, int> best{
+      0, overlap_score(mine, theirs, options.ratio, kScreenSamples)};
   if (best.second >= kScreenMinimum) return best;
   for (int turns = 1; turns < 4; ++turns) {
-    const int score =
-        overlap_score(rotate_descriptors(mine, turns), theirs, options.ratio, kScreenSamples);
+    const int score = overlap_score(rotate_descriptors(mine, turns), theirs,
+                                    options.ratio, kScreenSamples);
     if (score > best.second) best = {turns, score};
   }
   return best;
 }
 
-std::vector<Candidate> Reconstruction::Impl::visual_screen(int index,
-                                                           const std::set<int>& skip) const {
+std::vector<Candidate> Reconstruction::Impl::visual_screen(
+    int index, const std::set<int>& skip) const {
   std::vector<std::pair<int, Candidate>> scored;
   int screened = 0;
   for (int i = index - 1; i >= 0 && screened < kScreenMaxImages; --i) {
@@ -202,10 +223,14 @@ std::vector<Candidate> Reconstruction::Impl::visual_screen(int index,
     const auto [turns, score] = best_rotation(index, i);
     if (score >= kScreenMinimum) scored.push_back({-score, {i, turns}});
   }
-  std::sort(scored.begin(), scored.end(),
-            [](const auto& x, const auto& y) { return x.first != y.first ? x.first < y.first : x.second.image < y.second.image; });
+  std::sort(scored.begin(), scored.end(), [](const auto& x, const auto& y) {
+    return x.first != y.first ? x.first < y.first
+                              : x.second.image < y.second.image;
+  });
   std::vector<Candidate> result;
-  for (size_t i = 0; i < scored.size() && static_cast<int>(i) < options.visual_neighbours; ++i) {
+  for (size_t i = 0;
+       i < scored.size() && static_cast<int>(i) < options.visual_neighbours;
+       ++i) {
     result.push_back(scored[i].second);
   }
   return result;
@@ -220,8 +245,8 @@ int Reconstruction::Impl::match_image(int index, StageTimings& timings) {
     const SceneImage& other = scene.images[other_index];
     const SceneCamera& other_camera = scene.cameras[other.camera];
     const auto matches = match_descriptors(
-        other.descriptors, rotate_descriptors(image.descriptors, turns), options.ratio,
-        options.threads);
+        other.descriptors, rotate_descriptors(image.descriptors, turns),
+        options.ratio, options.threads);
     std::vector<Eigen::Vector2d> x1, x2;
     for (const auto& [a, b] : matches) {
       x1.push_back(normalize(other_camera, other.keypoints[a]));
@@ -229,7 +254,8 @@ int Reconstruction::Impl::match_image(int index, StageTimings& timings) {
     }
     const double threshold =
         kEssentialThresholdPx * 2 / (camera.params[0] + other_camera.params[0]);
-    const auto pose = estimate_relative_pose(x1, x2, threshold, options.min_pair_inliers);
+    const auto pose =
+        estimate_relative_pose(x1, x2, threshold, options.min_pair_inliers);
     if (!pose) continue;
     ImagePair pair;
     for (int i : pose->inliers) pair.matches.push_back(matches[i]);
@@ -258,25 +284,30 @@ AddResult Reconstruction::add_capture(const CaptureInput& capture) {
   const ReconstructionOptions& options = impl_->options;
   if (capture.id.empty()) throw std::invalid_argument("a capture needs an id");
   if (scene.find_image(capture.id) >= 0) {
-    throw std::invalid_argument("capture " + capture.id + " is already in the model");
+    throw std::invalid_argument("capture " + capture.id +
+                                " is already in the model");
   }
   if (capture.camera) {
     if (std::string problem = validate(*capture.camera); !problem.empty()) {
-      throw std::invalid_argument("capture " + capture.id + ": camera: " + problem);
+      throw std::invalid_argument("capture " + capture.id +
+                                  ": camera: " + problem);
     }
   }
   AddResult result;
   result.id = capture.id;
   StageTimings& timings = result.timings;
   auto stage = std::chrono::steady_clock::now();
-  const cv::Size known = capture.camera ? cv::Size(capture.camera->width, capture.camera->height)
-                                        : cv::Size();
-  WorkingImage working = decode_working_image(capture.image_bytes, options.long_side, known);
+  const cv::Size known =
+      capture.camera ? cv::Size(capture.camera->width, capture.camera->height)
+                     : cv::Size();
+  WorkingImage working =
+      decode_working_image(capture.image_bytes, options.long_side, known);
   timings.decode_s = seconds_since(stage);
   const int camera = impl_->camera_for(capture, working);
 
   stage = std::chrono::steady_clock::now();
-  const Undistorter& undistort = impl_->undistorter(camera, working.color.size());
+  const Undistorter& undistort =
+      impl_->undistorter(camera, working.color.size());
   const cv::Mat color = undistort.apply(working.color);
   const cv::Mat gray = undistort.apply(working.gray);
   timings.undistort_s = seconds_since(stage);
@@ -308,7 +339,8 @@ AddResult Reconstruction::add_capture(const CaptureInput& capture) {
     if (i != index) result.also_registered.push_back(scene.images[i].id);
   }
   const SceneImage& added = scene.images[index];
-  result.status = added.registered ? CaptureStatus::kRegistered : CaptureStatus::kPending;
+  result.status =
+      added.registered ? CaptureStatus::kRegistered : CaptureStatus::kPending;
   result.reason = added.registered ? "" : added.reason;
   if (!added.registered && result.matched_pairs == 0) {
     result.reason = "no verified matches with any nearby capture";
@@ -354,16 +386,20 @@ std::vector<CaptureState> Reconstruction::captures() const {
   std::vector<CaptureState> states;
   for (const SceneImage& image : impl_->scene.images) {
     if (image.removed) continue;
-    states.push_back({image.id,
-                      image.registered ? CaptureStatus::kRegistered : image.status,
-                      image.registered ? "" : image.reason});
+    states.push_back(
+        {image.id, image.registered ? CaptureStatus::kRegistered : image.status,
+         image.registered ? "" : image.reason});
   }
   return states;
 }
 
-int Reconstruction::registered_count() const { return impl_->scene.registered_count(); }
+int Reconstruction::registered_count() const {
+  return impl_->scene.registered_count();
+}
 
-std::string Reconstruction::serialize() const { return serialize_scene(impl_->scene); }
+std::string Reconstruction::serialize() const {
+  return serialize_scene(impl_->scene);
+}
 
 Reconstruction Reconstruction::restore(const std::string& bytes,
                                        ReconstructionOptions options) {

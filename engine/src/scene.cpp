@@ -5,9 +5,9 @@
 namespace arscout::engine {
 
 int Scene::registered_count() const {
-  return static_cast<int>(std::count_if(
-      images.begin(), images.end(),
-      [](const SceneImage& image) { return image.registered; }));
+  return static_cast<int>(
+      std::count_if(images.begin(), images.end(),
+                    [](const SceneImage& image) { return image.registered; }));
 }
 
 int Scene::find_image(const std::string& id) const {
@@ -40,7 +40,8 @@ void Scene::remove_point(int64_t id) {
   points.erase(it);
 }
 
-void Scene::merge_points(int64_t keep, int64_t gone, const Eigen::Vector3d& xyz) {
+void Scene::merge_points(int64_t keep, int64_t gone,
+                         const Eigen::Vector3d& xyz) {
   ScenePoint& kept = points.at(keep);
   for (const Observation& obs : points.at(gone).track) {
     kept.track.push_back(obs);
@@ -79,7 +80,8 @@ bool project(const SceneCamera& camera, const SceneImage& image,
   return true;
 }
 
-Eigen::Vector2d normalize(const SceneCamera& camera, const Eigen::Vector2d& px) {
+Eigen::Vector2d normalize(const SceneCamera& camera,
+                          const Eigen::Vector2d& px) {
   const auto& k = camera.params;
   const Eigen::Vector2d distorted((px.x() - k[2]) / k[0],
                                   (px.y() - k[3]) / k[1]);

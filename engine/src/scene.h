@@ -85,7 +85,7 @@ struct Scene {
   std::map<int64_t, ScenePoint> points;
   int64_t next_point_id = 0;
   std::optional<Geodetic> enu_origin;  // fixed by the first fix
-  bool geo_registered = false;          // world frame is ENU
+  bool geo_registered = false;         // world frame is ENU
   bool initialized = false;
   int registered_at_last_global_ba = 0;
   // Gauge for models without GPS: the first pose is held fixed, and one

@@ -29,12 +29,15 @@ class Writer {
   template <typename T>
   void vec(const std::vector<T>& v) {
     size(v.size());
-    if (!v.empty()) out_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+    if (!v.empty())
+      out_.append(reinterpret_cast<const char*>(v.data()),
+                  v.size() * sizeof(T));
   }
   // Fixed-size Eigen matrices: their coefficients, column-major.
   template <typename Derived>
   void matrix(const Eigen::MatrixBase<Derived>& m) {
-    for (Eigen::Index i = 0; i < m.size(); ++i) pod<double>(m.derived().data()[i]);
+    for (Eigen::Index i = 0; i < m.size(); ++i)
+      pod<double>(m.derived().data()[i]);
   }
   void points2(const std::vector<Eigen::Vector2d>& points) {
     size(points.size());
@@ -111,7 +114,8 @@ class Reader {
   }
   bool done() const { return pos_ == in_.size(); }
   [[noreturn]] void fail(const std::string& what) const {
-    throw std::runtime_error("engine state is damaged or from another version: " + what);
+    throw std::runtime_error(
+        "engine state is damaged or from another version: " + what);
   }
 
  private:
@@ -125,7 +129,8 @@ class Reader {
 void write_intrinsics(Writer& w, const CameraIntrinsics& c) {
   w.pod(c.width);
   w.pod(c.height);
-  for (double v : {c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.p1, c.p2, c.k3}) w.pod(v);
+  for (double v : {c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.p1, c.p2, c.k3})
+    w.pod(v);
   w.str(c.source);
 }
 
@@ -133,7 +138,8 @@ CameraIntrinsics read_intrinsics(Reader& r) {
   CameraIntrinsics c;
   c.width = r.pod<int>();
   c.height = r.pod<int>();
-  for (double* v : {&c.fx, &c.fy, &c.cx, &c.cy, &c.k1, &c.k2, &c.p1, &c.p2, &c.k3}) {
+  for (double* v :
+       {&c.fx, &c.fy, &c.cx, &c.cy, &c.k1, &c.k2, &c.p1, &c.p2, &c.k3}) {
     *v = r.pod<double>();
   }
   c.source = r.str();
@@ -175,8 +181,9 @@ void write_image(Writer& w, const SceneImage& image) {
   w.points2(image.keypoints);
   w.pod(image.descriptors.rows);
   if (image.descriptors.rows > 0) {
-    w.vec(std::vector<float>(image.descriptors.ptr<float>(0),
-                             image.descriptors.ptr<float>(0) + image.descriptors.total()));
+    w.vec(std::vector<float>(
+        image.descriptors.ptr<float>(0),
+        image.descriptors.ptr<float>(0) + image.descriptors.total()));
   }
   w.vec(image.colors);
   w.vec(image.point_of);
@@ -199,16 +206,26 @@ SceneImage read_image(Reader& r) {
   image.gps_enu = r.matrix<Eigen::Vector3d>();
   image.keypoints = r.points2();
   const int rows = r.pod<int>();
-  image.descriptors = cv::Mat(std::max(rows, 0), 128, CV_32F);
+  if (rows < 0) r.fail("descriptor count");
+  image.descriptors = cv::Mat(0, 128, CV_32F);
   if (rows > 0) {
+    // Read (and so bound by the input's length) before allocating.
     const std::vector<float> values = r.vec<float>();
-    if (values.size() != image.descriptors.total()) r.fail("descriptor size");
-    std::memcpy(image.descriptors.ptr<float>(0), values.data(), values.size() * sizeof(float));
+    if (values.size() != static_cast<size_t>(rows) * 128)
+      r.fail("descriptor size");
+    image.descriptors = cv::Mat(rows, 128, CV_32F);
+    std::memcpy(image.descriptors.ptr<float>(0), values.data(),
+                values.size() * sizeof(float));
   }
   image.colors = r.vec<std::array<uint8_t, 3>>();
   image.point_of = r.vec<int64_t>();
   image.registered = r.pod<uint8_t>();
-  image.status = static_cast<CaptureStatus>(r.pod<int>());
+  const int status = r.pod<int>();
+  if (status < static_cast<int>(CaptureStatus::kRegistered) ||
+      status > static_cast<int>(CaptureStatus::kRejected)) {
+    r.fail("capture status");
+  }
+  image.status = static_cast<CaptureStatus>(status);
   image.reason = r.str();
   image.pose_inliers = r.pod<int>();
   image.q.coeffs() = r.matrix<Eigen::Vector4d>();
@@ -221,7 +238,8 @@ SceneImage read_image(Reader& r) {
   return image;
 }
 
-void write_pair(Writer& w, const std::pair<int, int>& key, const ImagePair& pair) {
+void write_pair(Writer& w, const std::pair<int, int>& key,
+                const ImagePair& pair) {
   w.pod(key.first);
   w.pod(key.second);
   w.index_pairs(pair.matches);
@@ -281,7 +299,8 @@ std::string serialize_scene(const Scene& scene) {
 Scene deserialize_scene(const std::string& bytes) {
   Reader r(bytes);
   const auto magic = r.pod<std::array<char, 8>>();
-  if (std::memcmp(magic.data(), kMagic, 8) != 0) r.fail("not an arscout engine state");
+  if (std::memcmp(magic.data(), kMagic, 8) != 0)
+    r.fail("not an arscout engine state");
   if (r.pod<uint32_t>() != kVersion) r.fail("unsupported version");
   Scene scene;
   scene.cameras.resize(r.size());
@@ -316,7 +335,8 @@ Scene deserialize_scene(const std::string& bytes) {
   if (!r.done()) r.fail("trailing bytes");
   // Indices must stay in range, or a damaged state would crash later.
   for (const SceneImage& image : scene.images) {
-    if (image.camera < 0 || image.camera >= static_cast<int>(scene.cameras.size())) {
+    if (image.camera < 0 ||
+        image.camera >= static_cast<int>(scene.cameras.size())) {
       r.fail("camera index");
     }
   }
@@ -325,13 +345,31 @@ Scene deserialize_scene(const std::string& bytes) {
         key.first >= key.second) {
       r.fail("pair index");
     }
+    const size_t n1 = scene.images[key.first].keypoints.size();
+    const size_t n2 = scene.images[key.second].keypoints.size();
+    for (const auto& [k1, k2] : pair.matches) {
+      if (k1 < 0 || k2 < 0 || static_cast<size_t>(k1) >= n1 ||
+          static_cast<size_t>(k2) >= n2) {
+        r.fail("match keypoint index");
+      }
+    }
+  }
+  for (const SceneImage& image : scene.images) {
+    for (int64_t point : image.point_of) {
+      if (point >= 0 && !scene.points.count(point))
+        r.fail("keypoint names a missing point");
+    }
   }
   for (const auto& [id, point] : scene.points) {
     for (const Observation& obs : point.track) {
       if (obs.image < 0 || obs.image >= static_cast<int>(scene.images.size()) ||
           obs.keypoint < 0 ||
-          obs.keypoint >= static_cast<int>(scene.images[obs.image].keypoints.size())) {
+          obs.keypoint >=
+              static_cast<int>(scene.images[obs.image].keypoints.size())) {
         r.fail("observation index");
+      }
+      if (scene.images[obs.image].point_of[obs.keypoint] != id) {
+        r.fail("a track and its keypoint disagree");
       }
     }
   }

@@ -53,8 +53,9 @@ std::vector<int> inliers_of(const Similarity& s,
 
 }  // namespace
 
-std::optional<Similarity> fit_similarity(const std::vector<Eigen::Vector3d>& from,
-                                         const std::vector<Eigen::Vector3d>& to) {
+std::optional<Similarity> fit_similarity(
+    const std::vector<Eigen::Vector3d>& from,
+    const std::vector<Eigen::Vector3d>& to) {
   if (from.size() < 3 || from.size() != to.size()) return std::nullopt;
   return fit_subset(from, to, all_indices(from.size()));
 }
@@ -74,7 +75,8 @@ std::optional<Similarity> estimate_similarity(
     std::vector<int> sample;
     while (sample.size() < 3) {
       const int i = static_cast<int>(pick(rng));
-      if (std::find(sample.begin(), sample.end(), i) == sample.end()) sample.push_back(i);
+      if (std::find(sample.begin(), sample.end(), i) == sample.end())
+        sample.push_back(i);
     }
     const auto candidate = fit_subset(from, to, sample);
     if (!candidate) continue;

@@ -1,5 +1,6 @@
 #include <algorithm>
 
+#include "bundle_adjuster.h"
 #include "estimators.h"
 
 #include <opencv2/calib3d.hpp>
@@ -26,20 +27,23 @@ double median_angle(const RelativePose& pose,
   std::vector<double> angles;
   for (int i : pose.inliers) {
     if (auto X = triangulate({P1, P2}, {x1[i], x2[i]})) {
-      angles.push_back(triangulation_angle_deg(Eigen::Vector3d::Zero(), c2, *X));
+      angles.push_back(
+          triangulation_angle_deg(Eigen::Vector3d::Zero(), c2, *X));
     }
   }
   if (angles.empty()) return 0;
-  std::nth_element(angles.begin(), angles.begin() + angles.size() / 2, angles.end());
+  std::nth_element(angles.begin(), angles.begin() + angles.size() / 2,
+                   angles.end());
   return angles[angles.size() / 2];
 }
 
 }  // namespace
 
 std::optional<RelativePose> estimate_relative_pose(
-    const std::vector<Eigen::Vector2d>& x1, const std::vector<Eigen::Vector2d>& x2,
-    double threshold, int min_inliers) {
-  if (x1.size() != x2.size() || static_cast<int>(x1.size()) < std::max(5, min_inliers)) {
+    const std::vector<Eigen::Vector2d>& x1,
+    const std::vector<Eigen::Vector2d>& x2, double threshold, int min_inliers) {
+  if (x1.size() != x2.size() ||
+      static_cast<int>(x1.size()) < std::max(5, min_inliers)) {
     return std::nullopt;
   }
   const std::vector<cv::Point2d> p1 = to_cv(x1), p2 = to_cv(x2);
@@ -60,6 +64,7 @@ std::optional<RelativePose> estimate_relative_pose(
   for (int i = 0; i < mask.rows; ++i) {
     if (mask.at<uchar>(i)) pose.inliers.push_back(i);
   }
+  refine_relative_pose(x1, x2, pose.inliers, &pose.R, &pose.t);
   cv::Mat h_mask;
   cv::findHomography(p1, p2, cv::RANSAC, threshold, h_mask);
   const int h_inliers = h_mask.empty() ? 0 : cv::countNonZero(h_mask);

@@ -20,8 +20,10 @@ using testing::ToolProcess;
 void run_cli(const std::vector<std::string>& args, const std::string& log) {
   ToolProcess cli(ARSCOUT_CLI, args, log);
   const auto status = cli.wait_for(std::chrono::minutes(10));
-  ASSERT_TRUE(status.has_value()) << "arscout timed out\n" << testing::slurp(log);
-  ASSERT_EQ(*status, 0) << testing::describe_status(*status) << "\n" << testing::slurp(log);
+  ASSERT_TRUE(status.has_value()) << "arscout timed out\n"
+                                  << testing::slurp(log);
+  ASSERT_EQ(*status, 0) << testing::describe_status(*status) << "\n"
+                        << testing::slurp(log);
 }
 
 struct StrechaRun {
@@ -30,17 +32,19 @@ struct StrechaRun {
   int geo_matched = 0;
 };
 
-StrechaRun reconstruct_strecha(const std::string& scene, const std::string& out) {
+StrechaRun reconstruct_strecha(const std::string& scene,
+                               const std::string& out) {
   const std::string dir = scene + "/images";
-  run_cli({"reconstruct", "--images", dir, "--gps-csv", scene + "/gps.csv", "--camera",
-           dir + "/K.txt", "--out", out},
+  run_cli({"reconstruct", "--images", dir, "--gps-csv", scene + "/gps.csv",
+           "--camera", dir + "/K.txt", "--out", out},
           out + ".log");
   StrechaRun run;
-  run.poses = eval::compare_to_ground_truth(eval::read_colmap_images_txt(out + "/sparse/images.txt"),
-                                            eval::read_strecha_ground_truth(scene + "/gt_dense_cameras"));
-  run.geo_median_m = eval::median_geo_distance(eval::read_geo_csv(out + "/cameras_geo.csv"),
-                                               eval::read_geo_csv(scene + "/gps_truth.csv"),
-                                               &run.geo_matched);
+  run.poses = eval::compare_to_ground_truth(
+      eval::read_colmap_images_txt(out + "/sparse/images.txt"),
+      eval::read_strecha_ground_truth(scene + "/gt_dense_cameras"));
+  run.geo_median_m = eval::median_geo_distance(
+      eval::read_geo_csv(out + "/cameras_geo.csv"),
+      eval::read_geo_csv(scene + "/gps_truth.csv"), &run.geo_matched);
   return run;
 }
 
@@ -79,19 +83,25 @@ TEST(ReconstructAcceptance, ResumedRunEqualsUninterruptedRun) {
   ARSCOUT_SHARED_DATA_OR_SKIP(scene, "strecha/fountain-P11");
   const std::string work = testing::make_temp_dir("resume");
   const std::vector<std::string> common = {
-      "reconstruct",  "--images", scene + "/images", "--gps-csv", scene + "/gps.csv",
-      "--camera", scene + "/images/K.txt", "--deterministic"};
+      "reconstruct",           "--images",
+      scene + "/images",       "--gps-csv",
+      scene + "/gps.csv",      "--camera",
+      scene + "/images/K.txt", "--deterministic"};
   auto with = [&](std::vector<std::string> extra) {
     std::vector<std::string> args = common;
     args.insert(args.end(), extra.begin(), extra.end());
     return args;
   };
   run_cli(with({"--out", work + "/whole"}), work + "/whole.log");
-  run_cli(with({"--out", work + "/first", "--limit", "6", "--save-state", work + "/state.bin"}),
+  run_cli(with({"--out", work + "/first", "--limit", "6", "--save-state",
+                work + "/state.bin"}),
           work + "/first.log");
-  run_cli(with({"--out", work + "/rest", "--resume", work + "/state.bin"}), work + "/rest.log");
-  const auto whole = eval::read_colmap_images_txt(work + "/whole/sparse/images.txt");
-  const auto resumed = eval::read_colmap_images_txt(work + "/rest/sparse/images.txt");
+  run_cli(with({"--out", work + "/rest", "--resume", work + "/state.bin"}),
+          work + "/rest.log");
+  const auto whole =
+      eval::read_colmap_images_txt(work + "/whole/sparse/images.txt");
+  const auto resumed =
+      eval::read_colmap_images_txt(work + "/rest/sparse/images.txt");
   ASSERT_EQ(whole.size(), 11u);
   ASSERT_EQ(resumed.size(), whole.size());
   for (const auto& [name, pose] : whole) {

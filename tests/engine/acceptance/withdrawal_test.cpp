@@ -4,8 +4,8 @@
 #include <fstream>
 #include <sstream>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "arscout/engine/image_size.h"
 #include "arscout/engine/reconstruction.h"
@@ -28,14 +28,16 @@ engine::CaptureInput capture(const std::string& scene, const std::string& name,
   input.id = name;
   input.image_bytes = read_bytes(scene + "/images/" + name);
   const auto size = engine::read_image_size(input.image_bytes);
-  input.camera = engine::read_k_matrix(scene + "/images/K.txt", size->width, size->height);
+  input.camera =
+      engine::read_k_matrix(scene + "/images/K.txt", size->width, size->height);
   input.camera_id = "K";
   const eval::GeoRow& row = fixes.at(name);
   input.gps = engine::GeoFix{row.lat, row.lon, row.alt, 2.12, 3.0};
   return input;
 }
 
-const engine::ModelImage* find(const engine::Model& model, const std::string& id) {
+const engine::ModelImage* find(const engine::Model& model,
+                               const std::string& id) {
   for (const auto& image : model.images) {
     if (image.id == id) return &image;
   }
@@ -53,7 +55,8 @@ TEST(Withdrawal, AddingACaptureBackGivesTheSameRegistration) {
   engine::ReconstructionOptions options;
   options.deterministic = true;
   engine::Reconstruction site(options);
-  for (const auto& [name, fix] : fixes) site.add_capture(capture(scene, name, fixes));
+  for (const auto& [name, fix] : fixes)
+    site.add_capture(capture(scene, name, fixes));
   ASSERT_EQ(site.registered_count(), 11);
   const engine::Model before = site.model();
   const engine::ModelImage original = *find(before, "0005.jpg");
@@ -67,7 +70,8 @@ TEST(Withdrawal, AddingACaptureBackGivesTheSameRegistration) {
     EXPECT_GE(point.track.size(), 2u) << "a point left with one observation";
   }
 
-  const engine::AddResult again = site.add_capture(capture(scene, "0005.jpg", fixes));
+  const engine::AddResult again =
+      site.add_capture(capture(scene, "0005.jpg", fixes));
   EXPECT_EQ(again.status, engine::CaptureStatus::kRegistered) << again.reason;
   const engine::Model after = site.model();
   const engine::ModelImage* readded = find(after, "0005.jpg");
@@ -82,11 +86,13 @@ TEST(Withdrawal, AddingACaptureBackGivesTheSameRegistration) {
   }
   const eval::Similarity align = eval::fit_similarity(from, to);
   const Eigen::Vector3d c0(original.centre.data());
-  const Eigen::Vector3d c1 = align.apply(Eigen::Vector3d(readded->centre.data()));
+  const Eigen::Vector3d c1 =
+      align.apply(Eigen::Vector3d(readded->centre.data()));
   EXPECT_LE((c1 - c0).norm(), 0.002) << "metres";
   const Eigen::Quaterniond turned(align.R);
-  EXPECT_LE(rotation(original).angularDistance(rotation(*readded) * turned.conjugate()) * 180 /
-                M_PI,
+  EXPECT_LE(rotation(original).angularDistance(rotation(*readded) *
+                                               turned.conjugate()) *
+                180 / M_PI,
             0.02);
 }
 

@@ -94,8 +94,8 @@ struct AddResult {
   CaptureStatus status = CaptureStatus::kPending;
   std::string reason;  // why not registered (empty when registered)
   int features = 0;
-  int matched_pairs = 0;    // verified pairs with other captures
-  int pose_inliers = 0;     // 2D-3D inliers of its absolute pose
+  int matched_pairs = 0;            // verified pairs with other captures
+  int pose_inliers = 0;             // 2D-3D inliers of its absolute pose
   double mean_reprojection_px = 0;  // over the whole model, working pixels
   // Other captures that became registered in this increment (e.g. the
   // first two when the model is initialised).

@@ -1,0 +1,360 @@
+// Bundle adjustment on synthetic scenes with exact ground truth: a model
+// knocked off its true shape must come back to it (up to the gauge), GPS
+// priors must put it where the fixes say, and a wrong focal length must be
+// refined away.
+#include "bundle_adjuster.h"
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "synthetic_scene.h"
+
+namespace arscout::engine {
+namespace {
+
+using synthetic::kFocal;
+
+// Moves the whole model by a similarity, as the mapper does when it
+// geo-registers: points and camera centres are mapped, orientations turn.
+void apply_similarity(Scene& scene, const Similarity& sim) {
+  for (auto& [id, point] : scene.points) point.xyz = sim.apply(point.xyz);
+  const Eigen::Quaterniond rotation(sim.R);
+  for (SceneImage& image : scene.images) {
+    const Eigen::Vector3d centre = sim.apply(image.centre());
+    image.q = (image.q * rotation.conjugate()).normalized();
+    image.t = -(image.q * centre);
+  }
+}
+
+Similarity inverse(const Similarity& sim) {
+  Similarity inv;
+  inv.scale = 1 / sim.scale;
+  inv.R = sim.R.transpose();
+  inv.t = -inv.scale * (inv.R * sim.t);
+  return inv;
+}
+
+// Turns each image (but `keep`) by `angle_deg` about a random axis and
+// moves its centre by `move_m` per axis; moves each point by `point_m`.
+void perturb(Scene& scene, int keep, double angle_deg, double move_m,
+             double point_m, std::mt19937& rng) {
+  for (size_t i = 0; i < scene.images.size(); ++i) {
+    if (static_cast<int>(i) == keep) continue;
+    SceneImage& image = scene.images[i];
+    const Eigen::Vector3d centre =
+        image.centre() + synthetic::gaussian3(rng, move_m);
+    image.q =
+        (synthetic::random_rotation(rng, angle_deg) * image.q).normalized();
+    image.t = -(image.q * centre);
+  }
+  for (auto& [id, point] : scene.points)
+    point.xyz += synthetic::gaussian3(rng, point_m);
+}
+
+// How far the model's shape is from the truth once the best similarity
+// has taken out the gauge (position, orientation, scale).
+struct ShapeError {
+  double max_centre_m = 0;
+  double max_point_m = 0;
+  double max_rotation_deg = 0;
+};
+
+ShapeError shape_error(const Scene& scene, const synthetic::Truth& truth) {
+  std::vector<Eigen::Vector3d> from, to;
+  for (size_t i = 0; i < scene.images.size(); ++i) {
+    from.push_back(scene.images[i].centre());
+    to.push_back(truth.poses[i].centre());
+  }
+  for (const auto& [id, point] : scene.points) {
+    from.push_back(point.xyz);
+    to.push_back(truth.points[id]);
+  }
+  const auto sim = fit_similarity(from, to);
+  EXPECT_TRUE(sim.has_value());
+  ShapeError error;
+  if (!sim) return error;
+  const size_t images = scene.images.size();
+  for (size_t k = 0; k < from.size(); ++k) {
+    const double e = (sim->apply(from[k]) - to[k]).norm();
+    double& worst = k < images ? error.max_centre_m : error.max_point_m;
+    worst = std::max(worst, e);
+  }
+  for (size_t i = 0; i < images; ++i) {
+    // World-to-camera in the true frame: R_est * R_sim^T.
+    const Eigen::Matrix3d R =
+        scene.images[i].q.toRotationMatrix() * sim->R.transpose();
+    error.max_rotation_deg = std::max(
+        error.max_rotation_deg,
+        synthetic::rotation_error_deg(R, truth.poses[i].q.toRotationMatrix()));
+  }
+  return error;
+}
+
+TEST(BundleAdjusterTest, GlobalAdjustmentRecoversPerturbedModel) {
+  std::mt19937 rng(51);
+  const synthetic::Truth truth =
+      synthetic::make_truth({.images = 8, .points = 300}, rng);
+  Scene scene = synthetic::make_scene(truth, 0.3, 0, rng);
+  // At the truth, the error is the keypoint noise itself.
+  ASSERT_NEAR(synthetic::reprojection_rms_px(scene), 0.3, 0.05);
+  perturb(scene, scene.reference_image, 0.5, 0.15, 0.1, rng);
+  const double perturbed_rms = synthetic::reprojection_rms_px(scene);
+  ASSERT_GT(perturbed_rms, 5.0);
+  const SceneImage reference = scene.images[scene.reference_image];
+
+  BundleOptions options;
+  options.max_iterations = 100;
+  const BundleReport report = adjust_bundle(scene, {}, true, options);
+
+  EXPECT_EQ(report.images, 8);
+  EXPECT_EQ(report.points, static_cast<int>(scene.points.size()));
+  // The report's figures come from the robust (Cauchy) cost, which
+  // flattens large errors, so only the converged one is a true RMS.
+  EXPECT_GT(report.initial_rms_px, report.final_rms_px);
+  EXPECT_NEAR(report.final_rms_px, synthetic::reprojection_rms_px(scene), 0.05);
+  EXPECT_LT(report.final_rms_px, 0.5);
+  EXPECT_LT(synthetic::reprojection_rms_px(scene), 0.5);
+  // The gauge: the reference pose does not move at all.
+  EXPECT_EQ(scene.images[scene.reference_image].q.coeffs(),
+            reference.q.coeffs());
+  EXPECT_EQ(scene.images[scene.reference_image].t, reference.t);
+  for (const SceneImage& image : scene.images)
+    EXPECT_NEAR(image.q.norm(), 1.0, 1e-12);
+
+  // Centres to 2 cm, points to 6 cm and orientations to 0.04 degrees at
+  // 15 m from 0.3 px of noise (the maximum-likelihood answer itself is off
+  // by about half that); before the adjustment they were off by ~25 cm,
+  // 10 cm and 0.5 degrees.
+  const ShapeError error = shape_error(scene, truth);
+  EXPECT_LT(error.max_centre_m, 0.02);
+  EXPECT_LT(error.max_point_m, 0.06);
+  EXPECT_LT(error.max_rotation_deg, 0.04);
+}
+
+TEST(BundleAdjusterTest, LocalAdjustmentMovesOnlyFreeImages) {
+  std::mt19937 rng(52);
+  const synthetic::Truth truth =
+      synthetic::make_truth({.images = 8, .points = 300}, rng);
+  Scene scene = synthetic::make_scene(truth, 0.3, 0, rng);
+  const Scene before = scene;
+  // Knock image 5 off its pose; the others stay true.
+  SceneImage& moved = scene.images[5];
+  const Eigen::Vector3d centre =
+      moved.centre() + Eigen::Vector3d(0.2, -0.1, 0.1);
+  moved.q = (synthetic::random_rotation(rng, 1.0) * moved.q).normalized();
+  moved.t = -(moved.q * centre);
+
+  const BundleReport report = adjust_bundle(scene, {5}, false, BundleOptions{});
+  EXPECT_EQ(report.images, 8);  // the others enter as constants
+  EXPECT_LT(report.final_rms_px, 0.5);
+  for (size_t i = 0; i < scene.images.size(); ++i) {
+    if (i == 5) continue;
+    EXPECT_EQ(scene.images[i].q.coeffs(), before.images[i].q.coeffs())
+        << "image " << i;
+    EXPECT_EQ(scene.images[i].t, before.images[i].t) << "image " << i;
+  }
+  EXPECT_LT((scene.images[5].centre() - truth.poses[5].centre()).norm(), 0.02);
+  EXPECT_LT(synthetic::rotation_error_deg(scene.images[5].q.toRotationMatrix(),
+                                          truth.poses[5].q.toRotationMatrix()),
+            0.04);
+  // Intrinsics never move in a local adjustment.
+  EXPECT_EQ(scene.cameras[0].params, before.cameras[0].params);
+}
+
+// --- GPS priors
+// ---------------------------------------------------------------
+
+constexpr double kHorizontalSigma = 2.0;  // metres, as a phone reports
+constexpr double kVerticalSigma = 4.0;
+
+// 24 captures over 120 degrees around the facade, each with a fix whose
+// error is drawn from the accuracy it claims.
+struct GpsScene {
+  synthetic::Truth truth;
+  Scene scene;
+  double fix_rms_h = 0;  // RMS horizontal error of the fixes themselves
+  double fix_rms_v = 0;
+};
+
+GpsScene make_gps_scene(std::mt19937& rng) {
+  GpsScene g;
+  g.truth =
+      synthetic::make_truth({.images = 24, .arc_deg = 120, .points = 300}, rng);
+  g.scene = synthetic::make_scene(g.truth, 0.3, 0, rng);
+  std::normal_distribution<double> h(0, kHorizontalSigma), v(0, kVerticalSigma);
+  double sum_h = 0, sum_v = 0;
+  for (size_t i = 0; i < g.scene.images.size(); ++i) {
+    SceneImage& image = g.scene.images[i];
+    image.gps = GeoFix{47.0, 8.0, 400.0, kHorizontalSigma, kVerticalSigma};
+    const Eigen::Vector3d error(h(rng), h(rng), v(rng));
+    image.gps_enu = g.truth.poses[i].centre() + error;
+    sum_h += error.head<2>().squaredNorm();
+    sum_v += error.z() * error.z();
+  }
+  g.fix_rms_h = std::sqrt(sum_h / g.scene.images.size());
+  g.fix_rms_v = std::sqrt(sum_v / g.scene.images.size());
+  g.scene.geo_registered = true;
+  g.scene.reference_image = g.scene.scale_image =
+      -1;  // the priors hold the gauge
+  return g;
+}
+
+BundleOptions gps_options() {
+  BundleOptions options;
+  options.gps_priors = true;
+  options.upright_sigma_deg = 2.0;
+  options.max_iterations = 100;
+  return options;
+}
+
+// RMS distance of the camera centres from the truth, horizontal and vertical.
+std::pair<double, double> centre_rms(const Scene& scene,
+                                     const synthetic::Truth& truth) {
+  double sum_h = 0, sum_v = 0;
+  for (size_t i = 0; i < scene.images.size(); ++i) {
+    const Eigen::Vector3d e =
+        scene.images[i].centre() - truth.poses[i].centre();
+    sum_h += e.head<2>().squaredNorm();
+    sum_v += e.z() * e.z();
+  }
+  return {std::sqrt(sum_h / scene.images.size()),
+          std::sqrt(sum_v / scene.images.size())};
+}
+
+// The model as the incremental mapper has it before geo-registration: the
+// right shape, in some other frame (turned, scaled, shifted), slightly off.
+Similarity wrong_frame() {
+  Similarity s;
+  s.scale = 0.8;
+  s.R = (Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()) *
+         Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitX()))
+            .toRotationMatrix();
+  s.t = {4, -3, 1};
+  return s;
+}
+
+TEST(BundleAdjusterTest, GpsPriorsPutTheModelInPlace) {
+  std::mt19937 rng(53);
+  GpsScene g = make_gps_scene(rng);
+  apply_similarity(g.scene, wrong_frame());
+  perturb(g.scene, -1, 0.3, 0.05, 0.05, rng);
+  ASSERT_GT(centre_rms(g.scene, g.truth).first, 5.0);
+
+  // As the mapper does: solve the gauge against the fixes first, then adjust.
+  const BundleOptions options = gps_options();
+  const auto sim = fit_model_to_priors(g.scene, options);
+  ASSERT_TRUE(sim.has_value());
+  apply_similarity(g.scene, *sim);
+  const BundleReport report = adjust_bundle(g.scene, {}, true, options);
+  EXPECT_EQ(report.images, 24);
+  EXPECT_LT(synthetic::reprojection_rms_px(g.scene), 0.5);
+
+  // 24 fixes average out: the model lands much closer to the truth than
+  // the fixes are, a fraction of their claimed accuracy.
+  const auto [rms_h, rms_v] = centre_rms(g.scene, g.truth);
+  EXPECT_LT(rms_h, 0.5 * kHorizontalSigma);
+  EXPECT_LT(rms_v, 0.5 * kVerticalSigma);
+  EXPECT_LT(rms_h, 0.5 * g.fix_rms_h);
+  EXPECT_LT(rms_v, 0.5 * g.fix_rms_v);
+  // Its shape is the reprojections' doing, not the noisy fixes'.
+  const ShapeError error = shape_error(g.scene, g.truth);
+  EXPECT_LT(error.max_centre_m, 0.05);
+  EXPECT_LT(error.max_rotation_deg, 0.05);
+  // The upright prior keeps the cameras level (their x axes horizontal)
+  // against the vertical noise of the fixes.
+  for (const SceneImage& image : g.scene.images) {
+    const Eigen::Vector3d x_axis =
+        image.q.toRotationMatrix().row(0).transpose();
+    EXPECT_LT(std::abs(x_axis.z()), std::sin(0.5 * M_PI / 180)) << image.id;
+  }
+}
+
+TEST(BundleAdjusterTest, RefinesWrongFocalLength) {
+  std::mt19937 rng(54);
+  GpsScene g = make_gps_scene(rng);
+  perturb(g.scene, -1, 0.1, 0.05, 0.05, rng);
+  SceneCamera& camera = g.scene.cameras[0];
+  camera.refine = true;
+  camera.params[0] = camera.params[1] = 1.05 * kFocal;
+  ASSERT_GT(synthetic::reprojection_rms_px(g.scene), 5.0);
+
+  const BundleReport report = adjust_bundle(g.scene, {}, true, gps_options());
+  EXPECT_LT(report.final_rms_px, 0.5);
+  EXPECT_LT(synthetic::reprojection_rms_px(g.scene), 0.5);
+  EXPECT_NEAR(camera.params[0], kFocal, 0.005 * kFocal);
+  // fy follows fx at the camera's aspect; the principal point is held.
+  EXPECT_DOUBLE_EQ(camera.params[1], camera.params[0]);
+  EXPECT_EQ(camera.params[2], synthetic::kCx);
+  EXPECT_EQ(camera.params[3], synthetic::kCy);
+  // The lens has no distortion and the adjustment does not invent one: at
+  // the image corner (r = 1 in normalized units) the radial terms move a
+  // point by f * (k1 + k2), which must stay well under a pixel.
+  EXPECT_LT(std::abs(kFocal * (camera.params[4] + camera.params[5])), 0.5);
+  EXPECT_LT(std::abs(camera.params[4]), 0.01);
+}
+
+TEST(BundleAdjusterTest, WrongFocalStaysWithoutRefine) {
+  std::mt19937 rng(55);
+  GpsScene g = make_gps_scene(rng);
+  g.scene.cameras[0].params[0] = g.scene.cameras[0].params[1] = 1.05 * kFocal;
+  adjust_bundle(g.scene, {}, true, gps_options());
+  // The camera was not asked to refine: its numbers are left as given.
+  EXPECT_EQ(g.scene.cameras[0].params[0], 1.05 * kFocal);
+}
+
+// --- Fitting the model to its priors
+// --------------------------------------------
+
+TEST(BundleAdjusterTest, FitModelToPriorsRecoversKnownSimilarity) {
+  std::mt19937 rng(56);
+  const synthetic::Truth truth =
+      synthetic::make_truth({.images = 10, .arc_deg = 90, .points = 50}, rng);
+  Scene scene = synthetic::make_scene(truth, 0.0, 0, rng);
+  for (size_t i = 0; i < scene.images.size(); ++i) {
+    scene.images[i].gps = GeoFix{47.0, 8.0, 400.0, 3.0, 6.0};
+    scene.images[i].gps_enu = truth.poses[i].centre();  // exact fixes
+  }
+  // The model sits in its own frame, 'to_enu' away from the fixes'.
+  const Similarity to_enu = wrong_frame();
+  apply_similarity(scene, inverse(to_enu));
+
+  const auto fitted = fit_model_to_priors(scene, gps_options());
+  ASSERT_TRUE(fitted.has_value());
+  EXPECT_NEAR(fitted->scale, to_enu.scale, 1e-6);
+  EXPECT_LT(synthetic::rotation_error_deg(fitted->R, to_enu.R), 1e-4);
+  EXPECT_LT((fitted->t - to_enu.t).norm(), 1e-5);
+  // It does not move the scene itself.
+  EXPECT_GT((scene.images[0].centre() - truth.poses[0].centre()).norm(), 1.0);
+
+  // Applied, it puts every camera on its fix.
+  apply_similarity(scene, *fitted);
+  for (size_t i = 0; i < scene.images.size(); ++i) {
+    EXPECT_LT((scene.images[i].centre() - truth.poses[i].centre()).norm(),
+              1e-5);
+  }
+}
+
+TEST(BundleAdjusterTest, FitModelToPriorsNeedsThreeFixes) {
+  std::mt19937 rng(57);
+  const synthetic::Truth truth =
+      synthetic::make_truth({.images = 5, .points = 30}, rng);
+  Scene scene = synthetic::make_scene(truth, 0.0, 0, rng);
+  for (int i = 0; i < 2; ++i) {
+    scene.images[i].gps = GeoFix{47.0, 8.0, 400.0, 3.0, 6.0};
+    scene.images[i].gps_enu = truth.poses[i].centre();
+  }
+  EXPECT_FALSE(fit_model_to_priors(scene, gps_options()).has_value());
+  // A fix on an unregistered image does not count.
+  scene.images[2].gps = GeoFix{47.0, 8.0, 400.0, 3.0, 6.0};
+  scene.images[2].gps_enu = truth.poses[2].centre();
+  scene.images[2].registered = false;
+  EXPECT_FALSE(fit_model_to_priors(scene, gps_options()).has_value());
+  scene.images[2].registered = true;
+  EXPECT_TRUE(fit_model_to_priors(scene, gps_options()).has_value());
+}
+
+}  // namespace
+}  // namespace arscout::engine
