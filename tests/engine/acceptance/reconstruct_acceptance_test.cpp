@@ -76,6 +76,59 @@ TEST(ReconstructAcceptance, EntryP10RegistersAllWithinTolerance) {
   EXPECT_LE(run.geo_median_m, 1.0);
 }
 
+// The Middlebury ring, without GPS, with the K of its parameter file:
+// some photos are upside down and the file order is not the ring order.
+TEST(ReconstructAcceptance, TempleSparseRingRegistersAllWithinOnePercent) {
+  std::string scene;
+  ARSCOUT_SHARED_DATA_OR_SKIP(scene, "middlebury/templeSparseRing");
+  const std::string work = testing::make_temp_dir("temple");
+  std::ifstream par(scene + "/templeSR_par.txt");
+  std::string count, name;
+  double k[9];
+  par >> count >> name;
+  for (double& v : k) par >> v;
+  {
+    std::ofstream out(work + "/K.txt");
+    for (int i = 0; i < 9; ++i) out << k[i] << (i % 3 == 2 ? '\n' : ' ');
+  }
+  run_cli({"reconstruct", "--images", scene, "--camera", work + "/K.txt",
+           "--out", work + "/out"},
+          work + "/out.log");
+  const auto truth = eval::read_middlebury_par(scene + "/templeSR_par.txt");
+  const auto poses = eval::compare_to_ground_truth(
+      eval::read_colmap_images_txt(work + "/out/sparse/images.txt"), truth);
+  EXPECT_EQ(poses.matched, 16);
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& [n, pose] : truth) centroid += pose.centre();
+  centroid /= truth.size();
+  double radius = 0;
+  for (const auto& [n, pose] : truth)
+    radius += (pose.centre() - centroid).norm();
+  radius /= truth.size();
+  EXPECT_LE(poses.median_centre_error, 0.01 * radius)
+      << "ring radius " << radius;
+}
+
+// lund: phone photos with EXIF GPS and focal length, no calibration.
+TEST(ReconstructAcceptance, LundRegistersMostPhotosWithSmallErrors) {
+  std::string scene;
+  ARSCOUT_SHARED_DATA_OR_SKIP(scene, "opensfm/lund");
+  const std::string out = testing::make_temp_dir("lund") + "/out";
+  run_cli({"reconstruct", "--images", scene + "/images", "--out", out},
+          out + ".log");
+  const auto images = eval::read_colmap_images_txt(out + "/sparse/images.txt");
+  EXPECT_GE(images.size(), 25u);
+  double error_sum = 0, observations = 0;
+  for (const auto& point :
+       eval::read_colmap_points3d_txt(out + "/sparse/points3D.txt")) {
+    error_sum += point.error * point.track_length;
+    observations += point.track_length;
+  }
+  ASSERT_GT(observations, 0);
+  EXPECT_LE(error_sum / observations, 1.5) << "mean reprojection error, pixels";
+  EXPECT_EQ(eval::read_geo_csv(out + "/cameras_geo.csv").size(), images.size());
+}
+
 // Saving the state after 6 photos and resuming in a new process gives the
 // model an uninterrupted deterministic run gives.
 TEST(ReconstructAcceptance, ResumedRunEqualsUninterruptedRun) {
