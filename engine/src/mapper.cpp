@@ -75,19 +75,8 @@ std::vector<int> IncrementalMapper::update() {
   // registration adds points, which may let an image that failed succeed.
   std::set<int> failed;
   for (;;) {
-    int best = -1;
     size_t best_count = 0;
-    for (size_t i = 0; i < scene_.images.size(); ++i) {
-      const SceneImage& image = scene_.images[i];
-      if (image.removed || image.registered ||
-          failed.count(static_cast<int>(i)))
-        continue;
-      const size_t count = correspondences(static_cast<int>(i)).size();
-      if (count > best_count) {
-        best = static_cast<int>(i);
-        best_count = count;
-      }
-    }
+    const int best = next_image(failed, &best_count);
     if (best < 0) break;
     const bool enough =
         static_cast<int>(best_count) >= options_.min_pose_inliers;
@@ -110,6 +99,25 @@ std::vector<int> IncrementalMapper::update() {
     }
   }
   return registered;
+}
+
+// The unregistered image with the most 2D-3D correspondences (-1 if none
+// has any), skipping `failed`.
+int IncrementalMapper::next_image(const std::set<int>& failed,
+                                  size_t* count) const {
+  int best = -1;
+  *count = 0;
+  for (size_t i = 0; i < scene_.images.size(); ++i) {
+    const SceneImage& image = scene_.images[i];
+    if (image.removed || image.registered || failed.count(static_cast<int>(i)))
+      continue;
+    const size_t n = correspondences(static_cast<int>(i)).size();
+    if (n > *count) {
+      best = static_cast<int>(i);
+      *count = n;
+    }
+  }
+  return best;
 }
 
 std::vector<std::pair<int, int64_t>> IncrementalMapper::correspondences(
@@ -183,19 +191,8 @@ bool IncrementalMapper::try_initial_pair(int a, int b, const ImagePair& pair) {
   std::set<int> failed;
   bool third = false;
   for (int attempt = 0; attempt < 5 && !third; ++attempt) {
-    int best = -1;
     size_t best_count = 0;
-    for (size_t i = 0; i < scene_.images.size(); ++i) {
-      const SceneImage& image = scene_.images[i];
-      if (image.removed || image.registered ||
-          failed.count(static_cast<int>(i)))
-        continue;
-      const size_t count = correspondences(static_cast<int>(i)).size();
-      if (count > best_count) {
-        best = static_cast<int>(i);
-        best_count = count;
-      }
-    }
+    const int best = next_image(failed, &best_count);
     if (best < 0 || static_cast<int>(best_count) < options_.min_pose_inliers)
       break;
     if (register_image(best)) {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <random>
+#include <set>
 #include <vector>
 
 #include "arscout/engine/reconstruction.h"
@@ -31,6 +32,7 @@ class IncrementalMapper {
   std::vector<std::pair<int, int64_t>> correspondences(int image) const;
 
  private:
+  int next_image(const std::set<int>& failed, size_t* count) const;
   bool initialize();
   bool try_initial_pair(int a, int b, const ImagePair& pair);
   bool register_image(int image);
