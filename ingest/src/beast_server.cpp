@@ -394,8 +394,12 @@ struct Server::Impl {
   ServerOptions options;
   Metrics metrics;
   Api api;
-  asio::io_context ioc;
+  // Before the io_context, so it is destroyed after it: sessions still
+  // queued there when the server stops post their subscription's stop()
+  // to the workers as they go, and the pool must still exist to take it
+  // (dropping the task then stops the subscription before the store can go).
   asio::thread_pool workers;
+  asio::io_context ioc;
   tcp::acceptor acceptor;
   ssl::context tls_context;
   bool use_tls = false;
