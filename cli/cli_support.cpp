@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <atomic>
 #include <cctype>
-#include <filesystem>
 #include <csignal>
+#include <filesystem>
 #include <iostream>
 
 #include "arscout/db/errors.h"
