@@ -22,6 +22,9 @@ struct BundleOptions {
 
 struct BundleReport {
   int iterations = 0;
+  // sqrt(2 cost / residuals) of the solver's cost, which includes the
+  // robust loss and the priors: an RMS in pixels only when residuals are
+  // small (well below the loss scale), as after convergence.
   double initial_rms_px = 0;
   double final_rms_px = 0;
   int images = 0;
