@@ -257,8 +257,10 @@ std::vector<std::pair<const Pose*, const Pose*>> common_poses(
 CameraError camera_error(const Similarity& alignment, const Pose& estimated,
                          const Pose& truth) {
   const Pose aligned = transform_pose(alignment, estimated);
-  return {truth.name, (aligned.centre() - truth.centre()).norm(),
-          rotation_angle_deg(truth.R, aligned.R)};
+  const Eigen::Vector3d offset = aligned.centre() - truth.centre();
+  const Eigen::Vector3d in_camera = truth.R * offset;
+  return {truth.name, offset.norm(), rotation_angle_deg(truth.R, aligned.R),
+          std::abs(in_camera.z()), in_camera.head<2>().norm()};
 }
 
 void summarise_errors(PoseComparison& c) {

@@ -106,6 +106,10 @@ struct CameraError {
   std::string name;
   double centre_error = 0;        // ground-truth units
   double rotation_error_deg = 0;  // after alignment
+  // The centre error split in the true camera's frame: along its viewing
+  // axis (depth) and across it, which tell scale drift from lateral drift.
+  double along_axis_error = 0;
+  double across_axis_error = 0;
 };
 
 struct PoseComparison {

@@ -73,6 +73,8 @@ json compare_poses(const std::map<std::string, ev::Pose>& estimated,
   for (const auto& e : c.cameras) {
     cameras.push_back({{"name", e.name},
                        {"centre_error", e.centre_error},
+                       {"along_axis_error", e.along_axis_error},
+                       {"across_axis_error", e.across_axis_error},
                        {"rotation_error_deg", e.rotation_error_deg}});
   }
   return {{"truth", strecha ? "strecha" : "middlebury"},
@@ -123,8 +125,11 @@ std::string pad(const std::string& s, std::size_t width) {
 void print_cameras(const json& cameras) {
   for (const auto& cam : cameras) {
     std::cout << "    " << pad(cam["name"].get<std::string>(), 20) << "centre "
-              << pad(format_value(cam["centre_error"]), 12) << "rotation "
-              << format_value(cam["rotation_error_deg"]) << " deg\n";
+              << pad(format_value(cam["centre_error"]), 12) << "(along "
+              << pad(format_value(cam["along_axis_error"]), 12) << "across "
+              << pad(format_value(cam["across_axis_error"]), 12)
+              << ") rotation " << format_value(cam["rotation_error_deg"])
+              << " deg\n";
   }
 }
 

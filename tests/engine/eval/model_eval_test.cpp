@@ -270,6 +270,13 @@ TEST(CompareToGroundTruth, DisplacementsTheFitCannotAbsorbAreMeasuredExactly) {
   EXPECT_LT(c.max_rotation_error_deg, 1e-6);
   for (const auto& e : c.cameras) {
     EXPECT_NEAR(e.centre_error, moved.count(e.name) ? d : 0, 1e-9) << e.name;
+    // The split into the true camera's depth axis and its image plane.
+    const double along =
+        moved.count(e.name) ? std::abs(truth.at(e.name).R(2, 2)) * d : 0;
+    EXPECT_NEAR(e.along_axis_error, along, 1e-9) << e.name;
+    EXPECT_NEAR(std::hypot(e.along_axis_error, e.across_axis_error),
+                e.centre_error, 1e-9)
+        << e.name;
   }
 }
 
