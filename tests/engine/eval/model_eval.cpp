@@ -14,6 +14,7 @@
 #include <type_traits>
 #include <utility>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <GeographicLib/LocalCartesian.hpp>
@@ -155,15 +156,25 @@ Pose parse_image_header(const std::string& line, const LineReader& in) {
   return pose;
 }
 
-// X Y POINT3D_ID triples; only checked, the evaluation does not use them.
-void check_points2d(const std::string& line, const LineReader& in) {
+struct Point2D {
+  Eigen::Vector2d xy;
+  long long point3d_id = -1;  // -1: not a point's observation
+};
+
+// X Y POINT3D_ID triples.
+std::vector<Point2D> parse_points2d(const std::string& line,
+                                    const LineReader& in) {
   const auto f = split_ws(line);
   if (f.size() % 3 != 0) in.fail("POINTS2D line is not (X Y POINT3D_ID)*");
+  std::vector<Point2D> points;
   for (std::size_t i = 0; i < f.size(); i += 3) {
-    parse_double(f[i], in, "X");
-    parse_double(f[i + 1], in, "Y");
-    parse_number<long long>(f[i + 2], in, "POINT3D_ID");
+    Point2D p;
+    p.xy.x() = parse_double(f[i], in, "X");
+    p.xy.y() = parse_double(f[i + 1], in, "Y");
+    p.point3d_id = parse_number<long long>(f[i + 2], in, "POINT3D_ID");
+    points.push_back(p);
   }
+  return points;
 }
 
 // ---- Geo CSV ----
@@ -303,8 +314,9 @@ std::map<std::string, Pose> read_colmap_images_txt(const std::string& path) {
     Pose pose = parse_image_header(line, in);
     const int header_line = in.line_no();
     // The POINTS2D line follows directly and may be empty; a writer that
-    // drops the very last (empty) one still gives a usable file.
-    if (in.next_raw(line)) check_points2d(line, in);
+    // drops the very last (empty) one still gives a usable file. The
+    // keypoints are only checked here; read_colmap_tracks keeps them.
+    if (in.next_raw(line)) parse_points2d(line, in);
     if (poses.count(pose.name)) {
       throw std::runtime_error(path + ":" + std::to_string(header_line) +
                                ": duplicate image name '" + pose.name + "'");
@@ -312,6 +324,22 @@ std::map<std::string, Pose> read_colmap_images_txt(const std::string& path) {
     poses.emplace(pose.name, std::move(pose));
   }
   return poses;
+}
+
+Tracks read_colmap_tracks(const std::string& images_txt) {
+  LineReader in(images_txt);
+  Tracks tracks;
+  std::string line;
+  while (in.next_content(line)) {
+    const Pose pose = parse_image_header(line, in);
+    if (!in.next_raw(line)) break;
+    for (const Point2D& p : parse_points2d(line, in)) {
+      if (p.point3d_id < 0) continue;
+      tracks[static_cast<std::uint64_t>(p.point3d_id)].push_back(
+          {pose.name, p.xy});
+    }
+  }
+  return tracks;
 }
 
 std::map<int, ColmapCamera> read_colmap_cameras_txt(const std::string& path) {
@@ -540,6 +568,266 @@ double median_geo_distance(const std::map<std::string, GeoRow>& a,
   }
   if (matched) *matched = static_cast<int>(distances.size());
   return median(std::move(distances));
+}
+
+namespace {
+
+// ---- Observation fit ----
+
+// A camera in OpenCV's terms; every supported COLMAP model is a special case.
+struct Intrinsics {
+  double fx = 1, fy = 1, cx = 0, cy = 0;
+  double k1 = 0, k2 = 0, p1 = 0, p2 = 0, k3 = 0, k4 = 0, k5 = 0, k6 = 0;
+
+  // Exactly zero is how a writer says "none"; then no undistortion is done
+  // and the residuals are the photo's own pixels.
+  bool distorted() const {
+    return k1 != 0 || k2 != 0 || p1 != 0 || p2 != 0 || k3 != 0 || k4 != 0 ||
+           k5 != 0 || k6 != 0;
+  }
+};
+
+Intrinsics intrinsics_of(const ColmapCamera& cam) {
+  static const std::map<std::string, std::size_t> kParamCount{
+      {"SIMPLE_PINHOLE", 3}, {"PINHOLE", 4}, {"SIMPLE_RADIAL", 4},
+      {"RADIAL", 5},         {"OPENCV", 8},  {"FULL_OPENCV", 12}};
+  const std::string what = "fit_observations: camera " +
+                           std::to_string(cam.id) + " (" + cam.model + ")";
+  const auto count = kParamCount.find(cam.model);
+  if (count == kParamCount.end()) {
+    throw std::invalid_argument(what + ": unsupported model");
+  }
+  const auto& p = cam.params;
+  if (p.size() != count->second) {
+    throw std::invalid_argument(
+        what + ": expected " + std::to_string(count->second) +
+        " parameters, found " + std::to_string(p.size()));
+  }
+  Intrinsics k;
+  if (cam.model.starts_with("SIMPLE_") || cam.model == "RADIAL") {
+    // f cx cy [k1 [k2]]
+    k.fx = k.fy = p[0];
+    k.cx = p[1];
+    k.cy = p[2];
+    if (p.size() > 3) k.k1 = p[3];
+    if (p.size() > 4) k.k2 = p[4];
+    return k;
+  }
+  // fx fy cx cy [k1 k2 p1 p2 [k3 k4 k5 k6]]
+  double* const fields[] = {&k.fx, &k.fy, &k.cx, &k.cy, &k.k1, &k.k2,
+                            &k.p1, &k.p2, &k.k3, &k.k4, &k.k5, &k.k6};
+  for (std::size_t i = 0; i < p.size(); ++i) *fields[i] = p[i];
+  return k;
+}
+
+// Image name -> intrinsics, for the images that have a pose (others never
+// take part, so their cameras need not be supported).
+std::map<std::string, Intrinsics> intrinsics_by_image(
+    const std::map<std::string, Pose>& poses,
+    const std::map<int, ColmapCamera>& cameras,
+    const std::map<std::string, int>& camera_ids) {
+  std::map<std::string, Intrinsics> out;
+  for (const auto& [name, id] : camera_ids) {
+    if (!poses.count(name)) continue;
+    const auto cam = cameras.find(id);
+    if (cam == cameras.end()) {
+      throw std::invalid_argument("fit_observations: image '" + name +
+                                  "' has camera " + std::to_string(id) +
+                                  ", which is not among the cameras");
+    }
+    out.emplace(name, intrinsics_of(cam->second));
+  }
+  return out;
+}
+
+// OpenCV's distortion of a normalised point x: x * radial + tangential.
+struct DistortionTerms {
+  double radial = 1;
+  Eigen::Vector2d tangential = Eigen::Vector2d::Zero();
+};
+
+DistortionTerms distortion_at(const Intrinsics& k, const Eigen::Vector2d& x) {
+  const double r2 = x.squaredNorm(), r4 = r2 * r2, r6 = r4 * r2;
+  const double xy = x.x() * x.y();
+  DistortionTerms d;
+  d.radial = (1 + k.k1 * r2 + k.k2 * r4 + k.k3 * r6) /
+             (1 + k.k4 * r2 + k.k5 * r4 + k.k6 * r6);
+  d.tangential = {2 * k.p1 * xy + k.p2 * (r2 + 2 * x.x() * x.x()),
+                  k.p1 * (r2 + 2 * x.y() * x.y()) + 2 * k.p2 * xy};
+  return d;
+}
+
+// Inverts the distortion by fixed-point iteration, as cv::undistortPoints:
+// x = (x_d - tangential(x)) / radial(x). It converges linearly at the rate
+// of the distortion's slope, which is small for real lenses; 20 iterations
+// leave far less than a millipixel.
+Eigen::Vector2d undistort(const Intrinsics& k, const Eigen::Vector2d& xd) {
+  Eigen::Vector2d x = xd;
+  for (int i = 0; i < 20; ++i) {
+    const DistortionTerms d = distortion_at(k, x);
+    x = (xd - d.tangential) / d.radial;
+  }
+  return x;
+}
+
+// A keypoint in COLMAP pixels as an undistorted normalised point. COLMAP's
+// principal point follows the keypoints' convention, so no half-pixel shift.
+Eigen::Vector2d normalised(const Intrinsics& k, const Eigen::Vector2d& px) {
+  const Eigen::Vector2d xd((px.x() - k.cx) / k.fx, (px.y() - k.cy) / k.fy);
+  return k.distorted() ? undistort(k, xd) : xd;
+}
+
+// One observation ready to triangulate: the pose, the undistorted
+// normalised keypoint, and the focal lengths that turn normalised residuals
+// into pixels.
+struct View {
+  const std::string* image = nullptr;
+  const Pose* pose = nullptr;
+  Eigen::Vector2d x = Eigen::Vector2d::Zero();
+  Eigen::Vector2d focal = Eigen::Vector2d::Ones();
+};
+
+// The track's observations in images that have a pose.
+std::vector<View> views_of(const std::vector<TrackObservation>& track,
+                           const std::map<std::string, Pose>& poses,
+                           const std::map<std::string, Intrinsics>& by_image) {
+  std::vector<View> views;
+  for (const auto& obs : track) {
+    const auto pose = poses.find(obs.image);
+    if (pose == poses.end()) continue;
+    const auto k = by_image.find(obs.image);
+    if (k == by_image.end()) {
+      throw std::invalid_argument("fit_observations: image '" + obs.image +
+                                  "' has no camera id");
+    }
+    views.push_back({&obs.image, &pose->second, normalised(k->second, obs.xy),
+                     Eigen::Vector2d(k->second.fx, k->second.fy)});
+  }
+  return views;
+}
+
+// Linear N-view triangulation: each view gives the rows x P3 - P1 and
+// y P3 - P2 of A X = 0, with P = [R | t] (normalised coordinates keep A well
+// conditioned); X is A's right singular vector of least singular value.
+// False for a point at infinity.
+bool triangulate_dlt(const std::vector<View>& views, Eigen::Vector3d* X) {
+  Eigen::MatrixX4d A(2 * views.size(), 4);
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    Eigen::Matrix<double, 3, 4> P;
+    P << views[i].pose->R, views[i].pose->t;
+    const auto row = static_cast<Eigen::Index>(2 * i);
+    A.row(row) = views[i].x.x() * P.row(2) - P.row(0);
+    A.row(row + 1) = views[i].x.y() * P.row(2) - P.row(1);
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixX4d> svd(A, Eigen::ComputeThinV);
+  const Eigen::Vector4d h = svd.matrixV().col(3);
+  if (std::abs(h.w()) <= 1e-12 * h.head<3>().norm()) return false;
+  *X = h.head<3>() / h.w();
+  return X->allFinite();
+}
+
+// A view's reprojection residual in pixels and, if J is given, its
+// derivative with respect to the point.
+Eigen::Vector2d residual_px(const View& v, const Eigen::Vector3d& X,
+                            Eigen::Matrix<double, 2, 3>* J) {
+  const Eigen::Vector3d c = v.pose->R * X + v.pose->t;
+  const Eigen::Vector2d r = v.focal.cwiseProduct(c.head<2>() / c.z() - v.x);
+  if (J) {
+    Eigen::Matrix<double, 2, 3> d_projection;
+    d_projection << 1 / c.z(), 0, -c.x() / (c.z() * c.z()),  //
+        0, 1 / c.z(), -c.y() / (c.z() * c.z());
+    *J = v.focal.asDiagonal() * d_projection * v.pose->R;
+  }
+  return r;
+}
+
+// Gauss-Newton on the pixel residuals: the DLT minimises an algebraic error,
+// not the reprojection error the bundle adjustment minimised, and comparing
+// poses fairly needs each one's best point. From the DLT start it converges
+// in a few steps; 10 leave a margin.
+void refine_point(const std::vector<View>& views, Eigen::Vector3d* X) {
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    for (const View& v : views) {
+      Eigen::Matrix<double, 2, 3> J;
+      const Eigen::Vector2d r = residual_px(v, *X, &J);
+      H += J.transpose() * J;
+      g += J.transpose() * r;
+    }
+    const Eigen::Vector3d step = H.ldlt().solve(-g);
+    if (!step.allFinite()) return;
+    *X += step;
+    if (step.norm() <= 1e-12 * X->norm()) return;
+  }
+}
+
+bool in_front_of_all(const std::vector<View>& views, const Eigen::Vector3d& X) {
+  return std::all_of(views.begin(), views.end(), [&](const View& v) {
+    return (v.pose->R * X + v.pose->t).z() > 0;
+  });
+}
+
+// The point that best explains the views; false when it ends at infinity or
+// behind one of the cameras, where a residual would mean nothing.
+bool triangulate(const std::vector<View>& views, Eigen::Vector3d* X) {
+  if (!triangulate_dlt(views, X)) return false;
+  refine_point(views, X);
+  return X->allFinite() && in_front_of_all(views, *X);
+}
+
+// The q-quantile, interpolating linearly between order statistics.
+double quantile(std::vector<double> values, double q) {
+  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(values.begin(), values.end());
+  const double at = q * static_cast<double>(values.size() - 1);
+  const auto lower = static_cast<std::size_t>(at);
+  if (lower + 1 >= values.size()) return values.back();
+  const double frac = at - static_cast<double>(lower);
+  return values[lower] * (1 - frac) + values[lower + 1] * frac;
+}
+
+// The mean of min(residual, 4 px): 4 px is the reconstruction's outlier
+// threshold, so a few gross mismatches cannot dominate the mean.
+double mean_clipped(const std::vector<double>& values) {
+  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
+  double sum = 0;
+  for (double v : values) sum += std::min(v, 4.0);
+  return sum / static_cast<double>(values.size());
+}
+
+}  // namespace
+
+ObservationFit fit_observations(const std::map<std::string, Pose>& poses,
+                                const std::map<int, ColmapCamera>& cameras,
+                                const std::map<std::string, int>& camera_ids,
+                                const Tracks& tracks) {
+  const auto by_image = intrinsics_by_image(poses, cameras, camera_ids);
+  ObservationFit fit;
+  std::vector<double> all;
+  std::map<std::string, std::vector<double>> per_image;
+  for (const auto& entry : tracks) {
+    const auto views = views_of(entry.second, poses, by_image);
+    if (views.size() < 2) continue;
+    Eigen::Vector3d X;
+    if (!triangulate(views, &X)) {
+      ++fit.skipped_points;
+      continue;
+    }
+    ++fit.points;
+    for (const View& v : views) {
+      all.push_back(residual_px(v, X, nullptr).norm());
+      per_image[*v.image].push_back(all.back());
+    }
+  }
+  fit.observations = static_cast<int>(all.size());
+  fit.median_px = median(all);
+  fit.mean_clipped_px = mean_clipped(all);
+  fit.p90_px = quantile(all, 0.9);
+  for (auto& [name, residuals] : per_image) {
+    fit.image_median_px[name] = median(std::move(residuals));
+  }
+  return fit;
 }
 
 double median(std::vector<double> values) {

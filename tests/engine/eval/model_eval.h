@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -54,6 +55,18 @@ struct ColmapPoint3D {
   int track_length = 0;  // number of (IMAGE_ID, POINT2D_IDX) pairs
 };
 std::vector<ColmapPoint3D> read_colmap_points3d_txt(const std::string& path);
+
+// One observation of a 3D point: a keypoint in an image.
+struct TrackObservation {
+  std::string image;   // image name
+  Eigen::Vector2d xy;  // COLMAP pixels (pixel centres at +0.5)
+};
+// Point id -> its observations.
+using Tracks = std::map<std::uint64_t, std::vector<TrackObservation>>;
+
+// The tracks of images.txt: every POINTS2D entry with POINT3D_ID >= 0,
+// grouped by that id.
+Tracks read_colmap_tracks(const std::string& images_txt);
 
 // ---- Ground truth ----
 
@@ -141,6 +154,36 @@ PoseComparison compare_to_ground_truth(
 double median_geo_distance(const std::map<std::string, GeoRow>& a,
                            const std::map<std::string, GeoRow>& b,
                            int* matched);
+
+// ---- Observation fit: how well a set of poses explains the keypoints ----
+
+// Reprojection residuals in pixels of the re-triangulated tracks.
+struct ObservationFit {
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  int observations = 0;    // residuals measured
+  int points = 0;          // tracks re-triangulated and measured
+  int skipped_points = 0;  // tracks whose point ended behind a camera
+  double median_px = kNaN;
+  double mean_clipped_px = kNaN;                  // mean of min(residual, 4 px)
+  double p90_px = kNaN;                           // 90th percentile
+  std::map<std::string, double> image_median_px;  // by image name
+};
+
+// Re-triangulates every track with `poses` alone (DLT on undistorted
+// normalised coordinates, then Gauss-Newton on the reprojection error) and
+// measures what is left, so any set of poses in any frame (the model's own,
+// ground truth) can be judged against the same keypoints. Residuals are in
+// pixels of the undistorted image (the photo's, where there is no
+// distortion). Observations of
+// images without a pose drop out; a track needs two that remain. Intrinsics
+// come from `cameras` through `camera_ids` (image name -> CAMERA_ID);
+// supported models: SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV,
+// FULL_OPENCV. Throws std::invalid_argument for a posed image in a track
+// without a camera, or a camera of another model or parameter count.
+ObservationFit fit_observations(const std::map<std::string, Pose>& poses,
+                                const std::map<int, ColmapCamera>& cameras,
+                                const std::map<std::string, int>& camera_ids,
+                                const Tracks& tracks);
 
 // Median of the values (mean of the middle two for an even count); NaN for
 // none.

@@ -6,6 +6,7 @@
 #include <iostream>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -17,6 +18,7 @@ namespace fs = std::filesystem;
 // Ordered, so the output reads model, poses, geo as they are added.
 using json = nlohmann::ordered_json;
 namespace ev = arscout::eval;
+using Poses = std::map<std::string, ev::Pose>;
 
 namespace {
 
@@ -27,7 +29,12 @@ struct Options {
   std::string geo_csv;
   std::string geo_truth;
   bool as_json = false;
+  bool observation_fit = false;
 };
+
+bool has_truth(const Options& opt) {
+  return !opt.strecha_gt.empty() || !opt.middlebury_par.empty();
+}
 
 // What the model folder holds; cameras.txt and points3D.txt are optional so
 // that a bare images.txt (e.g. ground truth rewritten) can be evaluated.
@@ -61,13 +68,15 @@ std::string strecha_camera_dir(const std::string& dir) {
   return fs::is_directory(nested) ? nested.string() : dir;
 }
 
-json compare_poses(const std::map<std::string, ev::Pose>& estimated,
+Poses read_truth(const Options& opt) {
+  return !opt.strecha_gt.empty()
+             ? ev::read_strecha_ground_truth(strecha_camera_dir(opt.strecha_gt))
+             : ev::read_middlebury_par(opt.middlebury_par);
+}
+
+json compare_poses(const Poses& estimated, const Poses& truth,
                    const Options& opt) {
   const bool strecha = !opt.strecha_gt.empty();
-  const auto truth =
-      strecha
-          ? ev::read_strecha_ground_truth(strecha_camera_dir(opt.strecha_gt))
-          : ev::read_middlebury_par(opt.middlebury_par);
   const ev::PoseComparison c = ev::compare_to_ground_truth(estimated, truth);
   json cameras = json::array();
   for (const auto& e : c.cameras) {
@@ -96,17 +105,52 @@ json compare_geo(const Options& opt) {
   return {{"matched", matched}, {"median_distance_m", d}};
 }
 
+json fit_figures(const ev::ObservationFit& fit) {
+  return {
+      {"observations", fit.observations},       {"points", fit.points},
+      {"skipped_points", fit.skipped_points},   {"median_px", fit.median_px},
+      {"mean_clipped_px", fit.mean_clipped_px}, {"p90_px", fit.p90_px},
+      {"image_median_px", fit.image_median_px}};
+}
+
+// The model's tracks re-triangulated with its own poses and, when given,
+// with the true ones: if the estimate explains the keypoints better than the
+// truth does, what pose error remains is set by the keypoints or by the
+// ground truth, not by the optimiser.
+json observation_fit(const std::string& dir, const Poses& estimated,
+                     const Poses& truth) {
+  const auto cameras =
+      ev::read_colmap_cameras_txt((fs::path(dir) / "cameras.txt").string());
+  const auto tracks =
+      ev::read_colmap_tracks((fs::path(dir) / "images.txt").string());
+  // The true poses carry no camera ids; the images are the model's.
+  std::map<std::string, int> camera_ids;
+  for (const auto& [name, pose] : estimated) camera_ids[name] = pose.camera_id;
+  json out = {{"estimated", fit_figures(ev::fit_observations(
+                                estimated, cameras, camera_ids, tracks))}};
+  if (!truth.empty()) {
+    out["ground_truth"] =
+        fit_figures(ev::fit_observations(truth, cameras, camera_ids, tracks));
+  }
+  return out;
+}
+
 json evaluate(const Options& opt) {
   json out = json::object();
+  Poses estimated, truth;
   if (!opt.model.empty()) {
     const auto images_txt = (fs::path(opt.model) / "images.txt").string();
-    const auto estimated = ev::read_colmap_images_txt(images_txt);
+    estimated = ev::read_colmap_images_txt(images_txt);
     out["model"] = summarise_model(opt.model, estimated);
-    if (!opt.strecha_gt.empty() || !opt.middlebury_par.empty()) {
-      out["poses"] = compare_poses(estimated, opt);
+    if (has_truth(opt)) {
+      truth = read_truth(opt);
+      out["poses"] = compare_poses(estimated, truth, opt);
     }
   }
   if (!opt.geo_csv.empty()) out["geo"] = compare_geo(opt);
+  if (opt.observation_fit) {
+    out["observation_fit"] = observation_fit(opt.model, estimated, truth);
+  }
   return out;
 }
 
@@ -133,9 +177,54 @@ void print_cameras(const json& cameras) {
   }
 }
 
-// One block per section: "key  value" rows, then per-camera errors.
+// Each image's median residual, one column per set of poses.
+void print_image_medians(const json& fit) {
+  std::set<std::string> names;
+  for (const auto& [poses, figures] : fit.items()) {
+    for (const auto& [name, m] : figures.at("image_median_px").items()) {
+      names.insert(name);
+    }
+  }
+  std::cout << "  " << pad("image median_px", 18);
+  for (const auto& [poses, figures] : fit.items()) std::cout << pad(poses, 17);
+  std::cout << "\n";
+  for (const auto& name : names) {
+    std::cout << "    " << pad(name, 16);
+    for (const auto& [poses, figures] : fit.items()) {
+      const json& medians = figures.at("image_median_px");
+      std::cout << pad(
+          medians.contains(name) ? format_value(medians.at(name)) : "-", 17);
+    }
+    std::cout << "\n";
+  }
+}
+
+// A row of figures per set of poses, then the per-image medians.
+void print_observation_fit(const json& fit) {
+  static constexpr const char* kFigures[] = {"observations",    "points",
+                                             "skipped_points",  "median_px",
+                                             "mean_clipped_px", "p90_px"};
+  std::cout << "observation_fit\n  " << pad("poses", 18);
+  for (const char* figure : kFigures) std::cout << pad(figure, 17);
+  std::cout << "\n";
+  for (const auto& [poses, figures] : fit.items()) {
+    std::cout << "  " << pad(poses, 18);
+    for (const char* figure : kFigures) {
+      std::cout << pad(format_value(figures.at(figure)), 17);
+    }
+    std::cout << "\n";
+  }
+  print_image_medians(fit);
+}
+
+// One block per section: "key  value" rows, then per-camera errors; the
+// observation fit is a table of its own.
 void print_table(const json& result) {
   for (const auto& [section, fields] : result.items()) {
+    if (section == "observation_fit") {
+      print_observation_fit(fields);
+      continue;
+    }
     std::cout << section << "\n";
     for (const auto& [key, value] : fields.items()) {
       if (!value.is_array()) {
@@ -168,6 +257,9 @@ void add_options(CLI::App& app, Options& opt) {
   geo->needs(truth);
   truth->needs(geo);
   app.add_flag("--json", opt.as_json, "print one JSON object");
+  app.add_flag("--observation-fit", opt.observation_fit,
+               "re-triangulate the model's tracks with its poses (and the "
+               "true ones) and report the reprojection residuals");
 }
 
 // Cross-option rules CLI11 cannot say directly.
@@ -178,6 +270,9 @@ std::optional<std::string> usage_problem(const Options& opt) {
   if (opt.model.empty() &&
       (!opt.strecha_gt.empty() || !opt.middlebury_par.empty())) {
     return "--strecha-gt and --middlebury-par need --model";
+  }
+  if (opt.model.empty() && opt.observation_fit) {
+    return "--observation-fit needs --model";
   }
   return std::nullopt;
 }
