@@ -1,7 +1,8 @@
 // `arscout reconstruct`: the reconstruction core over a folder of photos,
 // fed one at a time in file-name order as the engine service will feed it,
 // with a progress line per photo; writes the COLMAP text model, the camera
-// table and a PLY of the sparse points.
+// table and a PLY of the sparse points, and with --dense grows the dense
+// cloud after every photo and writes it too.
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -9,13 +10,16 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 
 #include "arscout/db/errors.h"
 #include "arscout/engine/camera.h"
+#include "arscout/engine/dense_reconstruction.h"
 #include "arscout/engine/image_size.h"
 #include "arscout/engine/model_io.h"
+#include "arscout/engine/ply.h"
 #include "arscout/engine/reconstruction.h"
 #include "arscout/ingest/gps.h"
 #include "cli_support.h"
@@ -38,6 +42,8 @@ struct ReconstructArgs {
   std::string save_state;
   int limit = 0;
   engine::ReconstructionOptions options;
+  bool dense = false;
+  engine::DenseOptions dense_options;
 };
 
 std::string read_file(const std::string& path) {
@@ -154,6 +160,33 @@ void print_progress(int n, int total, const engine::AddResult& r) {
   std::cout << std::endl;
 }
 
+void print_dense_progress(const engine::DenseUpdate& u) {
+  if (u.new_depth_maps.empty() && !u.refused) return;
+  std::cout << std::fixed << std::setprecision(2)
+            << "      dense: " << u.new_depth_maps.size() << " new depth map"
+            << (u.new_depth_maps.size() == 1 ? "" : "s");
+  for (const auto& id : u.new_depth_maps) std::cout << ' ' << id;
+  if (!u.skipped.empty())
+    std::cout << "  (waiting: " << u.skipped.size() << ")";
+  std::cout << "  points " << u.points << (u.refused ? " (re-fused)" : "")
+            << "  | sweep " << u.sweep_s << " filter " << u.filter_s
+            << " fusion " << u.fusion_s << " s" << std::endl;
+}
+
+// Photos by capture id (the file name) for the dense stage, which decodes
+// them again at its own resolution.
+engine::ImageSource folder_images(const std::string& dir) {
+  return [dir](const std::string& id) {
+    return read_file((fs::path(dir) / id).string());
+  };
+}
+
+// What `arscout depth` needs to find the photos again.
+void write_sources(const ReconstructArgs& a) {
+  std::ofstream out(a.out + "/sources.txt");
+  out << "images " << fs::absolute(a.images).string() << "\n";
+}
+
 engine::Reconstruction start(const ReconstructArgs& a) {
   if (a.resume.empty()) return engine::Reconstruction(a.options);
   try {
@@ -164,9 +197,18 @@ engine::Reconstruction start(const ReconstructArgs& a) {
 }
 
 void write_outputs(const engine::Reconstruction& site,
+                   const engine::DenseReconstruction* dense,
                    const ReconstructArgs& a) {
   const engine::Model model = site.model();
   fs::create_directories(a.out);
+  write_sources(a);
+  if (dense) {
+    const auto points = dense->points();
+    engine::write_ply(a.out + "/dense.ply", points);
+    std::cout << "dense cloud: " << points.size() << " points from "
+              << dense->filtered_depth_maps().size() << " depth maps, wrote "
+              << a.out << "/dense.ply" << std::endl;
+  }
   engine::write_colmap_text(model, a.out + "/sparse");
   engine::write_geo_csv(model, a.out + "/cameras_geo.csv");
   engine::write_points_ply(model, a.out + "/sparse.ply");
@@ -183,6 +225,9 @@ int run_reconstruct(const ReconstructArgs& a) {
   const std::vector<std::string> paths = list_image_files(a.images);
   InputSource source(a);
   engine::Reconstruction site = start(a);
+  std::optional<engine::DenseReconstruction> dense;
+  if (a.dense) dense.emplace(a.dense_options);
+  const engine::ImageSource images = folder_images(a.images);
   std::set<std::string> done;
   for (const auto& state : site.captures()) done.insert(state.id);
   const auto begin = std::chrono::steady_clock::now();
@@ -195,8 +240,10 @@ int run_reconstruct(const ReconstructArgs& a) {
     if (stop_requested()) break;
     engine::CaptureInput input = source.load(path);
     try {
-      print_progress(n, static_cast<int>(paths.size()),
-                     site.add_capture(input));
+      const engine::AddResult result = site.add_capture(input);
+      print_progress(n, static_cast<int>(paths.size()), result);
+      if (dense && site.registered_count() > 0)
+        print_dense_progress(dense->update(site.model(), images));
     } catch (const std::invalid_argument& e) {
       std::cout << "[" << n << "/" << paths.size() << "] " << input.id
                 << "  rejected (" << e.what() << ")" << std::endl;
@@ -208,7 +255,8 @@ int run_reconstruct(const ReconstructArgs& a) {
           .count();
   std::cout << "added " << added << " images in " << std::setprecision(2)
             << std::fixed << seconds << " s" << std::defaultfloat << std::endl;
-  write_outputs(site, a);
+  if (dense) print_dense_progress(dense->update(site.model(), images));
+  write_outputs(site, dense ? &*dense : nullptr, a);
   if (!a.save_state.empty()) {
     std::ofstream out(a.save_state, std::ios::binary);
     const std::string bytes = site.serialize();
@@ -226,8 +274,8 @@ void add_reconstruct_command(CLI::App& app) {
                          "incremental structure from motion over a folder of "
                          "photos, fed one at a time in "
                          "file-name order; writes OUT/sparse/ (COLMAP text "
-                         "model), OUT/cameras_geo.csv and "
-                         "OUT/sparse.ply");
+                         "model), OUT/cameras_geo.csv, OUT/sparse.ply and, "
+                         "with --dense, OUT/dense.ply");
   cmd->add_option("--images", args.images,
                   "folder of photos (.jpg .jpeg .png ...)")
       ->required()
@@ -261,6 +309,16 @@ void add_reconstruct_command(CLI::App& app) {
   cmd->add_flag("--deterministic", args.options.deterministic,
                 "fixed seeds and single-threaded solvers: identical output for "
                 "identical input");
+  cmd->add_flag("--dense", args.dense,
+                "also grow the dense cloud (plane-sweep depth maps, fused) "
+                "after every photo and write OUT/dense.ply");
+  cmd->add_option("--dense-long-side", args.dense_options.long_side,
+                  "dense working resolution, long side in px")
+      ->capture_default_str()
+      ->check(CLI::Range(100, 10000));
+  cmd->add_flag("--cuda", args.dense_options.sweep.use_cuda,
+                "sweep on the GPU when this build has the CUDA path and a "
+                "device (else the CPU path runs)");
   cmd->add_option("--limit", args.limit, "add at most N new photos, then stop")
       ->check(CLI::PositiveNumber);
   cmd->add_option(

@@ -1,0 +1,139 @@
+// Depth maps checked against each other, and the voxel grid they are fused
+// into.
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+#include "arscout/engine/dense.h"
+
+namespace arscout::engine {
+namespace {
+
+// Where pixel (x, y) of `map` at depth z lands in `other`: pixel and depth
+// there. False when behind `other` or outside it.
+bool project_into(const DepthMap& map, const DepthMap& other, int x, int y,
+                  float z, Eigen::Vector2d* pixel, double* depth) {
+  const Eigen::Vector3d X = map.unproject(x, y, z);
+  const Eigen::Vector3d c = other.R * X + other.t;
+  if (c.z() <= 0) return false;
+  const Eigen::Vector3d p = other.K * c;
+  *pixel = p.head<2>() / p.z();
+  *depth = c.z();
+  return pixel->x() >= -0.5 && pixel->y() >= -0.5 &&
+         pixel->x() < other.depth.cols - 0.5 &&
+         pixel->y() < other.depth.rows - 0.5;
+}
+
+float depth_at(const DepthMap& map, const Eigen::Vector2d& pixel) {
+  const int u = static_cast<int>(std::lround(pixel.x()));
+  const int v = static_cast<int>(std::lround(pixel.y()));
+  if (u < 0 || v < 0 || u >= map.depth.cols || v >= map.depth.rows) return 0;
+  return map.depth.at<float>(v, u);
+}
+
+uint64_t voxel_key(const Eigen::Vector3d& xyz, double size) {
+  // 21 bits per axis: +-1 million voxels around the origin, far more than a
+  // site needs at any sensible voxel size.
+  auto axis = [size](double v) {
+    const int64_t i = static_cast<int64_t>(std::floor(v / size));
+    return static_cast<uint64_t>(
+        std::clamp<int64_t>(i + (1 << 20), 0, (1 << 21) - 1));
+  };
+  return axis(xyz.x()) << 42 | axis(xyz.y()) << 21 | axis(xyz.z());
+}
+
+}  // namespace
+
+cv::Mat agreement_mask(const DepthMap& map, const DepthMap& other,
+                       const ConsistencyOptions& options) {
+  cv::Mat agrees = cv::Mat::zeros(map.depth.size(), CV_8U);
+  const double max_px_sq =
+      options.max_reprojection_px * options.max_reprojection_px;
+  for (int y = 0; y < map.depth.rows; ++y) {
+    const float* depth = map.depth.ptr<float>(y);
+    uint8_t* out = agrees.ptr<uint8_t>(y);
+    for (int x = 0; x < map.depth.cols; ++x) {
+      if (depth[x] <= 0) continue;
+      Eigen::Vector2d pixel;
+      double predicted = 0;
+      if (!project_into(map, other, x, y, depth[x], &pixel, &predicted))
+        continue;
+      const float seen = depth_at(other, pixel);
+      if (seen <= 0 ||
+          std::abs(seen - predicted) > options.max_relative_depth * seen)
+        continue;
+      // Backward: the other map's point on the same ray, back in this map.
+      const Eigen::Vector3d X = other.unproject(pixel.x(), pixel.y(), seen);
+      const Eigen::Vector3d c = map.R * X + map.t;
+      if (c.z() <= 0) continue;
+      const Eigen::Vector3d p = map.K * c;
+      const Eigen::Vector2d back = p.head<2>() / p.z();
+      if ((back - Eigen::Vector2d(x, y)).squaredNorm() <= max_px_sq)
+        out[x] = 255;
+    }
+  }
+  return agrees;
+}
+
+DepthAgreement compare_depth_maps(const DepthMap& a, const DepthMap& b) {
+  std::vector<double> differences;
+  for (int y = 0; y < a.depth.rows; ++y) {
+    for (int x = 0; x < a.depth.cols; ++x) {
+      const float z = a.depth.at<float>(y, x);
+      if (z <= 0) continue;
+      Eigen::Vector2d pixel;
+      double predicted = 0;
+      if (!project_into(a, b, x, y, z, &pixel, &predicted)) continue;
+      const float seen = depth_at(b, pixel);
+      if (seen > 0) differences.push_back(std::abs(predicted - seen) / seen);
+    }
+  }
+  DepthAgreement result;
+  result.compared = static_cast<int>(differences.size());
+  if (!differences.empty()) {
+    auto middle = differences.begin() + differences.size() / 2;
+    std::nth_element(differences.begin(), middle, differences.end());
+    result.median_relative_difference = *middle;
+  }
+  return result;
+}
+
+VoxelCloud::VoxelCloud(double voxel_size) : voxel_size_(voxel_size) {
+  if (!(voxel_size > 0))
+    throw std::invalid_argument("VoxelCloud: voxel size must be positive");
+}
+
+void VoxelCloud::add(const Eigen::Vector3d& xyz,
+                     const std::array<uint8_t, 3>& rgb) {
+  const uint64_t key = voxel_key(xyz, voxel_size_);
+  auto [it, inserted] =
+      index_.try_emplace(key, static_cast<uint32_t>(voxels_.size()));
+  if (inserted) voxels_.emplace_back();
+  Voxel& voxel = voxels_[it->second];
+  voxel.sum += xyz;
+  for (int c = 0; c < 3; ++c) voxel.rgb_sum[c] += rgb[c];
+  ++voxel.count;
+}
+
+std::vector<ColoredPoint> VoxelCloud::points() const {
+  std::vector<ColoredPoint> points;
+  points.reserve(voxels_.size());
+  for (const Voxel& voxel : voxels_) {
+    const Eigen::Vector3d mean = voxel.sum / voxel.count;
+    ColoredPoint p;
+    p.x = static_cast<float>(mean.x());
+    p.y = static_cast<float>(mean.y());
+    p.z = static_cast<float>(mean.z());
+    p.r = static_cast<uint8_t>((voxel.rgb_sum[0] + voxel.count / 2) /
+                               voxel.count);
+    p.g = static_cast<uint8_t>((voxel.rgb_sum[1] + voxel.count / 2) /
+                               voxel.count);
+    p.b = static_cast<uint8_t>((voxel.rgb_sum[2] + voxel.count / 2) /
+                               voxel.count);
+    points.push_back(p);
+  }
+  return points;
+}
+
+}  // namespace arscout::engine

@@ -1,0 +1,432 @@
+#include "arscout/engine/dense_reconstruction.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <list>
+#include <set>
+#include <stdexcept>
+#include <unordered_map>
+
+#include <Eigen/Dense>
+
+#include "image_loader.h"
+
+namespace arscout::engine {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+Eigen::Matrix3d rotation_of(const ModelImage& image) {
+  const auto& q = image.qvec;
+  return Eigen::Quaterniond(q[0], q[1], q[2], q[3])
+      .normalized()
+      .toRotationMatrix();
+}
+
+Eigen::Vector3d translation_of(const ModelImage& image) {
+  return {image.tvec[0], image.tvec[1], image.tvec[2]};
+}
+
+Eigen::Vector3d centre_of(const ModelImage& image) {
+  return -rotation_of(image).transpose() * translation_of(image);
+}
+
+// Which images see which points, for neighbour choice and depth ranges.
+class Covisibility {
+ public:
+  explicit Covisibility(const Model& model) : model_(model) {
+    for (size_t i = 0; i < model.points.size(); ++i)
+      point_index_[model.points[i].id] = i;
+  }
+
+  std::vector<const ModelPoint*> points_of(int image) const {
+    std::vector<const ModelPoint*> points;
+    for (int64_t id : model_.images[image].point_ids) {
+      if (id < 0) continue;
+      auto it = point_index_.find(id);
+      if (it != point_index_.end())
+        points.push_back(&model_.points[it->second]);
+    }
+    return points;
+  }
+
+  // Images sharing points with `image`: count of shared points, and the
+  // median angle between the two cameras' rays to them.
+  struct Shared {
+    int image = 0;
+    int count = 0;
+    double median_angle_deg = 0;
+  };
+  std::vector<Shared> shared_with(int image) const {
+    std::map<int, std::vector<double>> angles;
+    const Eigen::Vector3d c = centre_of(model_.images[image]);
+    for (const ModelPoint* point : points_of(image)) {
+      const Eigen::Vector3d X(point->xyz[0], point->xyz[1], point->xyz[2]);
+      for (const auto& [other, keypoint] : point->track) {
+        if (other == image) continue;
+        const Eigen::Vector3d o = centre_of(model_.images[other]);
+        const double cosine = (c - X).normalized().dot((o - X).normalized());
+        angles[other].push_back(std::acos(std::clamp(cosine, -1.0, 1.0)) * 180 /
+                                M_PI);
+      }
+    }
+    std::vector<Shared> result;
+    for (auto& [other, list] : angles) {
+      auto middle = list.begin() + list.size() / 2;
+      std::nth_element(list.begin(), middle, list.end());
+      result.push_back({other, static_cast<int>(list.size()), *middle});
+    }
+    std::sort(
+        result.begin(), result.end(), [](const Shared& a, const Shared& b) {
+          return a.count != b.count ? a.count > b.count : a.image < b.image;
+        });
+    return result;
+  }
+
+ private:
+  const Model& model_;
+  std::unordered_map<int64_t, size_t> point_index_;
+};
+
+constexpr int kMinSharedPoints = 20;
+
+// The best-connected images whose baseline angle is in range; failing
+// those, the best-connected with at least half the minimum angle.
+std::vector<int> choose_neighbours(const Covisibility& covisibility, int key,
+                                   const DenseOptions& options) {
+  const auto shared = covisibility.shared_with(key);
+  std::vector<int> chosen;
+  for (const auto& s : shared) {
+    if (static_cast<int>(chosen.size()) >= options.neighbours) break;
+    if (s.count >= kMinSharedPoints &&
+        s.median_angle_deg >= options.min_angle_deg &&
+        s.median_angle_deg <= options.max_angle_deg)
+      chosen.push_back(s.image);
+  }
+  for (const auto& s : shared) {
+    if (static_cast<int>(chosen.size()) >= options.neighbours) break;
+    if (s.count >= kMinSharedPoints &&
+        s.median_angle_deg >= options.min_angle_deg / 2 &&
+        std::find(chosen.begin(), chosen.end(), s.image) == chosen.end())
+      chosen.push_back(s.image);
+  }
+  return chosen;
+}
+
+DenseView load_view(const Model& model, int index, const ImageSource& images,
+                    const Covisibility& covisibility, int long_side) {
+  const ModelImage& image = model.images[index];
+  const CameraIntrinsics& camera = model.cameras.at(image.camera).intrinsics;
+  const WorkingImage working = decode_working_image(
+      images(image.id), long_side, cv::Size(camera.width, camera.height));
+  DenseView view;
+  view.id = image.id;
+  const Undistorter undistorter(camera, working.scale, working.color.size());
+  view.bgr = undistorter.apply(working.color);
+  const cv::Matx33d k = working_k(camera, working.scale);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) view.K(r, c) = k(r, c);
+  view.R = rotation_of(image);
+  view.t = translation_of(image);
+  for (const ModelPoint* point : covisibility.points_of(index))
+    view.sparse_points.emplace_back(point->xyz[0], point->xyz[1],
+                                    point->xyz[2]);
+  return view;
+}
+
+// The decoded views most recently used, so that a neighbour swept against
+// by several new key views is decoded once.
+class ViewCache {
+ public:
+  explicit ViewCache(size_t capacity) : capacity_(capacity) {}
+
+  const DenseView& get(const Model& model, int index, const ImageSource& images,
+                       const Covisibility& covisibility, int long_side) {
+    const std::string& id = model.images[index].id;
+    for (auto it = views_.begin(); it != views_.end(); ++it) {
+      if (it->id != id) continue;
+      views_.splice(views_.begin(), views_, it);
+      // Poses and points move with every adjustment: refresh them.
+      DenseView& view = views_.front();
+      view.R = rotation_of(model.images[index]);
+      view.t = translation_of(model.images[index]);
+      view.sparse_points.clear();
+      for (const ModelPoint* p : covisibility.points_of(index))
+        view.sparse_points.emplace_back(p->xyz[0], p->xyz[1], p->xyz[2]);
+      return view;
+    }
+    views_.push_front(load_view(model, index, images, covisibility, long_side));
+    if (views_.size() > capacity_) views_.pop_back();
+    return views_.front();
+  }
+
+  void forget(const std::string& id) {
+    views_.remove_if([&](const DenseView& v) { return v.id == id; });
+  }
+
+ private:
+  size_t capacity_;
+  std::list<DenseView> views_;
+};
+
+double median_depth(const DepthMap& map) {
+  std::vector<float> depths;
+  for (int y = 0; y < map.depth.rows; ++y)
+    for (int x = 0; x < map.depth.cols; ++x)
+      if (map.depth.at<float>(y, x) > 0)
+        depths.push_back(map.depth.at<float>(y, x));
+  if (depths.empty()) return 0;
+  auto middle = depths.begin() + depths.size() / 2;
+  std::nth_element(depths.begin(), middle, depths.end());
+  return *middle;
+}
+
+}  // namespace
+
+struct DenseReconstruction::Impl {
+  struct Entry {
+    DepthMap map;    // as swept; R, t follow the model
+    cv::Mat colour;  // the key view's pixels, for the points' colours
+    cv::Mat agreed;  // CV_8U: another map agrees
+    cv::Mat fused;   // CV_8U: already in the cloud
+    Eigen::Vector3d fused_centre = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d fused_R = Eigen::Matrix3d::Identity();
+  };
+
+  explicit Impl(DenseOptions o) : options(std::move(o)), cache(32) {}
+
+  DenseOptions options;
+  ViewCache cache;
+  std::map<std::string, Entry> entries;
+  std::vector<std::string> order;  // of sweeping
+  std::unique_ptr<VoxelCloud> cloud;
+
+  bool drop_withdrawn(const std::map<std::string, int>& index);
+  bool follow_poses(const Model& model,
+                    const std::map<std::string, int>& index);
+  void sweep(const Model& model, int key, const ImageSource& images,
+             const Covisibility& covisibility, DenseUpdate* update);
+  void filter(const std::string& id, const Model& model,
+              const std::map<std::string, int>& index,
+              const Covisibility& covisibility);
+  void fuse(bool rebuild);
+};
+
+bool DenseReconstruction::Impl::drop_withdrawn(
+    const std::map<std::string, int>& index) {
+  bool dropped = false;
+  for (auto it = entries.begin(); it != entries.end();) {
+    if (index.count(it->first)) {
+      ++it;
+      continue;
+    }
+    cache.forget(it->first);
+    order.erase(std::find(order.begin(), order.end(), it->first));
+    it = entries.erase(it);
+    dropped = true;
+  }
+  return dropped;
+}
+
+// Moves every map to its camera's current pose; true when one moved enough
+// that the fused cloud should be rebuilt.
+bool DenseReconstruction::Impl::follow_poses(
+    const Model& model, const std::map<std::string, int>& index) {
+  bool moved = false;
+  for (auto& [id, entry] : entries) {
+    const ModelImage& image = model.images[index.at(id)];
+    entry.map.R = rotation_of(image);
+    entry.map.t = translation_of(image);
+    if (!cloud) continue;
+    const double depth = median_depth(entry.map);
+    const double allowed = options.refuse_fraction * cloud->voxel_size();
+    const Eigen::AngleAxisd turn(entry.map.R * entry.fused_R.transpose());
+    if ((centre_of(image) - entry.fused_centre).norm() > allowed ||
+        std::abs(turn.angle()) * depth > allowed)
+      moved = true;
+  }
+  return moved;
+}
+
+void DenseReconstruction::Impl::sweep(const Model& model, int key,
+                                      const ImageSource& images,
+                                      const Covisibility& covisibility,
+                                      DenseUpdate* update) {
+  const std::vector<int> neighbour_indices =
+      choose_neighbours(covisibility, key, options);
+  const std::string& id = model.images[key].id;
+  if (neighbour_indices.empty()) {
+    update->skipped.push_back(id);
+    return;
+  }
+  const DenseView key_view =
+      cache.get(model, key, images, covisibility, options.long_side);
+  std::vector<DenseView> neighbour_views;
+  for (int n : neighbour_indices)
+    neighbour_views.push_back(
+        cache.get(model, n, images, covisibility, options.long_side));
+  std::vector<const DenseView*> neighbours;
+  for (const DenseView& v : neighbour_views) neighbours.push_back(&v);
+  Entry entry;
+  entry.map = sweep_planes(key_view, neighbours, options.sweep);
+  entry.colour = key_view.bgr;
+  entry.agreed = cv::Mat::zeros(entry.map.depth.size(), CV_8U);
+  entry.fused = entry.agreed.clone();
+  entries[id] = std::move(entry);
+  order.push_back(id);
+  update->new_depth_maps.push_back(id);
+}
+
+void DenseReconstruction::Impl::filter(const std::string& id,
+                                       const Model& model,
+                                       const std::map<std::string, int>& index,
+                                       const Covisibility& covisibility) {
+  Entry& entry = entries.at(id);
+  int partners = 0;
+  for (const auto& shared : covisibility.shared_with(index.at(id))) {
+    if (partners >= options.consistency_partners) break;
+    auto other = entries.find(model.images[shared.image].id);
+    if (other == entries.end()) continue;
+    ++partners;
+    cv::bitwise_or(
+        entry.agreed,
+        agreement_mask(entry.map, other->second.map, options.consistency),
+        entry.agreed);
+    cv::bitwise_or(
+        other->second.agreed,
+        agreement_mask(other->second.map, entry.map, options.consistency),
+        other->second.agreed);
+  }
+}
+
+void DenseReconstruction::Impl::fuse(bool rebuild) {
+  if (!cloud) {
+    double size = options.voxel_size;
+    for (const std::string& id : order) {
+      if (size > 0) break;
+      const Entry& e = entries.at(id);
+      const double depth = median_depth(e.map);
+      if (depth > 0) size = 1.5 * depth / e.map.K(0, 0);
+    }
+    if (!(size > 0)) return;
+    cloud = std::make_unique<VoxelCloud>(size);
+  }
+  if (rebuild) {
+    cloud->clear();
+    for (auto& [id, entry] : entries) entry.fused.setTo(0);
+  }
+  for (const std::string& id : order) {
+    Entry& entry = entries.at(id);
+    const DepthMap& map = entry.map;
+    for (int y = 0; y < map.depth.rows; ++y) {
+      const float* depth = map.depth.ptr<float>(y);
+      const uint8_t* agreed = entry.agreed.ptr<uint8_t>(y);
+      uint8_t* fused = entry.fused.ptr<uint8_t>(y);
+      const cv::Vec3b* bgr = entry.colour.ptr<cv::Vec3b>(y);
+      for (int x = 0; x < map.depth.cols; ++x) {
+        if (!agreed[x] || fused[x] || depth[x] <= 0) continue;
+        cloud->add(map.unproject(x, y, depth[x]),
+                   {bgr[x][2], bgr[x][1], bgr[x][0]});
+        fused[x] = 255;
+      }
+    }
+    entry.fused_centre = -map.R.transpose() * map.t;
+    entry.fused_R = map.R;
+  }
+}
+
+DenseReconstruction::DenseReconstruction(DenseOptions options)
+    : impl_(std::make_unique<Impl>(std::move(options))) {}
+DenseReconstruction::~DenseReconstruction() = default;
+DenseReconstruction::DenseReconstruction(DenseReconstruction&&) noexcept =
+    default;
+DenseReconstruction& DenseReconstruction::operator=(
+    DenseReconstruction&&) noexcept = default;
+
+DenseUpdate DenseReconstruction::update(
+    const Model& model, const ImageSource& images,
+    const std::function<void(const std::string&)>& progress) {
+  DenseUpdate update;
+  std::map<std::string, int> index;
+  for (size_t i = 0; i < model.images.size(); ++i)
+    index[model.images[i].id] = static_cast<int>(i);
+  const Covisibility covisibility(model);
+  bool rebuild = impl_->drop_withdrawn(index);
+  rebuild = impl_->follow_poses(model, index) || rebuild;
+  auto start = Clock::now();
+  for (size_t i = 0; i < model.images.size(); ++i) {
+    if (impl_->entries.count(model.images[i].id)) continue;
+    if (progress) progress(model.images[i].id);
+    impl_->sweep(model, static_cast<int>(i), images, covisibility, &update);
+  }
+  update.sweep_s = seconds_since(start);
+  start = Clock::now();
+  for (const std::string& id : update.new_depth_maps)
+    impl_->filter(id, model, index, covisibility);
+  update.filter_s = seconds_since(start);
+  start = Clock::now();
+  impl_->fuse(rebuild);
+  update.refused = rebuild && impl_->cloud;
+  update.fusion_s = seconds_since(start);
+  update.points = impl_->cloud ? impl_->cloud->size() : 0;
+  return update;
+}
+
+std::vector<ColoredPoint> DenseReconstruction::points() const {
+  return impl_->cloud ? impl_->cloud->points() : std::vector<ColoredPoint>{};
+}
+
+std::vector<DepthMap> DenseReconstruction::filtered_depth_maps() const {
+  std::vector<DepthMap> maps;
+  for (const std::string& id : impl_->order) {
+    const auto& entry = impl_->entries.at(id);
+    DepthMap map = entry.map;
+    map.depth = cv::Mat::zeros(entry.map.depth.size(), CV_32F);
+    entry.map.depth.copyTo(map.depth, entry.agreed);
+    maps.push_back(std::move(map));
+  }
+  return maps;
+}
+
+const DepthMap* DenseReconstruction::raw_depth_map(
+    const std::string& id) const {
+  auto it = impl_->entries.find(id);
+  return it == impl_->entries.end() ? nullptr : &it->second.map;
+}
+
+double DenseReconstruction::voxel_size() const {
+  return impl_->cloud ? impl_->cloud->voxel_size() : 0;
+}
+
+DepthMap compute_key_depth_map(const Model& model, const std::string& key_id,
+                               const ImageSource& images,
+                               const DenseOptions& options) {
+  int key = -1;
+  for (size_t i = 0; i < model.images.size(); ++i)
+    if (model.images[i].id == key_id) key = static_cast<int>(i);
+  if (key < 0)
+    throw std::invalid_argument("'" + key_id +
+                                "' is not registered in the model");
+  const Covisibility covisibility(model);
+  const std::vector<int> neighbours =
+      choose_neighbours(covisibility, key, options);
+  if (neighbours.empty())
+    throw std::invalid_argument("'" + key_id +
+                                "' shares too few points with any other view");
+  const DenseView key_view =
+      load_view(model, key, images, covisibility, options.long_side);
+  std::vector<DenseView> views;
+  for (int n : neighbours)
+    views.push_back(
+        load_view(model, n, images, covisibility, options.long_side));
+  std::vector<const DenseView*> pointers;
+  for (const DenseView& v : views) pointers.push_back(&v);
+  return sweep_planes(key_view, pointers, options.sweep);
+}
+
+}  // namespace arscout::engine

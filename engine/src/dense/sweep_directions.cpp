@@ -1,0 +1,170 @@
+// Which planes to sweep: the depth range and plane count from the key
+// view's sparse points and its neighbours' baselines, and the dominant scene
+// plane orientations (facades, ground) found among those points by
+// sequential RANSAC.
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <random>
+
+#include <Eigen/Dense>
+
+#include "arscout/engine/dense.h"
+
+namespace arscout::engine {
+namespace {
+
+constexpr int kMinSparsePoints = 8;
+
+double percentile(std::vector<double> values, double p) {
+  const size_t k =
+      std::min(values.size() - 1, static_cast<size_t>(p * (values.size() - 1)));
+  std::nth_element(values.begin(), values.begin() + k, values.end());
+  return values[k];
+}
+
+std::vector<Eigen::Vector3d> in_key_frame(const DenseView& key) {
+  std::vector<Eigen::Vector3d> points;
+  for (const Eigen::Vector3d& X : key.sparse_points) {
+    const Eigen::Vector3d c = key.R * X + key.t;
+    if (c.z() > 0) points.push_back(c);
+  }
+  return points;
+}
+
+double widest_baseline(const DenseView& key,
+                       const std::vector<const DenseView*>& neighbours) {
+  double widest = 0;
+  for (const DenseView* n : neighbours) {
+    widest = std::max(widest, (n->centre() - key.centre()).norm());
+  }
+  return widest;
+}
+
+struct Plane {
+  Eigen::Vector3d normal;
+  double offset = 0;  // normal . X = offset
+  std::vector<int> inliers;
+};
+
+// The plane through the most points (within `tolerance`), by RANSAC with a
+// fixed seed so that the sweep stays deterministic.
+Plane dominant_plane(const std::vector<Eigen::Vector3d>& points,
+                     double tolerance) {
+  Plane best;
+  if (points.size() < 3) return best;
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<size_t> pick(0, points.size() - 1);
+  for (int iteration = 0; iteration < 300; ++iteration) {
+    const Eigen::Vector3d& a = points[pick(rng)];
+    const Eigen::Vector3d& b = points[pick(rng)];
+    const Eigen::Vector3d& c = points[pick(rng)];
+    Eigen::Vector3d normal = (b - a).cross(c - a);
+    if (normal.norm() < 1e-12) continue;
+    normal.normalize();
+    const double offset = normal.dot(a);
+    std::vector<int> inliers;
+    for (size_t i = 0; i < points.size(); ++i) {
+      if (std::abs(normal.dot(points[i]) - offset) <= tolerance)
+        inliers.push_back(static_cast<int>(i));
+    }
+    if (inliers.size() > best.inliers.size()) {
+      best = {normal, offset, std::move(inliers)};
+    }
+  }
+  return best;
+}
+
+// The planes spaced one plane_step_px apart in the neighbour with the widest
+// baseline: the disparity between the nearest and farthest plane, in pixels.
+int plane_count(double focal_px, double baseline, double d_near, double d_far,
+                const PlaneSweepOptions& options) {
+  const double disparity = focal_px * baseline * (1 / d_near - 1 / d_far);
+  const int planes =
+      static_cast<int>(std::ceil(disparity / options.plane_step_px));
+  return std::clamp(planes, options.min_planes, options.max_planes);
+}
+
+std::optional<SweepDirection> direction_for(
+    const Eigen::Vector3d& normal, const std::vector<Eigen::Vector3d>& points,
+    double focal_px, double baseline, const PlaneSweepOptions& options) {
+  std::vector<double> offsets;
+  for (const Eigen::Vector3d& X : points) offsets.push_back(normal.dot(X));
+  const double lo = percentile(offsets, 0.02);
+  const double hi = percentile(offsets, 0.98);
+  SweepDirection direction;
+  direction.normal = normal;
+  direction.d_near = lo * (1 - options.depth_margin);
+  direction.d_far = hi * (1 + options.depth_margin);
+  if (!(direction.d_near > 0) || !(direction.d_far > direction.d_near))
+    return std::nullopt;
+  direction.planes = plane_count(focal_px, baseline, direction.d_near,
+                                 direction.d_far, options);
+  return direction;
+}
+
+// Up to `count` dominant planes (normal, and the points on them), oriented
+// so that the points lie in front (positive offsets); nearly fronto-parallel
+// ones are left to the fronto-parallel sweep.
+std::vector<std::pair<Eigen::Vector3d, std::vector<Eigen::Vector3d>>>
+scene_planes(std::vector<Eigen::Vector3d> points, int count) {
+  std::vector<std::pair<Eigen::Vector3d, std::vector<Eigen::Vector3d>>> planes;
+  std::vector<double> depths;
+  for (const auto& X : points) depths.push_back(X.z());
+  const double tolerance = 0.02 * percentile(depths, 0.5);
+  const size_t min_inliers = std::max<size_t>(30, points.size() / 8);
+  for (int found = 0; found < count && points.size() >= min_inliers;) {
+    Plane plane = dominant_plane(points, tolerance);
+    if (plane.inliers.size() < min_inliers) break;
+    Eigen::Vector3d normal = plane.normal;
+    if (plane.offset < 0) normal = -normal;
+    std::vector<Eigen::Vector3d> on_plane, rest;
+    size_t next = 0;
+    for (size_t i = 0; i < points.size(); ++i) {
+      if (next < plane.inliers.size() &&
+          plane.inliers[next] == static_cast<int>(i)) {
+        ++next;
+        on_plane.push_back(points[i]);
+      } else {
+        rest.push_back(points[i]);
+      }
+    }
+    const double facing_deg =
+        std::acos(std::clamp(std::abs(normal.z()), 0.0, 1.0)) * 180 / M_PI;
+    if (facing_deg > 15) {
+      planes.emplace_back(normal, std::move(on_plane));
+      ++found;
+    }
+    points = std::move(rest);
+  }
+  return planes;
+}
+
+}  // namespace
+
+std::vector<SweepDirection> sweep_directions(
+    const DenseView& key, const std::vector<const DenseView*>& neighbours,
+    const PlaneSweepOptions& options) {
+  const std::vector<Eigen::Vector3d> points = in_key_frame(key);
+  std::vector<SweepDirection> directions;
+  const double baseline = widest_baseline(key, neighbours);
+  if (static_cast<int>(points.size()) < kMinSparsePoints || baseline <= 0)
+    return directions;
+  const double focal = std::max(key.K(0, 0), key.K(1, 1));
+  if (auto fronto = direction_for(Eigen::Vector3d::UnitZ(), points, focal,
+                                  baseline, options)) {
+    directions.push_back(*fronto);
+  } else {
+    return directions;
+  }
+  // Planes parallel to a dominant scene plane, around that plane: its own
+  // points bound the range.
+  for (const auto& [normal, on_plane] :
+       scene_planes(points, options.max_scene_directions)) {
+    if (auto d = direction_for(normal, on_plane, focal, baseline, options))
+      directions.push_back(*d);
+  }
+  return directions;
+}
+
+}  // namespace arscout::engine

@@ -1,0 +1,176 @@
+// Ray casting of the synthetic site: every sub-pixel ray is tested against
+// every quad (a site has a handful, so no acceleration structure pays off).
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <vector>
+
+#include <Eigen/Dense>
+#include <opencv2/core.hpp>
+
+#include "arscout/engine/synthetic_site.h"
+
+namespace arscout::engine::synthetic {
+namespace {
+
+// A quad prepared for one view.
+struct Target {
+  Eigen::Vector3d corner;
+  Eigen::Vector3d normal;  // edge_u x edge_v, not unit
+  // Rows of the inverse of [edge_u edge_v] on the plane: the dot product
+  // with (point - corner) gives s and t.
+  Eigen::Vector3d dual_u;
+  Eigen::Vector3d dual_v;
+  double numerator = 0;  // normal . (corner - camera centre)
+  double length_u = 0;
+  double length_v = 0;
+  Texture texture = Texture::kNoise;
+  uint32_t seed = 0;
+  float brightness = 1;
+};
+
+// A fixed light direction gives each orientation its own constant
+// brightness: box faces stand apart, and nothing depends on the viewer. The
+// absolute value makes the result independent of the quad's winding.
+float brightness_of(const Eigen::Vector3d& unit_normal) {
+  const Eigen::Vector3d light = Eigen::Vector3d(0.4, -0.6, 0.7).normalized();
+  return static_cast<float>(0.55 + 0.45 * std::abs(unit_normal.dot(light)));
+}
+
+std::vector<Target> prepare(const Site& site, const Eigen::Vector3d& eye) {
+  std::vector<Target> targets;
+  for (const Quad& quad : site.quads) {
+    const Eigen::Vector3d normal = quad.edge_u.cross(quad.edge_v);
+    const double area2 = normal.squaredNorm();
+    if (!(area2 > 0)) continue;  // degenerate: no plane to hit
+    Target target;
+    target.corner = quad.corner;
+    target.normal = normal;
+    target.dual_u = quad.edge_v.cross(normal) / area2;
+    target.dual_v = normal.cross(quad.edge_u) / area2;
+    target.numerator = normal.dot(quad.corner - eye);
+    target.length_u = quad.edge_u.norm();
+    target.length_v = quad.edge_v.norm();
+    target.texture = quad.texture;
+    target.seed = quad.seed;
+    target.brightness = brightness_of(normal / std::sqrt(area2));
+    targets.push_back(target);
+  }
+  return targets;
+}
+
+struct Hit {
+  double depth = std::numeric_limits<double>::infinity();
+  const Target* target = nullptr;
+  double s = 0;
+  double t = 0;
+};
+
+// `direction` has unit camera z, so the ray parameter is the camera depth.
+Hit cast(const std::vector<Target>& targets, const Eigen::Vector3d& eye,
+         const Eigen::Vector3d& direction) {
+  // Rejects hits at (or behind) the centre itself, where a quad through the
+  // camera would otherwise cover the whole image.
+  constexpr double kMinDepth = 1e-9;
+  Hit hit;
+  for (const Target& target : targets) {
+    const double denominator = target.normal.dot(direction);
+    if (denominator == 0) continue;  // ray parallel to the plane
+    const double depth = target.numerator / denominator;
+    if (!(depth > kMinDepth) || depth >= hit.depth) continue;
+    const Eigen::Vector3d offset = eye + depth * direction - target.corner;
+    const double s = target.dual_u.dot(offset);
+    const double t = target.dual_v.dot(offset);
+    if (s < 0 || s > 1 || t < 0 || t > 1) continue;
+    hit = {depth, &target, s, t};
+  }
+  return hit;
+}
+
+// Light blue sky, BGR in [0, 1].
+const cv::Vec3f kSky(235 / 255.f, 206 / 255.f, 170 / 255.f);
+
+cv::Vec3f shade(const Hit& hit) {
+  if (hit.target == nullptr) return kSky;
+  const Target& target = *hit.target;
+  return texture_colour(target.texture, target.seed, hit.s * target.length_u,
+                        hit.t * target.length_v) *
+         target.brightness;
+}
+
+// Everything one view needs per ray, fixed at construction: read-only
+// afterwards, so rows can be cast concurrently.
+class Caster {
+ public:
+  Caster(const Site& site, const PinholeView& view, int supersampling)
+      : eye_(view.centre()),
+        targets_(prepare(site, eye_)),
+        camera_to_world_(view.R.transpose()),
+        k_inverse_(view.K.inverse()),
+        width_(view.size.width),
+        supersampling_(supersampling) {}
+
+  void row(int y, cv::Vec3b* colour, float* depth) const {
+    for (int x = 0; x < width_; ++x) {
+      const Hit centre = cast(targets_, eye_, direction(x, y));
+      depth[x] = centre.target ? static_cast<float>(centre.depth) : 0.f;
+      colour[x] = pixel_colour(x, y);
+    }
+  }
+
+ private:
+  Eigen::Vector3d direction(double x, double y) const {
+    const Eigen::Vector3d camera = k_inverse_ * Eigen::Vector3d(x, y, 1);
+    return camera_to_world_ * (camera / camera.z());
+  }
+
+  // Sub-pixel rays on a regular grid centred in the pixel.
+  cv::Vec3b pixel_colour(int x, int y) const {
+    const double step = 1.0 / supersampling_;
+    const double first = 0.5 * step - 0.5;
+    cv::Vec3f sum(0, 0, 0);
+    for (int j = 0; j < supersampling_; ++j) {
+      for (int i = 0; i < supersampling_; ++i) {
+        const Eigen::Vector3d ray =
+            direction(x + first + i * step, y + first + j * step);
+        sum += shade(cast(targets_, eye_, ray));
+      }
+    }
+    const float scale = 255.f / (supersampling_ * supersampling_);
+    return {cv::saturate_cast<uchar>(sum[0] * scale),
+            cv::saturate_cast<uchar>(sum[1] * scale),
+            cv::saturate_cast<uchar>(sum[2] * scale)};
+  }
+
+  Eigen::Vector3d eye_;
+  std::vector<Target> targets_;
+  Eigen::Matrix3d camera_to_world_;
+  Eigen::Matrix3d k_inverse_;
+  int width_;
+  int supersampling_;
+};
+
+}  // namespace
+
+Rendering render(const Site& site, const PinholeView& view, int supersampling) {
+  if (supersampling < 1) {
+    throw std::invalid_argument("render: supersampling must be at least 1");
+  }
+  if (view.size.width <= 0 || view.size.height <= 0) {
+    throw std::invalid_argument("render: empty image size");
+  }
+  Caster caster(site, view, supersampling);
+  Rendering out;
+  out.bgr.create(view.size, CV_8UC3);
+  out.depth.create(view.size, CV_32F);
+  // Each row is written by exactly one task from read-only state, so the
+  // result does not depend on how rows are split among threads.
+  cv::parallel_for_(cv::Range(0, view.size.height), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y) {
+      caster.row(y, out.bgr.ptr<cv::Vec3b>(y), out.depth.ptr<float>(y));
+    }
+  });
+  return out;
+}
+
+}  // namespace arscout::engine::synthetic
