@@ -386,7 +386,8 @@ std::vector<DepthMap> DenseReconstruction::filtered_depth_maps() const {
   for (const std::string& id : impl_->order) {
     const auto& entry = impl_->entries.at(id);
     DepthMap map = entry.map;
-    map.depth = cv::Mat::zeros(entry.map.depth.size(), CV_32F);
+    // A new buffer: `map` shares the stored one, which must stay as swept.
+    map.depth = cv::Mat(entry.map.depth.size(), CV_32F, cv::Scalar(0));
     entry.map.depth.copyTo(map.depth, entry.agreed);
     maps.push_back(std::move(map));
   }
@@ -427,6 +428,20 @@ DepthMap compute_key_depth_map(const Model& model, const std::string& key_id,
   std::vector<const DenseView*> pointers;
   for (const DenseView& v : views) pointers.push_back(&v);
   return sweep_planes(key_view, pointers, options.sweep);
+}
+
+cv::Mat load_undistorted(const Model& model, const std::string& id,
+                         const ImageSource& images, int long_side,
+                         Eigen::Matrix3d* K) {
+  for (size_t i = 0; i < model.images.size(); ++i) {
+    if (model.images[i].id != id) continue;
+    const Covisibility covisibility(model);
+    DenseView view =
+        load_view(model, static_cast<int>(i), images, covisibility, long_side);
+    if (K) *K = view.K;
+    return view.bgr;
+  }
+  throw std::invalid_argument("'" + id + "' is not registered in the model");
 }
 
 }  // namespace arscout::engine

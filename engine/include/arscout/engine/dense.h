@@ -41,13 +41,13 @@ struct PlaneSweepOptions {
   // deviation, 0-255) has too little texture; a winner below min_score or
   // beating the runner-up at another depth by less than min_margin is not
   // trusted.
-  double min_texture = 2.0;
+  double min_texture = 1.0;
   // Aggregation over neighbours: the mean ZNCC, or the best neighbour's
   // less this penalty when that is higher (occlusion: the surface is hidden
   // from one neighbour). 0 keeps the best neighbour only.
   double occlusion_penalty = 0.2;
-  double min_score = 0.45;
-  double min_margin = 0.03;
+  double min_score = 0.35;
+  double min_margin = 0.02;
   bool use_cuda = false;  // the CUDA path, when built with ARSCOUT_CUDA
 };
 

@@ -87,4 +87,11 @@ DepthMap compute_key_depth_map(const Model& model, const std::string& key_id,
                                const ImageSource& images,
                                const DenseOptions& options = {});
 
+// A registered capture's photo as the dense stage sees it: decoded at
+// `long_side`, undistorted; `K` receives the matching pinhole matrix.
+// Throws std::invalid_argument when `id` is not registered.
+cv::Mat load_undistorted(const Model& model, const std::string& id,
+                         const ImageSource& images, int long_side,
+                         Eigen::Matrix3d* K);
+
 }  // namespace arscout::engine
