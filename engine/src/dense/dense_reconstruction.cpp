@@ -356,7 +356,8 @@ DenseUpdate DenseReconstruction::update(
   for (size_t i = 0; i < model.images.size(); ++i)
     index[model.images[i].id] = static_cast<int>(i);
   const Covisibility covisibility(model);
-  bool rebuild = impl_->drop_withdrawn(index);
+  const bool withdrawn = impl_->drop_withdrawn(index);
+  bool rebuild = withdrawn;
   rebuild = impl_->follow_poses(model, index) || rebuild;
   auto start = Clock::now();
   for (size_t i = 0; i < model.images.size(); ++i) {
@@ -366,7 +367,11 @@ DenseUpdate DenseReconstruction::update(
   }
   update.sweep_s = seconds_since(start);
   start = Clock::now();
-  for (const std::string& id : update.new_depth_maps)
+  // A withdrawn map no longer vouches for anyone: check every pair again.
+  if (withdrawn) {
+    for (auto& [id, entry] : impl_->entries) entry.agreed.setTo(0);
+  }
+  for (const std::string& id : withdrawn ? impl_->order : update.new_depth_maps)
     impl_->filter(id, model, index, covisibility);
   update.filter_s = seconds_since(start);
   start = Clock::now();

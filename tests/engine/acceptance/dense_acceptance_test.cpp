@@ -9,6 +9,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <sys/wait.h>
+
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
 #include <opencv2/imgcodecs.hpp>
@@ -16,6 +18,7 @@
 
 #include "arscout/engine/dense_reconstruction.h"
 #include "arscout/engine/model_io.h"
+#include "arscout/engine/ply.h"
 #include "arscout/engine/point_render.h"
 #include "test_stores.h"
 #include "tool_process.h"
@@ -165,6 +168,59 @@ TEST(DenseAcceptance,
             << dense.points().size() << " points\n";
   EXPECT_GT(patches, 5000);
   EXPECT_GE(zncc, 0.7);
+}
+
+// The command-line surface: `reconstruct --dense` writes a readable
+// dense.ply, and `depth` a 16-bit millimetre PNG and its preview.
+TEST(DenseAcceptance, ReconstructDenseAndDepthCommandsWriteTheirFiles) {
+  std::string scene;
+  ARSCOUT_SHARED_DATA_OR_SKIP(scene, "strecha/fountain-P11");
+  const std::string images = scene + "/images";
+  const std::string out = testing::make_temp_dir("dense_cli") + "/out";
+  run_cli(
+      {"reconstruct", "--images", images, "--gps-csv", scene + "/gps.csv",
+       "--camera", images + "/K.txt", "--out", out, "--limit", "4", "--dense"},
+      out + ".log");
+  const std::string log = testing::slurp(out + ".log");
+  EXPECT_NE(log.find("dense: 3 new depth maps"), std::string::npos) << log;
+  const auto points = engine::read_ply(out + "/dense.ply");
+  EXPECT_GT(points.size(), 100000u);
+  const engine::Model model = engine::read_colmap_text(out + "/sparse");
+  // The cloud lies in the sparse model's frame: near its points.
+  double sparse_extent = 0;
+  for (const auto& p : model.points)
+    sparse_extent = std::max(sparse_extent, std::abs(p.xyz[0]));
+  size_t inside = 0;
+  for (const auto& p : points)
+    inside += std::abs(p.x) <= 2 * sparse_extent + 1 ? 1 : 0;
+  EXPECT_GT(inside, points.size() * 95 / 100);
+
+  const std::string depth = out + "/depth/0001.png";
+  run_cli({"depth", "--model", out, "--key", "0001.jpg", "-o", depth},
+          out + ".depth.log");
+  const cv::Mat mm = cv::imread(depth, cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(mm.type(), CV_16U);
+  EXPECT_EQ(mm.cols, 768);
+  EXPECT_GT(cv::countNonZero(mm), mm.total() / 2);
+  // Fountain-P11 is photographed from 4-12 m.
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(mm, &lo, &hi, nullptr, nullptr, mm > 0);
+  EXPECT_GT(lo, 1000);
+  EXPECT_LT(hi, 30000);
+  const cv::Mat preview = cv::imread(out + "/depth/0001_preview.png");
+  EXPECT_EQ(preview.type(), CV_8UC3);
+  EXPECT_EQ(preview.size(), mm.size());
+
+  ToolProcess bad(
+      ARSCOUT_CLI,
+      {"depth", "--model", out, "--key", "nope.jpg", "-o", out + "/x.png"},
+      out + ".bad.log");
+  const auto status = bad.wait_for(std::chrono::minutes(2));
+  ASSERT_TRUE(status.has_value());
+  EXPECT_TRUE(WIFEXITED(*status) && WEXITSTATUS(*status) == 2)
+      << testing::describe_status(*status);
+  EXPECT_NE(testing::slurp(out + ".bad.log").find("not registered"),
+            std::string::npos);
 }
 
 }  // namespace

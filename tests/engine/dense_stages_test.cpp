@@ -1,0 +1,821 @@
+// The dense stages one at a time (sweep directions, the forward-backward
+// consistency check, depth-map comparison, voxel fusion, point rendering)
+// and DenseReconstruction driven incrementally by a hand-built sparse Model,
+// on small rendered street scenes with exact depth (synthetic_site.h).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <optional>
+#include <random>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "arscout/engine/dense.h"
+#include "arscout/engine/dense_reconstruction.h"
+#include "arscout/engine/ply.h"
+#include "arscout/engine/point_render.h"
+#include "arscout/engine/reconstruction.h"
+#include "arscout/engine/synthetic_site.h"
+
+namespace arscout::engine {
+namespace {
+
+namespace syn = synthetic;
+
+constexpr int kViews = 5;
+constexpr int kWidth = 320;
+constexpr int kHeight = 240;
+constexpr double kFocal = 280;
+constexpr uint32_t kSiteSeed = 3;
+constexpr double kCameraHeight = 1.6;  // street_cameras()
+
+struct Rendered {
+  syn::PinholeView view;
+  syn::Rendering image;
+};
+
+const syn::Site& site() {
+  static const syn::Site s = syn::street_site(kSiteSeed);
+  return s;
+}
+
+// The five converging street views at 320 x 240, rendered once.
+const std::vector<Rendered>& street() {
+  static const std::vector<Rendered> views = [] {
+    std::vector<Rendered> result;
+    for (const auto& view :
+         syn::street_cameras(kViews, {kWidth, kHeight}, kFocal))
+      result.push_back({view, syn::render(site(), view)});
+    return result;
+  }();
+  return views;
+}
+
+std::string view_id(int index) { return "view" + std::to_string(index); }
+
+// The world point seen at pixel (x, y) of `r`, at its true depth.
+Eigen::Vector3d surface_point(const Rendered& r, int x, int y) {
+  const double z = r.image.depth.at<float>(y, x);
+  const Eigen::Vector3d ray = r.view.K.inverse() * Eigen::Vector3d(x, y, 1);
+  return r.view.R.transpose() * (z * ray - r.view.t);
+}
+
+// Surface points seen by `r`, as a sparse reconstruction would have them.
+std::vector<Eigen::Vector3d> sample_surface(const Rendered& r, int count,
+                                            uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> px(0, r.view.size.width - 1);
+  std::uniform_int_distribution<int> py(0, r.view.size.height - 1);
+  std::vector<Eigen::Vector3d> points;
+  while (static_cast<int>(points.size()) < count) {
+    const int x = px(rng), y = py(rng);
+    if (r.image.depth.at<float>(y, x) <= 0) continue;
+    points.push_back(surface_point(r, x, y));
+  }
+  return points;
+}
+
+// Where `r` sees world point X: in front, at least `border` pixels inside
+// the image, and not hidden (the rendered depth there within 1 %).
+std::optional<Eigen::Vector2d> seen_at(const Rendered& r,
+                                       const Eigen::Vector3d& X, int border) {
+  const Eigen::Vector3d c = r.view.R * X + r.view.t;
+  if (c.z() <= 0) return std::nullopt;
+  const Eigen::Vector3d p = r.view.K * c;
+  const Eigen::Vector2d pixel = p.head<2>() / p.z();
+  const int u = static_cast<int>(std::lround(pixel.x()));
+  const int v = static_cast<int>(std::lround(pixel.y()));
+  if (u < border || v < border || u >= r.view.size.width - border ||
+      v >= r.view.size.height - border)
+    return std::nullopt;
+  const float z = r.image.depth.at<float>(v, u);
+  if (z <= 0 || std::abs(z - c.z()) > 0.01 * c.z()) return std::nullopt;
+  return pixel;
+}
+
+// An exact depth map: the rendering's ground truth with its camera.
+DepthMap truth_map(const Rendered& r, const std::string& id) {
+  DepthMap map;
+  map.id = id;
+  map.depth = r.image.depth.clone();
+  map.K = r.view.K;
+  map.R = r.view.R;
+  map.t = r.view.t;
+  return map;
+}
+
+DenseView dense_view(const Rendered& r, const std::string& id,
+                     std::vector<Eigen::Vector3d> sparse) {
+  DenseView v;
+  v.id = id;
+  v.bgr = r.image.bgr;
+  v.K = r.view.K;
+  v.R = r.view.R;
+  v.t = r.view.t;
+  v.sparse_points = std::move(sparse);
+  return v;
+}
+
+int count_where(const cv::Mat& mask) { return cv::countNonZero(mask); }
+
+// ---------------------------------------------------------------------------
+// sweep_directions
+
+class DenseStagesSweepDirections : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto& s = street();
+    for (int i = 1; i <= 3; ++i)
+      views_.push_back(
+          dense_view(s[i], view_id(i), sample_surface(s[i], 400, 20 + i)));
+  }
+  const DenseView& key() const { return views_[1]; }
+  std::vector<const DenseView*> neighbours() const {
+    return {&views_[0], &views_[2]};
+  }
+  std::vector<DenseView> views_;
+};
+
+TEST_F(DenseStagesSweepDirections, FrontoParallelFirstBracketingTheDepths) {
+  PlaneSweepOptions options;
+  options.max_scene_directions = 0;
+  const auto directions = sweep_directions(key(), neighbours(), options);
+  ASSERT_EQ(directions.size(), 1u);
+  const SweepDirection& fronto = directions[0];
+  EXPECT_EQ(fronto.normal, Eigen::Vector3d(Eigen::Vector3d::UnitZ()));
+  EXPECT_GT(fronto.d_near, 0);
+  EXPECT_GT(fronto.d_far, fronto.d_near);
+  EXPECT_GE(fronto.planes, options.min_planes);
+  EXPECT_LE(fronto.planes, options.max_planes);
+  // Every sparse depth and every true depth the key sees lies in range.
+  for (const Eigen::Vector3d& X : key().sparse_points) {
+    const double z = (key().R * X + key().t).z();
+    EXPECT_GE(z, fronto.d_near);
+    EXPECT_LE(z, fronto.d_far);
+  }
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(street()[2].image.depth, &lo, &hi, nullptr, nullptr,
+                street()[2].image.depth > 0);
+  EXPECT_LT(fronto.d_near, lo);
+  EXPECT_GT(fronto.d_far, hi);
+}
+
+TEST_F(DenseStagesSweepDirections, SceneDirectionAlongTheGround) {
+  PlaneSweepOptions options;
+  options.max_scene_directions = 2;
+  const auto directions = sweep_directions(key(), neighbours(), options);
+  ASSERT_GE(directions.size(), 2u);
+  ASSERT_LE(directions.size(), 3u);
+  EXPECT_EQ(directions[0].normal, Eigen::Vector3d(Eigen::Vector3d::UnitZ()));
+  // The world's up in the key frame.
+  const Eigen::Vector3d up = key().R * Eigen::Vector3d::UnitZ();
+  int ground = -1;
+  for (size_t i = 1; i < directions.size(); ++i) {
+    EXPECT_NEAR(directions[i].normal.norm(), 1, 1e-9);
+    EXPECT_GT(directions[i].d_near, 0);
+    EXPECT_GT(directions[i].d_far, directions[i].d_near);
+    EXPECT_GE(directions[i].planes, options.min_planes);
+    EXPECT_LE(directions[i].planes, options.max_planes);
+    if (std::abs(directions[i].normal.dot(up)) > 0.98)
+      ground = static_cast<int>(i);
+  }
+  ASSERT_GE(ground, 1) << "no sweep direction parallel to the ground";
+  const SweepDirection& g = directions[ground];
+  // Oriented so that offsets are positive: the ground lies below the camera,
+  // at the camera's height along the (nearly exact) ground normal.
+  EXPECT_LT(g.normal.dot(up), 0);
+  EXPECT_LT(g.d_near, kCameraHeight);
+  EXPECT_GT(g.d_far, kCameraHeight);
+  int on_ground = 0;
+  for (const Eigen::Vector3d& X : key().sparse_points) {
+    if (std::abs(X.z()) > 1e-6) continue;
+    ++on_ground;
+    const double offset = g.normal.dot(key().R * X + key().t);
+    EXPECT_GE(offset, g.d_near);
+    EXPECT_LE(offset, g.d_far);
+  }
+  EXPECT_GT(on_ground, 30);
+}
+
+TEST_F(DenseStagesSweepDirections, EmptyWithTooFewSparsePointsOrNoBaseline) {
+  const PlaneSweepOptions options;
+  DenseView few = key();
+  few.sparse_points.resize(7);
+  EXPECT_TRUE(sweep_directions(few, neighbours(), options).empty());
+  few.sparse_points = key().sparse_points;
+  few.sparse_points.resize(8);
+  EXPECT_EQ(sweep_directions(few, neighbours(), options).size(), 1u);
+  // Points behind the camera do not count.
+  DenseView behind = key();
+  behind.sparse_points.clear();
+  for (int i = 0; i < 20; ++i)
+    behind.sparse_points.push_back(behind.centre() +
+                                   Eigen::Vector3d(0.1 * i, -5, 1));
+  EXPECT_TRUE(sweep_directions(behind, neighbours(), options).empty());
+  EXPECT_TRUE(sweep_directions(key(), {}, options).empty());
+}
+
+// ---------------------------------------------------------------------------
+// agreement_mask
+
+TEST(DenseStagesAgreement, MapAgreesWithItselfWhereverItHasDepth) {
+  DepthMap a = truth_map(street()[2], "a");
+  // A hole without depth: never agrees.
+  a.depth(cv::Rect(10, 10, 20, 15)).setTo(0);
+  const DepthMap b = a;  // the same view, the same depths
+  const cv::Mat mask = agreement_mask(a, b, {});
+  ASSERT_EQ(mask.type(), CV_8U);
+  ASSERT_EQ(mask.size(), a.depth.size());
+  const cv::Mat has_depth = a.depth > 0;
+  EXPECT_EQ(count_where(mask != has_depth), 0);
+  EXPECT_EQ(count_where(mask(cv::Rect(10, 10, 20, 15))), 0);
+  EXPECT_GT(count_where(mask), 0.9 * kWidth * kHeight);
+  // Only 0 and 255.
+  EXPECT_EQ(count_where(mask == 0) + count_where(mask == 255),
+            kWidth * kHeight);
+}
+
+TEST(DenseStagesAgreement, CorruptedDepthsDisagreeWithAnExactPartner) {
+  const auto& s = street();
+  DepthMap a = truth_map(s[2], "a");
+  const DepthMap partner = truth_map(s[3], "partner");
+  const cv::Rect patch(140, 40, 40, 40);  // on the facade
+  cv::Mat corrupted = a.depth(patch);
+  corrupted *= 1.1;
+  const cv::Mat mask = agreement_mask(a, partner, {});
+  EXPECT_EQ(count_where(mask(patch)), 0);
+  // Elsewhere, the pixels the partner sees agree (up to its pixel grid on
+  // steep surfaces).
+  int visible = 0, agreeing = 0;
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      if (patch.contains({x, y}) || a.depth.at<float>(y, x) <= 0) continue;
+      if (!seen_at(s[3], surface_point(s[2], x, y), 1)) continue;
+      ++visible;
+      if (mask.at<uint8_t>(y, x)) ++agreeing;
+    }
+  }
+  ASSERT_GT(visible, 0.5 * kWidth * kHeight);
+  EXPECT_GE(agreeing, 0.97 * visible);
+  // A looser tolerance than the error lets the patch through.
+  ConsistencyOptions loose;
+  loose.max_relative_depth = 0.5;
+  loose.max_reprojection_px = 1e6;
+  EXPECT_GT(count_where(agreement_mask(a, partner, loose)(patch)),
+            0.9 * patch.area());
+}
+
+TEST(DenseStagesAgreement, PixelsLandingOutsideThePartnerDoNotAgree) {
+  // The partner stands at the key's pose with the principal point 100 px to
+  // the right: key pixel (x, y) lands exactly on (x + 100, y) there, at the
+  // same depth; from x = 220 on, outside its 320 px.
+  const Rendered& key = street()[2];
+  syn::PinholeView shifted = key.view;
+  shifted.K(0, 2) += 100;
+  const Rendered other{shifted, syn::render(site(), shifted, 1)};
+  const DepthMap a = truth_map(key, "a");
+  const DepthMap partner = truth_map(other, "partner");
+  const cv::Mat mask = agreement_mask(a, partner, {});
+  const cv::Rect inside(0, 0, kWidth - 100, kHeight);
+  const cv::Rect outside(kWidth - 100, 0, 100, kHeight);
+  EXPECT_EQ(count_where(mask(inside)), count_where(a.depth(inside) > 0));
+  EXPECT_GT(count_where(mask(inside)), 0);
+  EXPECT_EQ(count_where(mask(outside)), 0);
+}
+
+// ---------------------------------------------------------------------------
+// compare_depth_maps
+
+TEST(DenseStagesCompare, ExactMapsOfDifferentViewsAgree) {
+  // b is read at the nearest pixel centre, whose ray meets the slanted
+  // facade and ground up to half a pixel away from the predicted point: at
+  // f = 280 and the street's slants that is a few 1e-4 in depth at most.
+  const auto& s = street();
+  const DepthMap a = truth_map(s[1], "a");
+  const DepthMap b = truth_map(s[3], "b");
+  const DepthAgreement agreement = compare_depth_maps(a, b);
+  EXPECT_GT(agreement.compared, 0.5 * kWidth * kHeight);
+  EXPECT_LT(agreement.median_relative_difference, 3e-4);
+}
+
+TEST(DenseStagesCompare, ExactMapsOnTheSamePixelGridAgreeExactly) {
+  // The same pose with the principal point 50 px further left: each pixel
+  // lands on a pixel centre of the other, so nothing is interpolated.
+  const Rendered& key = street()[2];
+  syn::PinholeView shifted = key.view;
+  shifted.K(0, 2) -= 50;
+  const Rendered other{shifted, syn::render(site(), shifted, 1)};
+  const DepthAgreement agreement =
+      compare_depth_maps(truth_map(key, "a"), truth_map(other, "b"));
+  EXPECT_EQ(
+      agreement.compared,
+      count_where(key.image.depth(cv::Rect(50, 0, kWidth - 50, kHeight)) > 0));
+  EXPECT_LT(agreement.median_relative_difference, 1e-6);
+}
+
+TEST(DenseStagesCompare, ScaledDepthsShowTheScale) {
+  const auto& s = street();
+  const DepthMap a = truth_map(s[1], "a");
+  DepthMap b = truth_map(s[3], "b");
+  b.depth *= 1.02;
+  const DepthAgreement agreement = compare_depth_maps(a, b);
+  EXPECT_GT(agreement.compared, 0.5 * kWidth * kHeight);
+  EXPECT_NEAR(agreement.median_relative_difference, 0.02, 0.003);
+}
+
+TEST(DenseStagesCompare, NothingToCompareGivesZero) {
+  DepthMap a = truth_map(street()[1], "a");
+  const DepthMap b = truth_map(street()[3], "b");
+  a.depth.setTo(0);
+  const DepthAgreement agreement = compare_depth_maps(a, b);
+  EXPECT_EQ(agreement.compared, 0);
+  EXPECT_EQ(agreement.median_relative_difference, 0);
+}
+
+// ---------------------------------------------------------------------------
+// VoxelCloud
+
+TEST(DenseStagesVoxelCloud, RejectsNonPositiveSizes) {
+  EXPECT_THROW(VoxelCloud(0), std::invalid_argument);
+  EXPECT_THROW(VoxelCloud(-0.1), std::invalid_argument);
+  EXPECT_THROW(VoxelCloud(std::numeric_limits<double>::quiet_NaN()),
+               std::invalid_argument);
+  EXPECT_NO_THROW(VoxelCloud(1e-3));
+  EXPECT_EQ(VoxelCloud(0.25).voxel_size(), 0.25);
+}
+
+TEST(DenseStagesVoxelCloud, DuplicatesMergeDistinctVoxelsStay) {
+  VoxelCloud cloud(0.1);
+  const std::vector<Eigen::Vector3d> points = {{0.05, 0.05, 0.05},
+                                               {0.15, 0.05, 0.05},
+                                               {-0.05, 0.05, 0.05},
+                                               {0.05, -0.05, 0.05},
+                                               {0.05, 0.05, 1.05}};
+  for (const auto& p : points) cloud.add(p, {1, 2, 3});
+  EXPECT_EQ(cloud.size(), points.size());
+  for (const auto& p : points) cloud.add(p, {1, 2, 3});
+  EXPECT_EQ(cloud.size(), points.size());
+  const auto out = cloud.points();
+  ASSERT_EQ(out.size(), points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    EXPECT_FLOAT_EQ(out[i].x, static_cast<float>(points[i].x()));
+    EXPECT_FLOAT_EQ(out[i].y, static_cast<float>(points[i].y()));
+    EXPECT_FLOAT_EQ(out[i].z, static_cast<float>(points[i].z()));
+    EXPECT_EQ(out[i].r, 1);
+    EXPECT_EQ(out[i].g, 2);
+    EXPECT_EQ(out[i].b, 3);
+  }
+  cloud.clear();
+  EXPECT_EQ(cloud.size(), 0u);
+  EXPECT_TRUE(cloud.points().empty());
+}
+
+TEST(DenseStagesVoxelCloud, MeanPositionAndRoundedMeanColour) {
+  VoxelCloud cloud(1.0);
+  cloud.add({0.1, 0.2, 0.3}, {10, 200, 0});
+  cloud.add({0.3, 0.4, 0.5}, {13, 201, 255});
+  cloud.add({0.5, 0.6, 0.7}, {11, 201, 255});
+  const auto out = cloud.points();
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_NEAR(out[0].x, 0.3, 1e-6);
+  EXPECT_NEAR(out[0].y, 0.4, 1e-6);
+  EXPECT_NEAR(out[0].z, 0.5, 1e-6);
+  EXPECT_EQ(out[0].r, 11);   // 34 / 3 = 11.33
+  EXPECT_EQ(out[0].g, 201);  // 602 / 3 = 200.67
+  EXPECT_EQ(out[0].b, 170);  // 510 / 3
+  // Two colours: halves round up.
+  VoxelCloud pair(1.0);
+  pair.add({0.5, 0.5, 0.5}, {10, 0, 254});
+  pair.add({0.5, 0.5, 0.5}, {13, 1, 255});
+  const auto two = pair.points();
+  ASSERT_EQ(two.size(), 1u);
+  EXPECT_EQ(two[0].r, 12);  // 11.5
+  EXPECT_EQ(two[0].g, 1);   // 0.5
+  EXPECT_EQ(two[0].b, 255);
+}
+
+TEST(DenseStagesVoxelCloud, FirstSeenOrderIsDeterministic) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> coord(-3, 3);
+  std::vector<Eigen::Vector3d> points;
+  for (int i = 0; i < 2000; ++i)
+    points.emplace_back(coord(rng), coord(rng), coord(rng));
+  VoxelCloud a(0.5), b(0.5);
+  for (const auto& p : points) a.add(p, {7, 8, 9});
+  for (const auto& p : points) b.add(p, {7, 8, 9});
+  const auto pa = a.points(), pb = b.points();
+  ASSERT_EQ(pa.size(), pb.size());
+  for (size_t i = 0; i < pa.size(); ++i) {
+    EXPECT_EQ(pa[i].x, pb[i].x);
+    EXPECT_EQ(pa[i].y, pb[i].y);
+    EXPECT_EQ(pa[i].z, pb[i].z);
+  }
+  // The order is that of each voxel's first point.
+  VoxelCloud ordered(1.0);
+  ordered.add({5.5, 0.5, 0.5}, {1, 0, 0});
+  ordered.add({-2.5, 0.5, 0.5}, {2, 0, 0});
+  ordered.add({5.6, 0.6, 0.6}, {1, 0, 0});
+  ordered.add({0.5, 0.5, 0.5}, {3, 0, 0});
+  const auto out = ordered.points();
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_EQ(out[0].r, 1);
+  EXPECT_EQ(out[1].r, 2);
+  EXPECT_EQ(out[2].r, 3);
+  EXPECT_NEAR(out[0].x, 5.55, 1e-6);
+}
+
+// ---------------------------------------------------------------------------
+// render_points
+
+class DenseStagesRenderPoints : public ::testing::Test {
+ protected:
+  // f = 100, principal point (50, 40), at the origin looking down +z.
+  Eigen::Matrix3d K() const {
+    Eigen::Matrix3d k;
+    k << 100, 0, 50, 0, 100, 40, 0, 0, 1;
+    return k;
+  }
+  PointRendering draw(const std::vector<ColoredPoint>& points,
+                      int radius) const {
+    return render_points(points, K(), Eigen::Matrix3d::Identity(),
+                         Eigen::Vector3d::Zero(), size_, radius);
+  }
+  const cv::Size size_{101, 81};
+};
+
+TEST_F(DenseStagesRenderPoints, OnePointLandsOnItsPixelWithItsColour) {
+  // (0.1, 0.2, 2) -> (50 + 100 * 0.05, 40 + 100 * 0.1) = (55, 50).
+  const PointRendering out = draw({{0.1f, 0.2f, 2.0f, 10, 20, 30}}, 0);
+  ASSERT_EQ(out.bgr.size(), size_);
+  ASSERT_EQ(out.bgr.type(), CV_8UC3);
+  ASSERT_EQ(out.depth.type(), CV_32F);
+  EXPECT_EQ(count_where(out.depth > 0), 1);
+  EXPECT_FLOAT_EQ(out.depth.at<float>(50, 55), 2.0f);
+  EXPECT_EQ(out.bgr.at<cv::Vec3b>(50, 55), cv::Vec3b(30, 20, 10));
+  cv::Mat grey;
+  cv::extractChannel(out.bgr, grey, 0);
+  EXPECT_EQ(count_where(grey), 1);
+  // The pose applies: x_cam = R x_world + t.
+  const PointRendering moved = render_points(
+      {{1.1f, 0.2f, 2.0f, 10, 20, 30}}, K(), Eigen::Matrix3d::Identity(),
+      Eigen::Vector3d(-1, 0, 0), size_, 0);
+  EXPECT_FLOAT_EQ(moved.depth.at<float>(50, 55), 2.0f);
+}
+
+TEST_F(DenseStagesRenderPoints, NearerPointWinsInEitherOrder) {
+  const ColoredPoint near{0.1f, 0.2f, 2.0f, 255, 0, 0};
+  const ColoredPoint far{0.2f, 0.4f, 4.0f, 0, 255, 0};  // same pixel
+  for (const auto& points : {std::vector<ColoredPoint>{near, far},
+                             std::vector<ColoredPoint>{far, near}}) {
+    const PointRendering out = draw(points, 0);
+    EXPECT_EQ(count_where(out.depth > 0), 1);
+    EXPECT_FLOAT_EQ(out.depth.at<float>(50, 55), 2.0f);
+    EXPECT_EQ(out.bgr.at<cv::Vec3b>(50, 55), cv::Vec3b(0, 0, 255));
+  }
+}
+
+TEST_F(DenseStagesRenderPoints, PointsBehindOrOutsideAreSkipped) {
+  const PointRendering out = draw({{0.1f, 0.2f, -2.0f, 255, 255, 255},
+                                   {0.0f, 0.0f, 0.0f, 255, 255, 255},
+                                   {5.0f, 0.0f, 1.0f, 255, 255, 255},
+                                   {0.0f, -5.0f, 1.0f, 255, 255, 255}},
+                                  1);
+  EXPECT_EQ(count_where(out.depth), 0);
+  EXPECT_EQ(count_where(out.bgr.reshape(1)), 0);
+}
+
+TEST_F(DenseStagesRenderPoints, RadiusOneCoversThreeByThree) {
+  const PointRendering out = draw({{0.1f, 0.2f, 2.0f, 10, 20, 30}}, 1);
+  EXPECT_EQ(count_where(out.depth > 0), 9);
+  EXPECT_EQ(count_where(out.depth(cv::Rect(54, 49, 3, 3)) > 0), 9);
+  EXPECT_EQ(out.bgr.at<cv::Vec3b>(51, 56), cv::Vec3b(30, 20, 10));
+  // At the corner the splat is clipped: (0, 0) covers 2 x 2 pixels.
+  const PointRendering corner = draw({{-0.5f, -0.4f, 1.0f, 1, 1, 1}}, 1);
+  EXPECT_EQ(count_where(corner.depth > 0), 4);
+  EXPECT_EQ(count_where(corner.depth(cv::Rect(0, 0, 2, 2)) > 0), 4);
+}
+
+// ---------------------------------------------------------------------------
+// DenseReconstruction on a hand-built sparse model
+
+// Sparse points with where each view sees them (nullopt where it does not).
+struct SparseTruth {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::vector<std::optional<Eigen::Vector2d>>> seen;
+};
+
+// About `count` surface points, each seen by at least three views.
+SparseTruth sparse_truth(int count, uint32_t seed) {
+  const auto& s = street();
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> pick(0, kViews - 1);
+  std::uniform_int_distribution<int> px(4, kWidth - 5);
+  std::uniform_int_distribution<int> py(4, kHeight - 5);
+  SparseTruth truth;
+  while (static_cast<int>(truth.points.size()) < count) {
+    const Rendered& r = s[pick(rng)];
+    const int x = px(rng), y = py(rng);
+    if (r.image.depth.at<float>(y, x) <= 0) continue;
+    const Eigen::Vector3d X = surface_point(r, x, y);
+    std::vector<std::optional<Eigen::Vector2d>> seen;
+    int views = 0;
+    for (const Rendered& v : s) {
+      seen.push_back(seen_at(v, X, 4));
+      if (seen.back()) ++views;
+    }
+    if (views < 3) continue;
+    truth.points.push_back(X);
+    truth.seen.push_back(std::move(seen));
+  }
+  return truth;
+}
+
+// The sparse model of the views `views` (indices into street(), in this
+// order): exact poses and intrinsics, the points seen by at least two of
+// them, keypoints at their exact projections.
+Model build_model(const SparseTruth& truth, const std::vector<int>& views) {
+  Model model;
+  ModelCamera camera;
+  camera.id = "street";
+  const Eigen::Matrix3d& K = street()[0].view.K;
+  camera.intrinsics.width = kWidth;
+  camera.intrinsics.height = kHeight;
+  camera.intrinsics.fx = K(0, 0);
+  camera.intrinsics.fy = K(1, 1);
+  camera.intrinsics.cx = K(0, 2);
+  camera.intrinsics.cy = K(1, 2);
+  camera.intrinsics.source = "calibrated";
+  model.cameras.push_back(camera);
+  for (int v : views) {
+    const syn::PinholeView& view = street()[v].view;
+    ModelImage image;
+    image.id = view_id(v);
+    image.camera = 0;
+    const Eigen::Quaterniond q(view.R);
+    image.qvec = {q.w(), q.x(), q.y(), q.z()};
+    image.tvec = {view.t.x(), view.t.y(), view.t.z()};
+    const Eigen::Vector3d c = view.centre();
+    image.centre = {c.x(), c.y(), c.z()};
+    // An unmatched keypoint, as real images have.
+    image.keypoints.push_back({1.0, 1.0});
+    image.point_ids.push_back(-1);
+    model.images.push_back(std::move(image));
+  }
+  for (size_t p = 0; p < truth.points.size(); ++p) {
+    int observations = 0;
+    for (int v : views)
+      if (truth.seen[p][v]) ++observations;
+    if (observations < 2) continue;
+    ModelPoint point;
+    point.id = 1000 + static_cast<int64_t>(p);
+    point.xyz = {truth.points[p].x(), truth.points[p].y(), truth.points[p].z()};
+    point.rgb = {128, 128, 128};
+    for (size_t i = 0; i < views.size(); ++i) {
+      const auto& pixel = truth.seen[p][views[i]];
+      if (!pixel) continue;
+      ModelImage& image = model.images[i];
+      point.track.emplace_back(static_cast<int>(i),
+                               static_cast<int>(image.keypoints.size()));
+      image.keypoints.push_back({pixel->x(), pixel->y()});
+      image.point_ids.push_back(point.id);
+    }
+    model.points.push_back(std::move(point));
+  }
+  return model;
+}
+
+// Every track entry names a keypoint that names the point back.
+void expect_consistent(const Model& model) {
+  for (const ModelPoint& point : model.points) {
+    for (const auto& [image, keypoint] : point.track) {
+      ASSERT_GE(image, 0);
+      ASSERT_LT(image, static_cast<int>(model.images.size()));
+      const ModelImage& im = model.images[image];
+      ASSERT_EQ(im.keypoints.size(), im.point_ids.size());
+      ASSERT_LT(keypoint, static_cast<int>(im.point_ids.size()));
+      EXPECT_EQ(im.point_ids[keypoint], point.id);
+    }
+  }
+}
+
+// The street photos as PNG bytes, by id.
+const std::map<std::string, std::string>& street_pngs() {
+  static const std::map<std::string, std::string> pngs = [] {
+    std::map<std::string, std::string> result;
+    for (int i = 0; i < kViews; ++i) {
+      std::vector<uchar> bytes;
+      if (!cv::imencode(".png", street()[i].image.bgr, bytes))
+        throw std::runtime_error("PNG encoding failed");
+      result[view_id(i)] = std::string(bytes.begin(), bytes.end());
+    }
+    return result;
+  }();
+  return pngs;
+}
+
+ImageSource street_images() {
+  return [](const std::string& id) {
+    const auto& pngs = street_pngs();
+    auto it = pngs.find(id);
+    if (it == pngs.end()) throw std::invalid_argument("no photo " + id);
+    return it->second;
+  };
+}
+
+// At 320 x 240, with planes three pixels apart (sub-plane refinement does the
+// rest): the bookkeeping is under test here, and five sweeps stay fast.
+DenseOptions small_dense_options() {
+  DenseOptions options;
+  options.long_side = kWidth;
+  options.sweep.plane_step_px = 3;
+  options.sweep.min_planes = 32;
+  return options;
+}
+
+// Distance from X to the parallelogram (an upper bound when its edges are
+// not perpendicular; exact for the street's rectangles).
+double distance_to_quad(const syn::Quad& quad, const Eigen::Vector3d& X) {
+  Eigen::Matrix<double, 3, 2> A;
+  A << quad.edge_u, quad.edge_v;
+  Eigen::Vector2d st =
+      (A.transpose() * A).ldlt().solve(A.transpose() * (X - quad.corner));
+  st = st.cwiseMax(0.0).cwiseMin(1.0);
+  return (quad.corner + A * st - X).norm();
+}
+
+double distance_to_site(const Eigen::Vector3d& X) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const syn::Quad& quad : site().quads)
+    best = std::min(best, distance_to_quad(quad, X));
+  return best;
+}
+
+std::set<std::string> as_set(const std::vector<std::string>& ids) {
+  return {ids.begin(), ids.end()};
+}
+
+TEST(DenseStagesReconstruction, GrowsIncrementallyAndWithdraws) {
+  const SparseTruth truth = sparse_truth(300, 17);
+  const Model first3 = build_model(truth, {0, 1, 2});
+  const Model all5 = build_model(truth, {0, 1, 2, 3, 4});
+  const Model without1 = build_model(truth, {0, 2, 3, 4});
+  expect_consistent(first3);
+  expect_consistent(all5);
+  expect_consistent(without1);
+  ASSERT_GE(first3.points.size(), 150u);
+  const ImageSource images = street_images();
+
+  DenseReconstruction dense(small_dense_options());
+  EXPECT_TRUE(dense.points().empty());
+  EXPECT_EQ(dense.voxel_size(), 0);
+  EXPECT_EQ(dense.raw_depth_map("view0"), nullptr);
+
+  std::vector<std::string> told;
+  const DenseUpdate u1 = dense.update(
+      first3, images, [&](const std::string& id) { told.push_back(id); });
+  EXPECT_EQ(as_set(u1.new_depth_maps),
+            (std::set<std::string>{"view0", "view1", "view2"}));
+  EXPECT_EQ(u1.new_depth_maps.size(), 3u);
+  EXPECT_EQ(as_set(told), as_set(u1.new_depth_maps));
+  EXPECT_TRUE(u1.skipped.empty());
+  EXPECT_FALSE(u1.refused);
+  const size_t points1 = dense.points().size();
+  EXPECT_GT(points1, 1000u);
+  EXPECT_EQ(u1.points, points1);
+  // 1.5 pixel footprints at the median depth (about 9 m at f = 280).
+  EXPECT_GT(dense.voxel_size(), 1.5 * 7 / kFocal);
+  EXPECT_LT(dense.voxel_size(), 1.5 * 11 / kFocal);
+  for (const char* id : {"view0", "view1", "view2"}) {
+    const DepthMap* map = dense.raw_depth_map(id);
+    ASSERT_NE(map, nullptr) << id;
+    EXPECT_EQ(map->id, id);
+    EXPECT_EQ(map->depth.size(), cv::Size(kWidth, kHeight));
+    EXPECT_GT(map->coverage(), 0.3) << id;
+  }
+  EXPECT_EQ(dense.raw_depth_map("view3"), nullptr);
+
+  // The same model again: nothing to sweep, nothing new to fuse.
+  told.clear();
+  const DenseUpdate u2 = dense.update(
+      first3, images, [&](const std::string& id) { told.push_back(id); });
+  EXPECT_TRUE(u2.new_depth_maps.empty());
+  EXPECT_TRUE(told.empty());
+  EXPECT_FALSE(u2.refused);
+  EXPECT_EQ(u2.points, points1);
+  EXPECT_EQ(dense.points().size(), points1);
+
+  // Two more views: two more maps, more points.
+  const DenseUpdate u3 = dense.update(all5, images);
+  EXPECT_EQ(u3.new_depth_maps, (std::vector<std::string>{"view3", "view4"}));
+  EXPECT_FALSE(u3.refused);
+  const std::vector<ColoredPoint> cloud5 = dense.points();
+  EXPECT_GT(cloud5.size(), points1);
+  EXPECT_EQ(u3.points, cloud5.size());
+
+  // The filtered maps are the raw ones with pixels taken away.
+  const std::vector<DepthMap> filtered = dense.filtered_depth_maps();
+  ASSERT_EQ(filtered.size(), 5u);
+  std::set<std::string> filtered_ids;
+  for (const DepthMap& f : filtered) {
+    filtered_ids.insert(f.id);
+    const DepthMap* raw = dense.raw_depth_map(f.id);
+    ASSERT_NE(raw, nullptr) << f.id;
+    ASSERT_EQ(f.depth.size(), raw->depth.size());
+    const cv::Mat kept = f.depth > 0;
+    EXPECT_EQ(count_where((raw->depth != f.depth) & kept), 0) << f.id;
+    EXPECT_EQ(count_where(kept & (raw->depth <= 0)), 0) << f.id;
+    EXPECT_GT(count_where(kept), 0.2 * count_where(raw->depth > 0)) << f.id;
+    EXPECT_LE(count_where(kept), count_where(raw->depth > 0)) << f.id;
+    EXPECT_EQ(f.R, raw->R);
+    EXPECT_EQ(f.t, raw->t);
+  }
+  EXPECT_EQ(filtered_ids, (std::set<std::string>{"view0", "view1", "view2",
+                                                 "view3", "view4"}));
+
+  // The fused points lie on the street's surfaces.
+  const Eigen::Vector3d centre = street()[2].view.centre();
+  int near = 0;
+  for (const ColoredPoint& p : cloud5) {
+    const Eigen::Vector3d X(p.x, p.y, p.z);
+    if (distance_to_site(X) < 0.02 * (X - centre).norm()) ++near;
+  }
+  EXPECT_GE(near, 0.95 * cloud5.size());
+
+  // Withdrawing view1: its map goes and the cloud is rebuilt without it.
+  const DenseUpdate u4 = dense.update(without1, images);
+  EXPECT_TRUE(u4.new_depth_maps.empty());
+  EXPECT_TRUE(u4.refused);
+  EXPECT_EQ(dense.raw_depth_map("view1"), nullptr);
+  EXPECT_NE(dense.raw_depth_map("view2"), nullptr);
+  const size_t points4 = dense.points().size();
+  EXPECT_GT(points4, 0u);
+  EXPECT_NE(points4, cloud5.size());
+  EXPECT_EQ(u4.points, points4);
+  EXPECT_EQ(dense.filtered_depth_maps().size(), 4u);
+}
+
+// Disabled: fails today. A withdrawn capture's map keeps vouching for the
+// pixels of the maps it agreed with (Entry::agreed is never recomputed when
+// a map is dropped), so after withdrawing view1 some 1 400 to 3 500 depths
+// of each remaining map agree with no remaining map, against "a depth
+// survives only when another map agrees". Enable once
+// DenseReconstruction::update re-filters the remaining maps after
+// drop_withdrawn().
+TEST(DenseStagesReconstruction, WithdrawnMapNoLongerVouches) {
+  const SparseTruth truth = sparse_truth(300, 17);
+  const ImageSource images = street_images();
+  DenseReconstruction dense(small_dense_options());
+  dense.update(build_model(truth, {0, 1, 2, 3, 4}), images);
+  dense.update(build_model(truth, {0, 2, 3, 4}), images);
+  const std::vector<DepthMap> maps = dense.filtered_depth_maps();
+  ASSERT_EQ(maps.size(), 4u);
+  for (const DepthMap& map : maps) {
+    cv::Mat vouched = cv::Mat::zeros(map.depth.size(), CV_8U);
+    for (const DepthMap& other : maps) {
+      if (other.id == map.id) continue;
+      vouched |= agreement_mask(map, *dense.raw_depth_map(other.id), {});
+    }
+    EXPECT_EQ(count_where((map.depth > 0) & (vouched == 0)), 0) << map.id;
+  }
+}
+
+TEST(DenseStagesReconstruction, FusedCloudRoundTripsThroughPly) {
+  const SparseTruth truth = sparse_truth(300, 17);
+  DenseReconstruction dense(small_dense_options());
+  // Two views, each the other's neighbour: two sweeps.
+  const DenseUpdate update =
+      dense.update(build_model(truth, {1, 2}), street_images());
+  EXPECT_EQ(update.new_depth_maps.size(), 2u);
+  const std::vector<ColoredPoint> points = dense.points();
+  ASSERT_FALSE(points.empty());
+  const std::string path = ::testing::TempDir() + "dense_stages_cloud_" +
+                           std::to_string(::getpid()) + ".ply";
+  write_ply(path, points);
+  const std::vector<ColoredPoint> back = read_ply(path);
+  std::remove(path.c_str());
+  ASSERT_EQ(back.size(), points.size());
+  size_t different = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const ColoredPoint& a = points[i];
+    const ColoredPoint& b = back[i];
+    if (a.x != b.x || a.y != b.y || a.z != b.z || a.r != b.r || a.g != b.g ||
+        a.b != b.b)
+      ++different;
+  }
+  EXPECT_EQ(different, 0u);
+}
+
+}  // namespace
+}  // namespace arscout::engine
