@@ -20,22 +20,15 @@
 #include "arscout/engine/model_io.h"
 #include "arscout/engine/ply.h"
 #include "arscout/engine/point_render.h"
+#include "run_cli.h"
 #include "test_stores.h"
 #include "tool_process.h"
 
 namespace arscout {
 namespace {
 
+using testing::run_cli;
 using testing::ToolProcess;
-
-void run_cli(const std::vector<std::string>& args, const std::string& log) {
-  ToolProcess cli(ARSCOUT_CLI, args, log);
-  const auto status = cli.wait_for(std::chrono::minutes(10));
-  ASSERT_TRUE(status.has_value()) << "arscout timed out\n"
-                                  << testing::slurp(log);
-  ASSERT_EQ(*status, 0) << testing::describe_status(*status) << "\n"
-                        << testing::slurp(log);
-}
 
 std::string read_bytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

@@ -7,24 +7,15 @@
 #include <gtest/gtest.h>
 
 #include "model_eval.h"
+#include "run_cli.h"
 #include "test_stores.h"
 #include "tool_process.h"
 
 namespace arscout {
 namespace {
 
+using testing::run_cli;
 using testing::ToolProcess;
-
-// Runs the CLI to completion; fails the test (with the log) unless it
-// exits 0.
-void run_cli(const std::vector<std::string>& args, const std::string& log) {
-  ToolProcess cli(ARSCOUT_CLI, args, log);
-  const auto status = cli.wait_for(std::chrono::minutes(10));
-  ASSERT_TRUE(status.has_value()) << "arscout timed out\n"
-                                  << testing::slurp(log);
-  ASSERT_EQ(*status, 0) << testing::describe_status(*status) << "\n"
-                        << testing::slurp(log);
-}
 
 struct StrechaRun {
   eval::PoseComparison poses;
