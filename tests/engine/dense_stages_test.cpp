@@ -209,6 +209,36 @@ TEST_F(DenseStagesSweepDirections, SceneDirectionAlongTheGround) {
   EXPECT_GT(on_ground, 30);
 }
 
+// Two parallel walls on the right (key frame x = 2 and x = 3, the nearer
+// one larger) and the ground below: the second wall adds no direction of
+// its own, so the ground gets the second scene direction.
+TEST_F(DenseStagesSweepDirections, ParallelPlanesShareOneDirection) {
+  DenseView key_view = key();
+  key_view.R = Eigen::Matrix3d::Identity();
+  key_view.t = Eigen::Vector3d::Zero();
+  key_view.sparse_points.clear();
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> along(4, 14), up(-1.5, 1.5);
+  for (int i = 0; i < 240; ++i)
+    key_view.sparse_points.emplace_back(2, up(rng), along(rng));
+  for (int i = 0; i < 180; ++i)
+    key_view.sparse_points.emplace_back(3, up(rng), along(rng));
+  for (int i = 0; i < 120; ++i)
+    key_view.sparse_points.emplace_back(up(rng), 1.6, along(rng));
+  DenseView left = key_view, right = key_view;
+  left.t = Eigen::Vector3d(0.5, 0, 0);
+  right.t = Eigen::Vector3d(-0.5, 0, 0);
+  PlaneSweepOptions options;
+  options.max_scene_directions = 2;
+  const auto directions = sweep_directions(key_view, {&left, &right}, options);
+  ASSERT_EQ(directions.size(), 3u);
+  EXPECT_GT(directions[1].normal.x(), 0.99);  // the walls
+  EXPECT_GT(directions[2].normal.y(), 0.99);  // the ground, below
+  // The walls' direction spans the nearer wall, the larger one.
+  EXPECT_LT(directions[1].d_near, 2);
+  EXPECT_GT(directions[1].d_far, 2);
+}
+
 TEST_F(DenseStagesSweepDirections, EmptyWithTooFewSparsePointsOrNoBaseline) {
   const PlaneSweepOptions options;
   DenseView few = key();

@@ -10,20 +10,37 @@
 namespace arscout::engine {
 namespace {
 
-// Where pixel (x, y) of `map` at depth z lands in `other`: pixel and depth
-// there. False when behind `other` or outside it.
-bool project_into(const DepthMap& map, const DepthMap& other, int x, int y,
-                  float z, Eigen::Vector2d* pixel, double* depth) {
-  const Eigen::Vector3d X = map.unproject(x, y, z);
-  const Eigen::Vector3d c = other.R * X + other.t;
-  if (c.z() <= 0) return false;
-  const Eigen::Vector3d p = other.K * c;
-  *pixel = p.head<2>() / p.z();
-  *depth = c.z();
-  return pixel->x() >= -0.5 && pixel->y() >= -0.5 &&
-         pixel->x() < other.depth.cols - 0.5 &&
-         pixel->y() < other.depth.rows - 0.5;
-}
+// Pixel (x, y) of one depth map at depth z, seen from another camera:
+// camera coordinates z * A (x, y, 1) + b, and pixel K c / c.z. A and b
+// fold both poses and the first camera's K^-1 together, once per pair
+// rather than once per pixel.
+class Reprojection {
+ public:
+  Reprojection(const DepthMap& from, const DepthMap& to) : K_(to.K) {
+    const Eigen::Matrix3d R = to.R * from.R.transpose();
+    A_ = R * from.K.inverse();
+    b_ = to.t - R * from.t;
+    width_ = to.depth.cols;
+    height_ = to.depth.rows;
+  }
+
+  // False when behind the camera or outside its image.
+  bool operator()(double x, double y, double z, Eigen::Vector2d* pixel,
+                  double* depth) const {
+    const Eigen::Vector3d c = z * (A_ * Eigen::Vector3d(x, y, 1)) + b_;
+    if (c.z() <= 0) return false;
+    const Eigen::Vector3d p = K_ * c;
+    *pixel = p.head<2>() / p.z();
+    *depth = c.z();
+    return pixel->x() >= -0.5 && pixel->y() >= -0.5 &&
+           pixel->x() < width_ - 0.5 && pixel->y() < height_ - 0.5;
+  }
+
+ private:
+  Eigen::Matrix3d K_, A_;
+  Eigen::Vector3d b_;
+  int width_ = 0, height_ = 0;
+};
 
 float depth_at(const DepthMap& map, const Eigen::Vector2d& pixel) {
   const int u = static_cast<int>(std::lround(pixel.x()));
@@ -50,41 +67,43 @@ cv::Mat agreement_mask(const DepthMap& map, const DepthMap& other,
   cv::Mat agrees = cv::Mat::zeros(map.depth.size(), CV_8U);
   const double max_px_sq =
       options.max_reprojection_px * options.max_reprojection_px;
-  for (int y = 0; y < map.depth.rows; ++y) {
-    const float* depth = map.depth.ptr<float>(y);
-    uint8_t* out = agrees.ptr<uint8_t>(y);
-    for (int x = 0; x < map.depth.cols; ++x) {
-      if (depth[x] <= 0) continue;
-      Eigen::Vector2d pixel;
-      double predicted = 0;
-      if (!project_into(map, other, x, y, depth[x], &pixel, &predicted))
-        continue;
-      const float seen = depth_at(other, pixel);
-      if (seen <= 0 ||
-          std::abs(seen - predicted) > options.max_relative_depth * seen)
-        continue;
-      // Backward: the other map's point on the same ray, back in this map.
-      const Eigen::Vector3d X = other.unproject(pixel.x(), pixel.y(), seen);
-      const Eigen::Vector3d c = map.R * X + map.t;
-      if (c.z() <= 0) continue;
-      const Eigen::Vector3d p = map.K * c;
-      const Eigen::Vector2d back = p.head<2>() / p.z();
-      if ((back - Eigen::Vector2d(x, y)).squaredNorm() <= max_px_sq)
-        out[x] = 255;
+  const Reprojection forward(map, other), backward(other, map);
+  // Rows are independent: the mask is the same for any thread count.
+  cv::parallel_for_(cv::Range(0, map.depth.rows), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y) {
+      const float* depth = map.depth.ptr<float>(y);
+      uint8_t* out = agrees.ptr<uint8_t>(y);
+      for (int x = 0; x < map.depth.cols; ++x) {
+        if (depth[x] <= 0) continue;
+        Eigen::Vector2d pixel, back;
+        double predicted = 0, unused = 0;
+        if (!forward(x, y, depth[x], &pixel, &predicted)) continue;
+        const float seen = depth_at(other, pixel);
+        if (seen <= 0 ||
+            std::abs(seen - predicted) > options.max_relative_depth * seen)
+          continue;
+        // Backward: the other map's point on the same ray, back in this
+        // map (it may land just outside: only the distance matters).
+        backward(pixel.x(), pixel.y(), seen, &back, &unused);
+        if (unused > 0 &&
+            (back - Eigen::Vector2d(x, y)).squaredNorm() <= max_px_sq)
+          out[x] = 255;
+      }
     }
-  }
+  });
   return agrees;
 }
 
 DepthAgreement compare_depth_maps(const DepthMap& a, const DepthMap& b) {
   std::vector<double> differences;
+  const Reprojection forward(a, b);
   for (int y = 0; y < a.depth.rows; ++y) {
     for (int x = 0; x < a.depth.cols; ++x) {
       const float z = a.depth.at<float>(y, x);
       if (z <= 0) continue;
       Eigen::Vector2d pixel;
       double predicted = 0;
-      if (!project_into(a, b, x, y, z, &pixel, &predicted)) continue;
+      if (!forward(x, y, z, &pixel, &predicted)) continue;
       const float seen = depth_at(b, pixel);
       if (seen > 0) differences.push_back(std::abs(predicted - seen) / seen);
     }

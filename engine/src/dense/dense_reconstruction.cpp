@@ -323,6 +323,9 @@ void DenseReconstruction::Impl::fuse(bool rebuild) {
   for (const std::string& id : order) {
     Entry& entry = entries.at(id);
     const DepthMap& map = entry.map;
+    // unproject() without a K inverse per pixel: X = z A (x, y, 1) + b.
+    const Eigen::Matrix3d A = map.R.transpose() * map.K.inverse();
+    const Eigen::Vector3d b = -map.R.transpose() * map.t;
     for (int y = 0; y < map.depth.rows; ++y) {
       const float* depth = map.depth.ptr<float>(y);
       const uint8_t* agreed = entry.agreed.ptr<uint8_t>(y);
@@ -330,7 +333,7 @@ void DenseReconstruction::Impl::fuse(bool rebuild) {
       const cv::Vec3b* bgr = entry.colour.ptr<cv::Vec3b>(y);
       for (int x = 0; x < map.depth.cols; ++x) {
         if (!agreed[x] || fused[x] || depth[x] <= 0) continue;
-        cloud->add(map.unproject(x, y, depth[x]),
+        cloud->add(depth[x] * (A * Eigen::Vector3d(x, y, 1)) + b,
                    {bgr[x][2], bgr[x][1], bgr[x][0]});
         fused[x] = 255;
       }

@@ -1,7 +1,15 @@
 // The CPU plane sweep. Work is split into horizontal strips of the key view
-// (one task each); a strip sweeps every plane on its own rows plus a margin
-// of half a window, so strips never share state and the result does not
-// depend on the thread count.
+// (one task each). A strip warps the neighbours on its own rows plus half a
+// window above and below (and half a window beyond the left and right
+// edges), taking rows and columns outside the image by reflection as the
+// window sums do, so strips share no state and the result does not depend
+// on the thread count.
+//
+// Per plane and neighbour a strip makes two passes over whole rows: a warp
+// (the homography, bilinear on cv::warpPerspective's 1/32-pixel grid so
+// that the CUDA path can match it) that also stores b^2 and a*b, then
+// separable window sums of b, b^2 and a*b and the ZNCC. The row loops are
+// in sweep_kernels.cpp.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -12,11 +20,18 @@
 
 #include "arscout/engine/dense.h"
 #include "dense/plane_sweep_cuda.h"
+#include "dense/sweep_kernels.h"
 
 namespace arscout::engine {
 namespace {
 
-constexpr float kNoScore = -2;  // below any ZNCC
+using sweep_kernels::kGreyCentre;
+using sweep_kernels::kGreyPad;
+using sweep_kernels::kNoScore;
+
+// Window column sums restart every this many image rows (window_sums).
+constexpr int kSumBlock = 16;
+constexpr int kMaxWindow = 31;
 
 cv::Mat gray_float(const cv::Mat& bgr) {
   cv::Mat gray, result;
@@ -32,6 +47,18 @@ cv::Mat box(const cv::Mat& image, int window) {
   return result;
 }
 
+int round_up(int n) {
+  const int k = sweep_kernels::kRowAlignment;
+  return (n + k - 1) / k * k;
+}
+
+// cv::BORDER_REFLECT: fedcba|abcdefgh|hgfedcb.
+int reflect(int p, int n) {
+  if (n == 1) return 0;
+  while (p < 0 || p >= n) p = p < 0 ? -p - 1 : 2 * n - p - 1;
+  return p;
+}
+
 // The homography taking key pixels to neighbour pixels for the plane
 // n . X = d (key camera frame): K_n (R_rel + t_rel n^T / d) K_k^-1.
 Eigen::Matrix3d plane_homography(const DenseView& key,
@@ -41,6 +68,46 @@ Eigen::Matrix3d plane_homography(const DenseView& key,
   const Eigen::Vector3d t_rel = neighbour.t - R_rel * key.t;
   return neighbour.K * (R_rel + t_rel * normal.transpose() / d) *
          key.K.inverse();
+}
+
+// What every strip reads: computed once per sweep.
+struct SweepInputs {
+  const DenseView& key;
+  const std::vector<const DenseView*>& neighbours;
+  const PlaneSweepOptions& options;
+  cv::Mat key_grey;               // centred
+  cv::Mat key_mean, inverse_std;  // window statistics; inverse_std 0:
+                                  // too little texture
+  std::vector<cv::Mat> grays;     // the neighbours', not centred, with
+                                  // a zero border of kGreyPad pixels
+};
+
+SweepInputs sweep_inputs(const DenseView& key,
+                         const std::vector<const DenseView*>& neighbours,
+                         const PlaneSweepOptions& options) {
+  SweepInputs in{key, neighbours, options, {}, {}, {}, {}};
+  in.key_grey = gray_float(key.bgr) - kGreyCentre;
+  in.key_mean = box(in.key_grey, options.window);
+  const cv::Mat mean_sq = box(in.key_grey.mul(in.key_grey), options.window);
+  in.inverse_std.create(key.bgr.size(), CV_32F);
+  const float min_var =
+      static_cast<float>(options.min_texture * options.min_texture);
+  for (int y = 0; y < key.bgr.rows; ++y) {
+    const float* m = in.key_mean.ptr<float>(y);
+    const float* m2 = mean_sq.ptr<float>(y);
+    float* inv = in.inverse_std.ptr<float>(y);
+    for (int x = 0; x < key.bgr.cols; ++x) {
+      const float var = m2[x] - m[x] * m[x];
+      inv[x] = var >= min_var && var > 0 ? 1.0f / std::sqrt(var) : 0.0f;
+    }
+  }
+  for (const DenseView* n : neighbours) {
+    cv::Mat padded;
+    cv::copyMakeBorder(gray_float(n->bgr), padded, kGreyPad, kGreyPad, kGreyPad,
+                       kGreyPad, cv::BORDER_CONSTANT, 0);
+    in.grays.push_back(padded);
+  }
+  return in;
 }
 
 // Per-pixel state of the winner-takes-all search within one strip.
@@ -57,51 +124,12 @@ struct Winner {
         plane(size, CV_32S, cv::Scalar(-1)) {}
 };
 
-struct KeyStatistics {
-  cv::Mat gray, mean, inverse_std;  // inverse_std 0: too little texture
-};
-
-KeyStatistics key_statistics(const cv::Mat& gray, int window,
-                             double min_texture) {
-  KeyStatistics stats;
-  stats.gray = gray;
-  stats.mean = box(gray, window);
-  const cv::Mat mean_sq = box(gray.mul(gray), window);
-  stats.inverse_std.create(gray.size(), CV_32F);
-  const float min_var = static_cast<float>(min_texture * min_texture);
-  for (int y = 0; y < gray.rows; ++y) {
-    const float* m = stats.mean.ptr<float>(y);
-    const float* m2 = mean_sq.ptr<float>(y);
-    float* inv = stats.inverse_std.ptr<float>(y);
-    for (int x = 0; x < gray.cols; ++x) {
-      const float var = m2[x] - m[x] * m[x];
-      inv[x] = var >= min_var && var > 0 ? 1.0f / std::sqrt(var) : 0.0f;
-    }
-  }
-  return stats;
-}
-
-// One strip: rows [rows.start, rows.end) of the key view, computed on
-// [padded.start, padded.end).
+// One strip: rows [rows.start, rows.end) of the key view. Its buffers are
+// padded on the right to a multiple of the kernels' vector width;
+// "extended" buffers also hold `radius` more rows and columns on every side.
 class StripSweep {
  public:
-  StripSweep(const DenseView& key, const std::vector<const DenseView*>& views,
-             const std::vector<cv::Mat>& grays, const KeyStatistics& stats,
-             const PlaneSweepOptions& options, cv::Range rows, cv::Range padded)
-      : key_(key),
-        views_(views),
-        grays_(grays),
-        options_(options),
-        rows_(rows),
-        padded_(padded),
-        size_(key.bgr.cols, padded.size()),
-        key_gray_(stats.gray.rowRange(padded)),
-        key_mean_(stats.mean.rowRange(padded)),
-        key_inverse_std_(stats.inverse_std.rowRange(padded)),
-        winner_(size_),
-        previous_(size_, CV_32F),
-        aggregated_(size_, CV_32F),
-        ray_dot_(size_, CV_32F) {}
+  StripSweep(const SweepInputs& in, cv::Range rows);
 
   void run(const std::vector<SweepDirection>& directions) {
     for (size_t f = 0; f < directions.size(); ++f) {
@@ -126,12 +154,12 @@ class StripSweep {
   }
 
   void prepare_direction(const SweepDirection& direction) {
-    const Eigen::Matrix3d K_inv = key_.K.inverse();
-    const Eigen::Vector3d n = K_inv.transpose() * direction.normal;
+    const Eigen::Vector3d n =
+        in_.key.K.inverse().transpose() * direction.normal;
     for (int y = 0; y < size_.height; ++y) {
       float* row = ray_dot_.ptr<float>(y);
-      const double py = y + padded_.start;
-      for (int x = 0; x < size_.width; ++x) {
+      const double py = y + rows_.start;
+      for (int x = 0; x < padded_width_; ++x) {
         row[x] = static_cast<float>(n.x() * x + n.y() * py + n.z());
       }
     }
@@ -140,92 +168,151 @@ class StripSweep {
 
   void score_plane(const SweepDirection& direction, int plane) {
     aggregated_.setTo(kNoScore);
+    sum_.setTo(0);
+    count_.setTo(0);
     const double d = 1 / inverse_offset(direction, plane);
-    for (size_t j = 0; j < views_.size(); ++j) {
-      Eigen::Matrix3d H =
-          plane_homography(key_, *views_[j], direction.normal, d);
-      // Strip rows start at padded_.start: shift before mapping.
-      Eigen::Matrix3d shift = Eigen::Matrix3d::Identity();
-      shift(1, 2) = padded_.start;
-      H = H * shift;
-      score_neighbour(H, grays_[j], j == 0);
+    for (size_t j = 0; j < in_.neighbours.size(); ++j) {
+      score_neighbour(
+          plane_homography(in_.key, *in_.neighbours[j], direction.normal, d),
+          in_.grays[j]);
     }
-    if (views_.size() > 1) combine_neighbours();
+    if (in_.neighbours.size() > 1) combine_neighbours();
   }
 
-  void score_neighbour(const Eigen::Matrix3d& H, const cv::Mat& gray,
-                       bool first);
+  void score_neighbour(const Eigen::Matrix3d& H, const cv::Mat& grey);
+  void window_sums(int y);
+  // Ring buffer row of extended row e.
+  int slot(int e) const { return e % ring_rows_; }
 
   // The mean over the neighbours that see the pixel, unless the best one
   // alone, less a penalty, scores higher: a surface hidden from one
   // neighbour still wins through the other.
   void combine_neighbours() {
-    const float penalty = static_cast<float>(options_.occlusion_penalty);
+    const float penalty = static_cast<float>(in_.options.occlusion_penalty);
     for (int y = 0; y < size_.height; ++y) {
-      float* out = aggregated_.ptr<float>(y);
-      const float* sum = sum_.ptr<float>(y);
-      const float* count = count_.ptr<float>(y);
-      for (int x = 0; x < size_.width; ++x) {
-        if (count[x] > 0)
-          out[x] = std::max(sum[x] / count[x], out[x] - penalty);
-      }
+      sweep_kernels::combine_row(sum_.ptr<float>(y), count_.ptr<float>(y),
+                                 penalty, padded_width_,
+                                 aggregated_.ptr<float>(y));
     }
   }
   void update_winner(const SweepDirection& direction, int f, int plane);
 
-  const DenseView& key_;
-  const std::vector<const DenseView*>& views_;
-  const std::vector<cv::Mat>& grays_;
-  const PlaneSweepOptions& options_;
-  cv::Range rows_, padded_;
-  cv::Size size_;
-  cv::Mat key_gray_, key_mean_, key_inverse_std_;
+  const SweepInputs& in_;
+  cv::Range rows_;
+  cv::Size size_;  // the strip's key pixels
+  int radius_;
+  int padded_width_;
+  cv::Mat key_mean_, inverse_std_;  // the strip's rows, padded
+  std::vector<int> source_rows_;    // extended -> key, reflected
+  std::vector<float> source_cols_;  // likewise
+  cv::Mat key_extended_;            // centred key grey
+  // The warped extended rows, the last ring_rows_ of them: rows are
+  // warped just before their window sums need them, so the buffers stay
+  // in cache.
+  int ring_rows_;
+  cv::Mat b_, bb_, ab_, inside_;
+  cv::Mat column_sums_;  // 3 rows: b, bb, ab
+  cv::Mat window_sums_;  // 3 rows: b, bb, ab
   Winner winner_;
-  cv::Mat previous_, aggregated_, ray_dot_;
-  cv::Mat warped_, product_, sum_, count_;
+  cv::Mat previous_, aggregated_, sum_, count_, ray_dot_;
 };
 
-void StripSweep::score_neighbour(const Eigen::Matrix3d& H, const cv::Mat& gray,
-                                 bool first) {
-  if (first) {
-    sum_ = cv::Mat::zeros(size_, CV_32F);
-    count_ = cv::Mat::zeros(size_, CV_32F);
+StripSweep::StripSweep(const SweepInputs& in, cv::Range rows)
+    : in_(in),
+      rows_(rows),
+      size_(in.key.bgr.cols, rows.size()),
+      radius_(in.options.window / 2),
+      padded_width_(round_up(size_.width)),
+      winner_(cv::Size(padded_width_, size_.height)),
+      previous_(size_.height, padded_width_, CV_32F),
+      aggregated_(size_.height, padded_width_, CV_32F),
+      sum_(size_.height, padded_width_, CV_32F),
+      count_(size_.height, padded_width_, CV_32F),
+      ray_dot_(size_.height, padded_width_, CV_32F) {
+  const cv::Size extended(round_up(padded_width_ + 2 * radius_),
+                          size_.height + 2 * radius_);
+  for (cv::Mat* m : {&key_mean_, &inverse_std_}) {
+    *m = cv::Mat::zeros(size_.height, padded_width_, CV_32F);
   }
-  cv::Mat H_cv(3, 3, CV_64F);
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) H_cv.at<double>(r, c) = H(r, c);
-  cv::warpPerspective(gray, warped_, H_cv, size_,
-                      cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                      cv::BORDER_CONSTANT, cv::Scalar(0));
-  const int window = options_.window;
-  const cv::Mat mean = box(warped_, window);
-  const cv::Mat mean_sq = box(warped_.mul(warped_), window);
-  cv::multiply(warped_, key_gray_, product_);
-  const cv::Mat mean_product = box(product_, window);
-  // A window reaching outside the neighbour is not scored.
-  const double margin = window / 2 + 1;
-  const double max_x = gray.cols - 1 - margin, max_y = gray.rows - 1 - margin;
-  for (int y = 0; y < size_.height; ++y) {
-    const float* mb = mean.ptr<float>(y);
-    const float* mbb = mean_sq.ptr<float>(y);
-    const float* mab = mean_product.ptr<float>(y);
-    const float* ma = key_mean_.ptr<float>(y);
-    const float* inv_a = key_inverse_std_.ptr<float>(y);
-    float* out = aggregated_.ptr<float>(y);
-    for (int x = 0; x < size_.width; ++x) {
-      if (inv_a[x] == 0) continue;
-      const double w = H(2, 0) * x + H(2, 1) * y + H(2, 2);
-      if (w <= 0) continue;
-      const double u = (H(0, 0) * x + H(0, 1) * y + H(0, 2)) / w;
-      const double v = (H(1, 0) * x + H(1, 1) * y + H(1, 2)) / w;
-      if (u < margin || v < margin || u > max_x || v > max_y) continue;
-      const float var_b = mbb[x] - mb[x] * mb[x];
-      if (var_b <= 1e-3f) continue;
-      const float zncc = (mab[x] - ma[x] * mb[x]) * inv_a[x] / std::sqrt(var_b);
-      out[x] = std::max(out[x], zncc);
-      sum_.ptr<float>(y)[x] += zncc;
-      count_.ptr<float>(y)[x] += 1;
+  in.key_mean.rowRange(rows).copyTo(key_mean_.colRange(0, size_.width));
+  in.inverse_std.rowRange(rows).copyTo(inverse_std_.colRange(0, size_.width));
+  for (int e = 0; e < extended.height; ++e)
+    source_rows_.push_back(reflect(rows.start - radius_ + e, in.key.bgr.rows));
+  for (int c = 0; c < extended.width; ++c)
+    source_cols_.push_back(
+        static_cast<float>(reflect(c - radius_, size_.width)));
+  key_extended_.create(extended, CV_32F);
+  for (int e = 0; e < extended.height; ++e) {
+    const float* source = in.key_grey.ptr<float>(source_rows_[e]);
+    float* row = key_extended_.ptr<float>(e);
+    for (int c = 0; c < extended.width; ++c)
+      row[c] = source[static_cast<int>(source_cols_[c])];
+  }
+  ring_rows_ = 2 * radius_ + 2;  // a window, and the row leaving it
+  for (cv::Mat* m : {&b_, &bb_, &ab_, &inside_})
+    m->create(ring_rows_, extended.width, CV_32F);
+  column_sums_.create(3, extended.width, CV_32F);
+  window_sums_.create(3, padded_width_, CV_32F);
+}
+
+// The sums of b, b^2 and a*b over the window centred on each pixel of
+// strip row y, into window_sums_ (rows 0, 1, 2).
+void StripSweep::window_sums(int y) {
+  const int window = 2 * radius_ + 1;
+  const cv::Mat* sources[3] = {&b_, &bb_, &ab_};
+  // Column sums slide down from row to row, and start afresh at every
+  // kSumBlock-th image row; strips start on such rows, so the float
+  // rounding is the same whichever strip, and thread, a row falls in.
+  const bool fresh = (rows_.start + y) % kSumBlock == 0;
+  for (int q = 0; q < 3; ++q) {
+    float* column = column_sums_.ptr<float>(q);
+    if (fresh) {
+      const float* rows[kMaxWindow];
+      for (int k = 0; k < window; ++k)
+        rows[k] = sources[q]->ptr<float>(slot(y + k));
+      sweep_kernels::sum_rows(rows, window, column_sums_.cols, column);
+    } else {
+      sweep_kernels::slide_rows(
+          column, sources[q]->ptr<float>(slot(y + window - 1)),
+          sources[q]->ptr<float>(slot(y - 1)), column_sums_.cols);
     }
+    sweep_kernels::sum_runs(column, window, padded_width_,
+                            window_sums_.ptr<float>(q));
+  }
+}
+
+// This neighbour's ZNCC through H at every strip pixel, folded into the
+// running best (aggregated_), sum and count. Extended rows are warped
+// (sweep_kernels::warp_row: b, b^2, a*b, inside) as the window reaches
+// them.
+void StripSweep::score_neighbour(const Eigen::Matrix3d& H,
+                                 const cv::Mat& grey) {
+  float h[9];
+  for (int k = 0; k < 9; ++k) h[k] = static_cast<float>(H(k / 3, k % 3));
+  const sweep_kernels::PaddedGrey padded{
+      grey.ptr<float>(), static_cast<int>(grey.step1()),
+      grey.cols - 2 * kGreyPad, grey.rows - 2 * kGreyPad};
+  const float margin = static_cast<float>(radius_ + 1);
+  const float inverse_n =
+      1.0f / static_cast<float>((2 * radius_ + 1) * (2 * radius_ + 1));
+  int warped = 0;  // extended rows warped so far
+  for (int y = 0; y < size_.height; ++y) {
+    for (; warped <= y + 2 * radius_; ++warped) {
+      const int r = slot(warped);
+      sweep_kernels::warp_row(h, static_cast<float>(source_rows_[warped]),
+                              source_cols_.data(), b_.cols, padded, margin,
+                              key_extended_.ptr<float>(warped),
+                              b_.ptr<float>(r), bb_.ptr<float>(r),
+                              ab_.ptr<float>(r), inside_.ptr<float>(r));
+    }
+    window_sums(y);
+    sweep_kernels::zncc_row(window_sums_.ptr<float>(0),
+                            window_sums_.ptr<float>(1),
+                            window_sums_.ptr<float>(2),
+                            inside_.ptr<float>(slot(y + radius_)) + radius_,
+                            key_mean_.ptr<float>(y), inverse_std_.ptr<float>(y),
+                            inverse_n, padded_width_, aggregated_.ptr<float>(y),
+                            sum_.ptr<float>(y), count_.ptr<float>(y));
   }
 }
 
@@ -238,60 +325,40 @@ void StripSweep::update_winner(const SweepDirection& direction, int f,
   const float basin = static_cast<float>(std::max(0.005, 3 * step / inverse));
   const float d = static_cast<float>(1 / inverse);
   for (int y = 0; y < size_.height; ++y) {
-    const float* score = aggregated_.ptr<float>(y);
-    const float* previous = previous_.ptr<float>(y);
-    const float* ray = ray_dot_.ptr<float>(y);
-    float* best = winner_.score.ptr<float>(y);
-    float* second = winner_.second.ptr<float>(y);
-    float* before = winner_.before.ptr<float>(y);
-    float* after = winner_.after.ptr<float>(y);
-    float* depth = winner_.depth.ptr<float>(y);
-    int* dir = winner_.direction.ptr<int>(y);
-    int* index = winner_.plane.ptr<int>(y);
-    for (int x = 0; x < size_.width; ++x) {
-      if (dir[x] == f && index[x] == plane - 1) after[x] = score[x];
-      const float s = score[x];
-      if (s <= kNoScore || ray[x] <= 1e-6f) continue;
-      const float z = d / ray[x];
-      const bool same_basin =
-          depth[x] > 0 && std::abs(z - depth[x]) <= basin * depth[x];
-      if (s > best[x]) {
-        if (!same_basin) second[x] = best[x];
-        best[x] = s;
-        depth[x] = z;
-        dir[x] = f;
-        index[x] = plane;
-        before[x] = previous[x];
-        after[x] = kNoScore;
-      } else if (!same_basin && s > second[x]) {
-        second[x] = s;
-      }
-    }
+    const sweep_kernels::WinnerRow row{
+        winner_.score.ptr<float>(y),  winner_.second.ptr<float>(y),
+        winner_.before.ptr<float>(y), winner_.after.ptr<float>(y),
+        winner_.depth.ptr<float>(y),  winner_.direction.ptr<int32_t>(y),
+        winner_.plane.ptr<int32_t>(y)};
+    sweep_kernels::update_winner_row(
+        aggregated_.ptr<float>(y), previous_.ptr<float>(y),
+        ray_dot_.ptr<float>(y), d, basin, f, plane, padded_width_, row);
   }
 }
 
 void StripSweep::finish(const std::vector<SweepDirection>& directions,
                         DepthMap* out) const {
-  const int offset = rows_.start - padded_.start;
-  for (int y = 0; y < rows_.size(); ++y) {
-    const int sy = y + offset;
+  std::vector<Eigen::Vector3d> normals;  // K^-T n: its dot with (x, y, 1)
+  for (const SweepDirection& dir : directions)
+    normals.push_back(in_.key.K.inverse().transpose() * dir.normal);
+  for (int y = 0; y < size_.height; ++y) {
     float* depth = out->depth.ptr<float>(rows_.start + y);
     float* score = out->score.ptr<float>(rows_.start + y);
     float* margin = out->margin.ptr<float>(rows_.start + y);
     for (int x = 0; x < size_.width; ++x) {
-      const int f = winner_.direction.at<int>(sy, x);
+      const int f = winner_.direction.at<int>(y, x);
       if (f < 0) continue;
       const SweepDirection& dir = directions[f];
-      const int plane = winner_.plane.at<int>(sy, x);
-      const float best = winner_.score.at<float>(sy, x);
-      const float before = winner_.before.at<float>(sy, x);
-      const float after = winner_.after.at<float>(sy, x);
+      const int plane = winner_.plane.at<int>(y, x);
+      const float best = winner_.score.at<float>(y, x);
+      const float before = winner_.before.at<float>(y, x);
+      const float after = winner_.after.at<float>(y, x);
       score[x] = best;
-      margin[x] = best - std::max(winner_.second.at<float>(sy, x), -1.0f);
+      margin[x] = best - std::max(winner_.second.at<float>(y, x), -1.0f);
       // A winner on the first or last plane may lie beyond the range.
       if (plane == 0 || plane == dir.planes - 1 || before <= kNoScore ||
-          after <= kNoScore || best < options_.min_score ||
-          margin[x] < options_.min_margin) {
+          after <= kNoScore || best < in_.options.min_score ||
+          margin[x] < in_.options.min_margin) {
         continue;
       }
       const double curvature = before - 2.0 * best + after;
@@ -300,7 +367,7 @@ void StripSweep::finish(const std::vector<SweepDirection>& directions,
               ? std::clamp(0.5 * (before - after) / curvature, -0.5, 0.5)
               : 0.0;
       const double d = 1 / inverse_offset(dir, plane + shift);
-      const Eigen::Vector3d n = key_.K.inverse().transpose() * dir.normal;
+      const Eigen::Vector3d& n = normals[f];
       const double ray_dot = n.x() * x + n.y() * (rows_.start + y) + n.z();
       depth[x] = static_cast<float>(d / ray_dot);
     }
@@ -324,8 +391,10 @@ void check_views(const DenseView& key,
                  const PlaneSweepOptions& options) {
   if (key.bgr.empty() || key.bgr.type() != CV_8UC3)
     throw std::invalid_argument("sweep_planes: key image must be 8-bit BGR");
-  if (options.window < 3 || options.window % 2 == 0)
-    throw std::invalid_argument("sweep_planes: window must be odd and >= 3");
+  if (options.window < 3 || options.window > kMaxWindow ||
+      options.window % 2 == 0)
+    throw std::invalid_argument(
+        "sweep_planes: window must be odd, from 3 to 31");
   for (const DenseView* n : neighbours) {
     if (n->bgr.size() != key.bgr.size() || n->bgr.type() != CV_8UC3)
       throw std::invalid_argument(
@@ -357,20 +426,18 @@ DepthMap sweep_planes(const DenseView& key,
     cuda::sweep_planes(key, neighbours, directions, options, &map);
     return map;
   }
-  std::vector<cv::Mat> grays;
-  for (const DenseView* n : neighbours) grays.push_back(gray_float(n->bgr));
-  const KeyStatistics stats =
-      key_statistics(gray_float(key.bgr), options.window, options.min_texture);
+  const SweepInputs inputs = sweep_inputs(key, neighbours, options);
   const int rows = key.bgr.rows;
+  // Strip boundaries on kSumBlock rows (see window_sums).
+  const int blocks = (rows + kSumBlock - 1) / kSumBlock;
   const int strips =
-      std::clamp(rows / 32, 1, 4 * std::max(1, cv::getNumThreads()));
-  const int pad = options.window / 2 + 1;
+      std::clamp(blocks / 2, 1, 4 * std::max(1, cv::getNumThreads()));
+  auto boundary = [&](int s) {
+    return std::min(rows, blocks * s / strips * kSumBlock);
+  };
   cv::parallel_for_(cv::Range(0, strips), [&](const cv::Range& range) {
     for (int s = range.start; s < range.end; ++s) {
-      const cv::Range own(rows * s / strips, rows * (s + 1) / strips);
-      const cv::Range padded(std::max(0, own.start - pad),
-                             std::min(rows, own.end + pad));
-      StripSweep strip(key, neighbours, grays, stats, options, own, padded);
+      StripSweep strip(inputs, cv::Range(boundary(s), boundary(s + 1)));
       strip.run(directions);
       strip.finish(directions, &map);
     }

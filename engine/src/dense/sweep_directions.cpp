@@ -103,9 +103,13 @@ std::optional<SweepDirection> direction_for(
   return direction;
 }
 
-// Up to `count` dominant planes (normal, and the points on them), oriented
-// so that the points lie in front (positive offsets); nearly fronto-parallel
-// ones are left to the fronto-parallel sweep.
+// Planes within this angle count as parallel.
+constexpr double kParallelDeg = 15;
+
+// Up to `count` dominant plane orientations (normal, and the points on
+// planes with that normal), oriented so that the points lie in front
+// (positive offsets); nearly fronto-parallel ones are left to the
+// fronto-parallel sweep.
 std::vector<std::pair<Eigen::Vector3d, std::vector<Eigen::Vector3d>>>
 scene_planes(std::vector<Eigen::Vector3d> points, int count) {
   std::vector<std::pair<Eigen::Vector3d, std::vector<Eigen::Vector3d>>> planes;
@@ -129,13 +133,23 @@ scene_planes(std::vector<Eigen::Vector3d> points, int count) {
         rest.push_back(points[i]);
       }
     }
+    points = std::move(rest);
     const double facing_deg =
         std::acos(std::clamp(std::abs(normal.z()), 0.0, 1.0)) * 180 / M_PI;
-    if (facing_deg > 15) {
-      planes.emplace_back(normal, std::move(on_plane));
-      ++found;
-    }
-    points = std::move(rest);
+    if (facing_deg <= kParallelDeg) continue;
+    // A plane parallel to one found already (a second facade along the
+    // street, a step) gets no sweep of its own: sweeping the gap between
+    // the two would cost more than it gains, and the fronto-parallel sweep
+    // still covers it.
+    const bool parallel =
+        std::any_of(planes.begin(), planes.end(), [&](const auto& p) {
+          return std::acos(std::clamp(p.first.dot(normal), -1.0, 1.0)) * 180 /
+                     M_PI <=
+                 kParallelDeg;
+        });
+    if (parallel) continue;
+    planes.emplace_back(normal, std::move(on_plane));
+    ++found;
   }
   return planes;
 }

@@ -24,7 +24,7 @@
 namespace arscout::engine {
 
 struct PlaneSweepOptions {
-  int window = 7;  // ZNCC window side, pixels (odd)
+  int window = 7;  // ZNCC window side, pixels (odd, 3 to 31)
   // Depth range from the key view's sparse points (2nd and 98th
   // percentiles), widened by this fraction on each side.
   double depth_margin = 0.25;
@@ -36,7 +36,7 @@ struct PlaneSweepOptions {
   int max_planes = 256;
   // Extra sweep directions along the dominant scene planes found in the
   // sparse points (Gallup et al. 2007); 0 sweeps fronto-parallel only.
-  int max_scene_directions = 2;
+  int max_scene_directions = 1;
   // Rejection: a key window whose grey levels vary less than this (standard
   // deviation, 0-255) has too little texture; a winner below min_score or
   // beating the runner-up at another depth by less than min_margin is not

@@ -20,7 +20,7 @@
 namespace arscout::engine {
 
 struct DenseOptions {
-  int long_side = 800;  // dense working resolution (long side, pixels)
+  int long_side = 640;  // dense working resolution (long side, pixels)
   PlaneSweepOptions sweep;
   ConsistencyOptions consistency;
   int neighbours = 2;  // per key view: the paper's triplets
