@@ -17,6 +17,8 @@ packages=(
   postgresql-15 postgresql-client-15
   # runuser (util-linux) starts the throwaway test server as 'postgres'
   util-linux procps
+  # PCL's pcl_ply2pcd: the test that our PLY files open in standard tools
+  pcl-tools
 )
 
 sudo_cmd=()

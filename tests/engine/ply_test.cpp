@@ -8,6 +8,7 @@
 
 #include <array>
 #include <bit>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -456,6 +457,62 @@ TEST_F(PlyFileTest, ReadErrorsNameThePath) {
       EXPECT_EQ(std::string(e.what()).rfind(path + ": ", 0), 0u) << e.what();
     }
   }
+}
+
+// Interoperability: the Point Cloud Library's converter (Debian's
+// pcl-tools, installed by deploy/install-deps.sh) reads what write_ply
+// writes, every coordinate and colour.
+TEST(PlyInterop, PclReadsWhatWeWrite) {
+  const char* tool = "/usr/bin/pcl_ply2pcd";
+  if (!fs::exists(tool)) {
+    const char* ci = std::getenv("CI");
+    if (ci && std::string(ci) == "true")
+      FAIL() << tool << " missing: deploy/install-deps.sh installs pcl-tools";
+    GTEST_SKIP() << tool << " missing (Debian package pcl-tools)";
+  }
+  std::mt19937 rng(12);
+  std::uniform_int_distribution<int> grid(-4000, 4000), colour(0, 255);
+  std::vector<ColoredPoint> points(500);
+  for (ColoredPoint& p : points) {
+    // Multiples of 1/8: printed exactly by any sensible float formatting.
+    p.x = grid(rng) / 8.0f;
+    p.y = grid(rng) / 8.0f;
+    p.z = grid(rng) / 8.0f;
+    p.r = static_cast<uint8_t>(colour(rng));
+    p.g = static_cast<uint8_t>(colour(rng));
+    p.b = static_cast<uint8_t>(colour(rng));
+  }
+  const fs::path dir = fs::temp_directory_path() /
+                       ("arscout_ply_pcl_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string ply = (dir / "cloud.ply").string();
+  const std::string pcd = (dir / "cloud.pcd").string();
+  write_ply(ply, points);
+  const std::string command = std::string(tool) + " -format 0 " + ply + " " +
+                              pcd + " > " + (dir / "log").string() + " 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+
+  // ASCII PCD: a header ending in "DATA ascii", then "x y z rgb" with the
+  // colour packed as 0xRRGGBB.
+  std::ifstream in(pcd);
+  std::string line;
+  std::string fields;
+  while (std::getline(in, line) && line != "DATA ascii")
+    if (line.rfind("FIELDS", 0) == 0) fields = line;
+  EXPECT_EQ(fields, "FIELDS x y z rgb");
+  size_t read = 0;
+  double x, y, z;
+  uint32_t rgb;
+  while (in >> x >> y >> z >> rgb) {
+    ASSERT_LT(read, points.size());
+    const ColoredPoint& p = points[read++];
+    EXPECT_EQ(x, p.x);
+    EXPECT_EQ(y, p.y);
+    EXPECT_EQ(z, p.z);
+    EXPECT_EQ(rgb, (uint32_t{p.r} << 16) | (uint32_t{p.g} << 8) | p.b);
+  }
+  EXPECT_EQ(read, points.size());
+  fs::remove_all(dir);
 }
 
 }  // namespace
