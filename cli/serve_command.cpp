@@ -2,10 +2,12 @@
 #include <iostream>
 #include <thread>
 
+#include "arscout/engine/service.h"
 #include "arscout/ingest/server.h"
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
+#include "engine_options.h"
 
 namespace arscout::cli {
 namespace {
@@ -18,6 +20,8 @@ struct ServeArgs {
   std::size_t max_body_mb = 64;
   int io_threads = 2;
   int workers = 32;
+  bool with_engine = false;
+  engine::WorkerOptions engine;
 };
 
 // "HOST:PORT" or "[V6]:PORT".
@@ -39,7 +43,7 @@ bool split_listen(const std::string& text, std::string* host,
   return true;
 }
 
-int serve(const ServeArgs& a) {
+int serve(ServeArgs& a) {
   ingest::ServerOptions options;
   if (!split_listen(a.listen, &options.host, &options.port))
     throw db::StoreError(db::ErrorCode::kInvalidArgument,
@@ -56,8 +60,15 @@ int serve(const ServeArgs& a) {
   std::cout << "arscout serving " << store->backend() << " store at "
             << (server.tls() ? "https://" : "http://") << options.host << ":"
             << server.port() << std::endl;
+  std::unique_ptr<engine::EngineWorker> worker;
+  if (a.with_engine) {
+    print_worker_progress(&a.engine);
+    worker = std::make_unique<engine::EngineWorker>(*store, a.engine);
+    worker->start();
+  }
   while (!stop_requested())
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  if (worker) worker->stop();
   server.stop();
   std::cout << "arscout server stopped" << std::endl;
   return kExitOk;
@@ -87,6 +98,9 @@ void add_serve_command(CLI::App& app) {
                   "handler threads (uploads, queries, long-polls)")
       ->capture_default_str()
       ->check(CLI::Range(1, 1024));
+  cmd->add_flag("--with-engine", args.with_engine,
+                "also run an engine worker in this process (docs/service.md)");
+  add_engine_worker_options(cmd, &args.engine);
   cmd->callback([] { run_command([] { return serve(args); }); });
 }
 

@@ -10,6 +10,7 @@
 
 #include <Eigen/Dense>
 
+#include "dense/depth_map_io.h"
 #include "image_loader.h"
 
 namespace arscout::engine {
@@ -196,6 +197,13 @@ struct DenseReconstruction::Impl {
     cv::Mat fused;   // CV_8U: already in the cloud
     Eigen::Vector3d fused_centre = Eigen::Vector3d::Zero();
     Eigen::Matrix3d fused_R = Eigen::Matrix3d::Identity();
+    // What serialize_depth_map() writes besides the map: the pose at sweep
+    // time (map.R and map.t follow the model), the neighbours swept with,
+    // the place in the order of sweeping.
+    Eigen::Matrix3d swept_R = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d swept_t = Eigen::Vector3d::Zero();
+    std::vector<std::string> neighbours;
+    uint64_t sequence = 0;
   };
 
   explicit Impl(DenseOptions o) : options(std::move(o)), cache(32) {}
@@ -204,6 +212,7 @@ struct DenseReconstruction::Impl {
   ViewCache cache;
   std::map<std::string, Entry> entries;
   std::vector<std::string> order;  // of sweeping
+  uint64_t next_sequence = 0;
   std::unique_ptr<VoxelCloud> cloud;
 
   bool drop_withdrawn(const std::map<std::string, int>& index);
@@ -274,6 +283,11 @@ void DenseReconstruction::Impl::sweep(const Model& model, int key,
   for (const DenseView& v : neighbour_views) neighbours.push_back(&v);
   Entry entry;
   entry.map = sweep_planes(key_view, neighbours, options.sweep);
+  entry.swept_R = entry.map.R;
+  entry.swept_t = entry.map.t;
+  for (int n : neighbour_indices)
+    entry.neighbours.push_back(model.images[n].id);
+  entry.sequence = next_sequence++;
   entry.colour = key_view.bgr;
   entry.agreed = cv::Mat::zeros(entry.map.depth.size(), CV_8U);
   entry.fused = entry.agreed.clone();
@@ -383,6 +397,99 @@ DenseUpdate DenseReconstruction::update(
   update.fusion_s = seconds_since(start);
   update.points = impl_->cloud ? impl_->cloud->size() : 0;
   return update;
+}
+
+DenseUpdate DenseReconstruction::restore_depth_maps(
+    const std::vector<std::string>& maps, const Model& model,
+    const ImageSource& images) {
+  DenseUpdate update;
+  auto start = Clock::now();
+  std::map<std::string, int> index;
+  for (size_t i = 0; i < model.images.size(); ++i)
+    index[model.images[i].id] = static_cast<int>(i);
+  const Covisibility covisibility(model);
+  // All that can fail comes first: the state is untouched until it is done.
+  std::vector<SweptDepthMap> decoded;
+  std::set<std::string> ids;
+  for (const std::string& bytes : maps) {
+    decoded.push_back(decode_depth_map(bytes));
+    if (!ids.insert(decoded.back().map.id).second)
+      throw std::invalid_argument("two depth maps of '" +
+                                  decoded.back().map.id + "'");
+  }
+  std::vector<std::pair<std::string, Impl::Entry>> adopted;
+  for (SweptDepthMap& swept : decoded) {
+    const std::string id = swept.map.id;
+    auto it = index.find(id);
+    if (it == index.end() || impl_->entries.count(id)) continue;
+    const cv::Mat colour = impl_->cache
+                               .get(model, it->second, images, covisibility,
+                                    impl_->options.long_side)
+                               .bgr;
+    if (colour.size() != swept.map.depth.size())
+      throw std::invalid_argument(
+          "the depth map of '" + id + "' is " +
+          std::to_string(swept.map.depth.cols) + " x " +
+          std::to_string(swept.map.depth.rows) +
+          " pixels, the photo at this dense resolution " +
+          std::to_string(colour.cols) + " x " + std::to_string(colour.rows));
+    Impl::Entry entry;
+    entry.swept_R = swept.map.R;
+    entry.swept_t = swept.map.t;
+    entry.neighbours = std::move(swept.neighbours);
+    entry.sequence = swept.sequence;
+    entry.map = std::move(swept.map);
+    entry.colour = colour;
+    entry.agreed = cv::Mat::zeros(entry.map.depth.size(), CV_8U);
+    entry.fused = entry.agreed.clone();
+    adopted.emplace_back(id, std::move(entry));
+  }
+  const double loading_s = seconds_since(start);
+
+  impl_->drop_withdrawn(index);
+  for (auto& [id, entry] : adopted) {
+    impl_->next_sequence = std::max(impl_->next_sequence, entry.sequence + 1);
+    impl_->entries[id] = std::move(entry);
+    impl_->order.push_back(id);
+  }
+  std::stable_sort(impl_->order.begin(), impl_->order.end(),
+                   [&](const std::string& a, const std::string& b) {
+                     return impl_->entries.at(a).sequence <
+                            impl_->entries.at(b).sequence;
+                   });
+  // Every map to its camera's pose; the cloud is rebuilt whatever moved.
+  impl_->follow_poses(model, index);
+  start = Clock::now();
+  // Agreement is not stored: check every pair, as after a withdrawal.
+  for (auto& [id, entry] : impl_->entries) entry.agreed.setTo(0);
+  for (const std::string& id : impl_->order)
+    impl_->filter(id, model, index, covisibility);
+  update.filter_s = seconds_since(start);
+  start = Clock::now();
+  impl_->fuse(true);
+  update.refused = impl_->cloud != nullptr;
+  update.fusion_s = loading_s + seconds_since(start);
+  update.points = impl_->cloud ? impl_->cloud->size() : 0;
+  return update;
+}
+
+std::vector<std::string> DenseReconstruction::depth_map_ids() const {
+  return impl_->order;
+}
+
+std::string DenseReconstruction::serialize_depth_map(
+    const std::string& id) const {
+  auto it = impl_->entries.find(id);
+  if (it == impl_->entries.end())
+    throw std::invalid_argument("no depth map of '" + id + "'");
+  const Impl::Entry& entry = it->second;
+  SweptDepthMap swept;
+  swept.map = entry.map;  // shares the pixels
+  swept.map.R = entry.swept_R;
+  swept.map.t = entry.swept_t;
+  swept.neighbours = entry.neighbours;
+  swept.sequence = entry.sequence;
+  return encode_depth_map(swept);
 }
 
 std::vector<ColoredPoint> DenseReconstruction::points() const {

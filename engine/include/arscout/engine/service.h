@@ -1,0 +1,97 @@
+// The engine service (the paper's whole loop): a worker subscribed to the
+// store's change feed places every new capture in a site, reconstructs that
+// site incrementally and writes the model back, where every subscriber sees
+// it.
+//
+//   auto store = db::Store::open("sqlite:arscout.db");
+//   EngineWorker worker(*store, {});
+//   worker.start();          // follows /captures/* from its checkpoint
+//   ...
+//   worker.stop();
+//
+// Documents it reads: /captures/{id} (kind "capture", written by the API),
+// /cameras/{id}, /sites/*. Documents it writes, per increment and in one
+// atomic batch (docs/service.md gives every attribute):
+//
+//   /sites/{id}              the site: name, centre (attrs.gps), radius,
+//                            captures, registered count, model version
+//   /sites/{id}/model        the model (a new version per increment): ENU
+//                            origin, cameras, poses, statistics, timings;
+//                            blobs "sparse" and "dense" (binary PLY)
+//   /sites/{id}/engine       the engine's state (blob "state"), so that a
+//                            restarted worker continues without recomputing
+//   /sites/{id}/depth/{c}    one swept depth map per key view (blob "map")
+//   /captures/{id}           patched: site, status (registered | rejected,
+//                            or stored while the site waits for more
+//                            captures), status_reason
+//   /checkpoints/{name}      the feed position: every capture change at or
+//                            before it is in a committed model
+//
+// Delivery is at least once: a change seen again after a crash finds its
+// capture already in the restored state and is skipped.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "arscout/engine/dense_reconstruction.h"
+#include "arscout/engine/reconstruction.h"
+
+namespace arscout::db {
+class Store;
+}
+
+namespace arscout::engine {
+
+struct WorkerOptions {
+  // Names the feed checkpoint (/checkpoints/{name}) and the writes' author.
+  std::string name = "engine";
+  // A capture joins the nearest site whose centre is within this distance
+  // of its GPS fix, else founds a new site.
+  double site_radius_m = 50;
+  bool dense = true;
+  ReconstructionOptions reconstruction;
+  DenseOptions dense_options;
+  // Sites reconstructed at the same time; one site's work never waits for
+  // another's beyond this.
+  int site_threads = 2;
+  // Told one line per increment and per placed capture; empty: silent.
+  std::function<void(const std::string&)> progress;
+};
+
+struct WorkerStats {
+  std::int64_t changes_seen = 0;
+  std::int64_t captures_placed = 0;
+  std::int64_t increments = 0;  // committed model versions, all sites
+  std::int64_t checkpoint = 0;  // last feed position saved
+  std::int64_t failures = 0;    // increments that failed (retried later)
+};
+
+class EngineWorker {
+ public:
+  EngineWorker(db::Store& store, WorkerOptions options);
+  ~EngineWorker();  // stops
+  EngineWorker(const EngineWorker&) = delete;
+  EngineWorker& operator=(const EngineWorker&) = delete;
+
+  // Loads the sites, then follows /captures/* from the checkpoint on
+  // threads of its own. Throws db::StoreError when the store cannot be read.
+  void start();
+  // Finishes the increments under way (committing them), drops queued work
+  // (the checkpoint has not passed it: a restart redoes it) and returns.
+  void stop();
+  // Blocks until every change committed before the call has been placed
+  // and every increment it caused has committed, or the timeout passes.
+  // True when idle.
+  bool wait_idle(std::chrono::milliseconds timeout);
+  WorkerStats stats() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace arscout::engine

@@ -1,0 +1,282 @@
+#include "site_job.h"
+
+#include <chrono>
+#include <sstream>
+#include <stdexcept>
+
+#include "arscout/db/path.h"
+#include "arscout/db/store.h"
+#include "arscout/engine/ply.h"
+
+namespace arscout::engine::service {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// What a capture's document says about it, as the published status.
+std::string published_status(CaptureStatus status) {
+  switch (status) {
+    case CaptureStatus::kRegistered:
+      return "registered";
+    case CaptureStatus::kRejected:
+      return "rejected";
+    case CaptureStatus::kPending:
+      break;
+  }
+  return "stored";  // waiting for the site to have enough captures
+}
+
+std::optional<GeoFix> fix_of(const Json& attrs) {
+  const Json gps = attrs.value("gps", Json());
+  if (!gps.is_object() || !gps.contains("lat") || !gps.contains("lon"))
+    return std::nullopt;
+  GeoFix fix;
+  fix.lat = gps.at("lat").get<double>();
+  fix.lon = gps.at("lon").get<double>();
+  if (gps.contains("alt") && gps.at("alt").is_number())
+    fix.alt = gps.at("alt").get<double>();
+  if (gps.contains("h_acc") && gps.at("h_acc").is_number())
+    fix.h_acc = gps.at("h_acc").get<double>();
+  if (gps.contains("v_acc") && gps.at("v_acc").is_number())
+    fix.v_acc = gps.at("v_acc").get<double>();
+  return fix;
+}
+
+// A /cameras/{id} document's attrs (docs/api.md) as intrinsics.
+std::optional<CameraIntrinsics> camera_of(const Json& attrs) {
+  CameraIntrinsics k;
+  try {
+    k.width = attrs.at("width").get<int>();
+    k.height = attrs.at("height").get<int>();
+    k.fx = attrs.at("fx").get<double>();
+    k.fy = attrs.at("fy").get<double>();
+    k.cx = attrs.at("cx").get<double>();
+    k.cy = attrs.at("cy").get<double>();
+    const Json d = attrs.value("distortion", Json::array());
+    double* terms[] = {&k.k1, &k.k2, &k.p1, &k.p2, &k.k3};
+    for (size_t i = 0; i < 5 && i < d.size(); ++i)
+      *terms[i] = d[i].get<double>();
+    k.source = attrs.value("source", "calibrated");
+  } catch (const Json::exception&) {
+    return std::nullopt;
+  }
+  if (!validate(k).empty()) return std::nullopt;
+  return k;
+}
+
+std::string site_path(const std::string& site, const std::string& leaf) {
+  return "/sites/" + site + "/" + leaf;
+}
+
+}  // namespace
+
+SiteJob::SiteJob(std::string id, db::Store& store, const WorkerOptions& options)
+    : id_(std::move(id)), store_(store), options_(options) {}
+
+SiteJob::~SiteJob() = default;
+
+int SiteJob::registered() const {
+  return sparse_ ? sparse_->registered_count() : 0;
+}
+
+void SiteJob::reset() {
+  loaded_ = false;
+  sparse_.reset();
+  dense_.reset();
+  statuses_.clear();
+  depth_maps_.clear();
+  images_.clear();
+}
+
+std::string SiteJob::image_bytes(const std::string& capture) {
+  auto it = images_.find(capture);
+  if (it == images_.end()) {
+    auto doc = store_.get("/captures/" + capture);
+    if (!doc || !doc->blobs.count("image"))
+      throw std::runtime_error("capture " + capture + " has no image");
+    it = images_.emplace(capture, doc->blobs.at("image")).first;
+  }
+  return store_.get_blob(it->second);
+}
+
+void SiteJob::restore() {
+  sparse_ = std::make_unique<Reconstruction>(options_.reconstruction);
+  if (options_.dense)
+    dense_ = std::make_unique<DenseReconstruction>(options_.dense_options);
+  if (auto model = store_.get(site_path(id_, "model")))
+    model_version_ = model->version;
+  auto state = store_.get(site_path(id_, "engine"));
+  if (state && state->blobs.count("state")) {
+    *sparse_ = Reconstruction::restore(
+        store_.get_blob(state->blobs.at("state")), options_.reconstruction);
+    const Json statuses = state->attrs.value("statuses", Json::object());
+    for (const auto& [capture, status] : statuses.items())
+      statuses_[capture] = status.get<std::string>();
+  }
+  if (dense_) {
+    std::vector<std::string> maps;
+    for (const db::Document& doc :
+         store_.list_children(site_path(id_, "depth"))) {
+      if (!doc.blobs.count("map")) continue;
+      maps.push_back(store_.get_blob(doc.blobs.at("map")));
+      depth_maps_.insert(std::string(db::leaf_name(doc.path)));
+    }
+    if (!maps.empty()) {
+      dense_->restore_depth_maps(
+          maps, sparse_->model(),
+          [this](const std::string& c) { return image_bytes(c); });
+    }
+  }
+  loaded_ = true;
+}
+
+CaptureInput SiteJob::capture_input(const std::string& capture) {
+  auto doc = store_.get("/captures/" + capture);
+  if (!doc) throw std::invalid_argument("capture " + capture + " is gone");
+  CaptureInput input;
+  input.id = capture;
+  input.image_bytes = image_bytes(capture);
+  input.gps = fix_of(doc->attrs);
+  const std::string camera = doc->attrs.value("camera", "");
+  if (!camera.empty()) {
+    input.camera_id = camera;
+    if (auto cam = store_.get("/cameras/" + camera))
+      input.camera = camera_of(cam->attrs);
+  } else {
+    input.camera_id = "unnamed-" +
+                      std::to_string(doc->attrs.value("width", 0)) + "x" +
+                      std::to_string(doc->attrs.value("height", 0));
+  }
+  return input;
+}
+
+void SiteJob::add(const std::string& capture, IncrementReport* report) {
+  for (const CaptureState& c : sparse_->captures())
+    if (c.id == capture) return;  // delivered again: already in the state
+  AddResult result;
+  try {
+    result = sparse_->add_capture(capture_input(capture));
+  } catch (const std::invalid_argument& e) {
+    // A photo the engine cannot use is rejected, not retried forever.
+    pending_statuses_[capture] = std::string("rejected\n") + e.what();
+    return;
+  }
+  report->added.push_back(capture);
+  const StageTimings& t = result.timings;
+  StageTimings& s = report->sparse;
+  s.decode_s += t.decode_s;
+  s.undistort_s += t.undistort_s;
+  s.features_s += t.features_s;
+  s.matching_s += t.matching_s;
+  s.pose_s += t.pose_s;
+  s.triangulation_s += t.triangulation_s;
+  s.bundle_adjustment_s += t.bundle_adjustment_s;
+  s.total_s += t.total_s;
+}
+
+Increment SiteJob::run(const std::vector<Work>& work) {
+  const auto start = Clock::now();
+  if (!loaded_) restore();
+  pending_statuses_.clear();
+  pending_depth_maps_.clear();
+  pending_removed_maps_.clear();
+  IncrementReport report;
+  for (const Work& w : work) {
+    if (w.kind == Work::Kind::kAdd) {
+      add(w.capture, &report);
+    } else if (sparse_->remove_capture(w.capture)) {
+      report.withdrawn.push_back(w.capture);
+    }
+  }
+  const Model model = sparse_->model();
+  std::vector<db::WriteOp> ops;
+  const bool changed = !report.added.empty() || !report.withdrawn.empty();
+  if (dense_ && changed && (!model.images.empty() || !depth_maps_.empty())) {
+    report.dense = dense_->update(
+        model, [this](const std::string& c) { return image_bytes(c); });
+    report.dense_points = report.dense.points;
+    for (const std::string& map : report.dense.new_depth_maps) {
+      const std::string sha = store_.put_blob(dense_->serialize_depth_map(map));
+      db::WriteOp op = db::WriteOp::put(site_path(id_, "depth/" + map),
+                                        "depth-map", Json{{"capture", map}});
+      op.blobs = db::BlobRefs{{"map", sha}};
+      ops.push_back(std::move(op));
+      pending_depth_maps_.insert(map);
+    }
+    for (const std::string& gone : report.withdrawn) {
+      if (!depth_maps_.count(gone)) continue;
+      ops.push_back(db::WriteOp::remove(site_path(id_, "depth/" + gone)));
+      pending_removed_maps_.insert(gone);
+    }
+  }
+  report.total_s = seconds_since(start);
+
+  Increment increment;
+  // Capture statuses that changed since they were last published.
+  const std::vector<CaptureState> captures = sparse_->captures();
+  for (const CaptureState& c : captures) {
+    const std::string status = published_status(c.status);
+    const std::string key = status + "\n" + c.reason;
+    if (statuses_.count(c.id) && statuses_.at(c.id) == key) continue;
+    pending_statuses_[c.id] = key;
+  }
+  for (const auto& [capture, key] : pending_statuses_) {
+    const size_t cut = key.find('\n');
+    ops.push_back(db::WriteOp::patch(
+        "/captures/" + capture, Json{{"site", id_},
+                                     {"status", key.substr(0, cut)},
+                                     {"status_reason", key.substr(cut + 1)}}));
+  }
+  const bool publish_model =
+      changed && (!model.images.empty() || model_version_ > 0);
+  if (publish_model) {
+    db::WriteOp op =
+        db::WriteOp::put(site_path(id_, "model"), "model",
+                         model_attrs(id_, model, captures, report));
+    db::BlobRefs blobs{{"sparse", store_.put_blob(sparse_ply(model))}};
+    if (dense_)
+      blobs["dense"] =
+          store_.put_blob(encode_ply(dense_->points(), "arscout dense model"));
+    op.blobs = blobs;
+    ops.push_back(std::move(op));
+    increment.model_written = true;
+  }
+  // The engine state, so that a restart needs no recomputation.
+  Json statuses = Json::object();
+  for (const auto& [c, s] : statuses_) statuses[c] = s;
+  for (const auto& [c, s] : pending_statuses_) statuses[c] = s;
+  db::WriteOp state = db::WriteOp::put(
+      site_path(id_, "engine"), "engine-state",
+      Json{{"statuses", statuses}, {"registered", model.images.size()}});
+  state.blobs = db::BlobRefs{{"state", store_.put_blob(sparse_->serialize())}};
+  ops.push_back(std::move(state));
+
+  pending_model_version_ = model_version_ + (publish_model ? 1 : 0);
+  std::ostringstream summary;
+  summary << "site " << id_ << ": +" << report.added.size() << " capture"
+          << (report.added.size() == 1 ? "" : "s");
+  if (!report.withdrawn.empty()) summary << ", -" << report.withdrawn.size();
+  summary << ", " << model.images.size() << " registered, "
+          << model.points.size() << " points";
+  if (dense_) summary << ", dense " << report.dense_points;
+  if (publish_model) summary << ", model v" << pending_model_version_;
+  summary << " (" << static_cast<int>(report.total_s * 1000) << " ms)";
+  increment.summary = summary.str();
+  increment.ops = std::move(ops);
+  return increment;
+}
+
+void SiteJob::committed() {
+  for (const auto& [c, s] : pending_statuses_) statuses_[c] = s;
+  for (const std::string& m : pending_depth_maps_) depth_maps_.insert(m);
+  for (const std::string& m : pending_removed_maps_) depth_maps_.erase(m);
+  model_version_ = pending_model_version_;
+  pending_statuses_.clear();
+  pending_depth_maps_.clear();
+}
+
+}  // namespace arscout::engine::service

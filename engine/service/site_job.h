@@ -1,0 +1,82 @@
+// One site's engine state and its increments: the captures placed in the
+// site are added to its Reconstruction (and the dense cloud grown) in
+// batches, and each batch becomes the writes that publish it. The state is
+// restored from the store the first time a job runs, so a restarted worker
+// continues where the last committed increment left off.
+//
+// Not thread-safe: the worker runs one increment of a site at a time.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "arscout/db/document.h"
+#include "arscout/engine/service.h"
+#include "model_document.h"
+
+namespace arscout::db {
+class Store;
+}
+
+namespace arscout::engine::service {
+
+struct Work {
+  enum class Kind { kAdd, kWithdraw };
+  Kind kind = Kind::kAdd;
+  std::string capture;
+  std::int64_t seq = 0;  // of the change that asked for it
+};
+
+struct Increment {
+  std::vector<db::WriteOp> ops;  // blobs they name are stored already
+  std::string summary;           // one line for the progress log
+  bool model_written = false;
+};
+
+class SiteJob {
+ public:
+  SiteJob(std::string id, db::Store& store, const WorkerOptions& options);
+  ~SiteJob();
+
+  const std::string& id() const { return id_; }
+
+  // Applies `work` to the in-memory state and returns the writes that
+  // publish it (without the site document and the checkpoint, which the
+  // worker adds). Throws db::StoreError when the store fails; the caller
+  // then calls reset() and retries later.
+  Increment run(const std::vector<Work>& work);
+  // The batch of the last run() committed.
+  void committed();
+  // Forgets the in-memory state: the next run() restores it from the store.
+  void reset();
+
+  int registered() const;
+  std::int64_t model_version() const { return model_version_; }
+
+ private:
+  void restore();
+  void add(const std::string& capture, IncrementReport* report);
+  CaptureInput capture_input(const std::string& capture);
+  std::string image_bytes(const std::string& capture);
+
+  std::string id_;
+  db::Store& store_;
+  const WorkerOptions& options_;
+  bool loaded_ = false;
+  std::unique_ptr<Reconstruction> sparse_;
+  std::unique_ptr<DenseReconstruction> dense_;
+  std::map<std::string, std::string> images_;    // capture -> image sha
+  std::map<std::string, std::string> statuses_;  // as last published
+  std::set<std::string> depth_maps_;             // stored under depth/
+  std::map<std::string, std::string> pending_statuses_;
+  std::set<std::string> pending_depth_maps_, pending_removed_maps_;
+  std::int64_t model_version_ = 0;
+  std::int64_t pending_model_version_ = 0;
+};
+
+}  // namespace arscout::engine::service

@@ -1,0 +1,250 @@
+#include "dense/depth_map_io.h"
+
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <type_traits>
+
+namespace arscout::engine {
+namespace {
+
+constexpr uint32_t kMaxSide = 65536;
+constexpr size_t kHeaderBytes = 8 + 4 + 8;  // magic, version, size
+constexpr size_t kChecksumBytes = 4;
+constexpr bool kLittleEndian = std::endian::native == std::endian::little;
+
+template <typename T>
+using Bits = std::conditional_t<sizeof(T) == 8, uint64_t, uint32_t>;
+
+class Writer {
+ public:
+  template <typename T>
+  void put(T value) {
+    static_assert(sizeof(T) == 4 || sizeof(T) == 8);
+    const auto bits = std::bit_cast<Bits<T>>(value);
+    for (size_t i = 0; i < sizeof(T); ++i)
+      out_.push_back(static_cast<char>((bits >> (8 * i)) & 0xff));
+  }
+  void text(const std::string& s) {
+    put(static_cast<uint32_t>(s.size()));
+    out_.append(s);
+  }
+  template <typename Derived>
+  void row_major(const Eigen::MatrixBase<Derived>& m) {
+    for (Eigen::Index r = 0; r < m.rows(); ++r)
+      for (Eigen::Index c = 0; c < m.cols(); ++c)
+        put(static_cast<double>(m(r, c)));
+  }
+  void plane(const cv::Mat& mat) {
+    for (int y = 0; y < mat.rows; ++y) {
+      const float* row = mat.ptr<float>(y);
+      if constexpr (kLittleEndian) {
+        out_.append(reinterpret_cast<const char*>(row),
+                    sizeof(float) * mat.cols);
+      } else {
+        for (int x = 0; x < mat.cols; ++x) put(row[x]);
+      }
+    }
+  }
+  std::string& bytes() { return out_; }
+
+ private:
+  std::string out_;
+};
+
+class Reader {
+ public:
+  explicit Reader(std::string_view in) : in_(in) {}
+
+  template <typename T>
+  T get(const char* what) {
+    static_assert(sizeof(T) == 4 || sizeof(T) == 8);
+    need(sizeof(T), what);
+    Bits<T> bits = 0;
+    for (size_t i = 0; i < sizeof(T); ++i)
+      bits |= static_cast<Bits<T>>(static_cast<unsigned char>(in_[pos_ + i]))
+              << (8 * i);
+    pos_ += sizeof(T);
+    return std::bit_cast<T>(bits);
+  }
+  std::string text(const char* what) {
+    const uint32_t n = get<uint32_t>(what);
+    need(n, what);
+    std::string s(in_.substr(pos_, n));
+    pos_ += n;
+    return s;
+  }
+  template <typename Matrix>
+  Matrix row_major(const char* what) {
+    Matrix m;
+    for (Eigen::Index r = 0; r < m.rows(); ++r)
+      for (Eigen::Index c = 0; c < m.cols(); ++c) m(r, c) = get<double>(what);
+    if (!m.allFinite()) fail(std::string("non-finite ") + what);
+    return m;
+  }
+  cv::Mat plane(int rows, int cols, const char* what) {
+    need(sizeof(float) * static_cast<size_t>(rows) * cols, what);
+    cv::Mat mat(rows, cols, CV_32F);
+    for (int y = 0; y < rows; ++y) {
+      float* row = mat.ptr<float>(y);
+      if constexpr (kLittleEndian) {
+        std::memcpy(row, in_.data() + pos_, sizeof(float) * cols);
+        pos_ += sizeof(float) * cols;
+      } else {
+        for (int x = 0; x < cols; ++x) row[x] = get<float>(what);
+      }
+    }
+    return mat;
+  }
+  size_t left() const { return in_.size() - pos_; }
+
+  [[noreturn]] static void fail(const std::string& what) {
+    throw std::runtime_error("not a depth map of this format: " + what);
+  }
+
+ private:
+  void need(size_t n, const char* what) const {
+    if (left() < n)
+      fail(std::string("sizes inconsistent: ") + what +
+           " runs past the end of the map");
+  }
+
+  std::string_view in_;
+  size_t pos_ = 0;
+};
+
+constexpr std::array<uint32_t, 256> crc_table() {
+  std::array<uint32_t, 256> table{};
+  for (uint32_t i = 0; i < 256; ++i) {
+    uint32_t c = i;
+    for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+    table[i] = c;
+  }
+  return table;
+}
+
+void check_plane(const cv::Mat& mat, cv::Size size, const char* what) {
+  if (mat.type() != CV_32F || mat.size() != size)
+    throw std::invalid_argument(std::string("depth map ") + what +
+                                " is not CV_32F of the depth's size");
+}
+
+}  // namespace
+
+uint32_t depth_map_crc32(std::string_view bytes) {
+  static constexpr std::array<uint32_t, 256> kTable = crc_table();
+  uint32_t c = 0xFFFFFFFFu;
+  for (char byte : bytes)
+    c = kTable[(c ^ static_cast<unsigned char>(byte)) & 0xff] ^ (c >> 8);
+  return c ^ 0xFFFFFFFFu;
+}
+
+std::string encode_depth_map(const SweptDepthMap& swept) {
+  const DepthMap& map = swept.map;
+  if (map.id.empty()) throw std::invalid_argument("depth map without an id");
+  if (map.depth.empty() || map.depth.rows > static_cast<int>(kMaxSide) ||
+      map.depth.cols > static_cast<int>(kMaxSide))
+    throw std::invalid_argument("depth map of '" + map.id +
+                                "' is empty or too large");
+  check_plane(map.depth, map.depth.size(), "depth");
+  check_plane(map.score, map.depth.size(), "score");
+  check_plane(map.margin, map.depth.size(), "margin");
+
+  Writer w;
+  w.bytes().reserve(256 + 3 * sizeof(float) * map.depth.total());
+  w.bytes().append(kDepthMapMagic, sizeof(kDepthMapMagic));
+  w.put(kDepthMapFormatVersion);
+  w.put(uint64_t{0});  // the size, filled in below
+  w.put(swept.sequence);
+  w.text(map.id);
+  w.put(static_cast<uint32_t>(swept.neighbours.size()));
+  for (const std::string& n : swept.neighbours) w.text(n);
+  w.put(static_cast<uint32_t>(map.depth.rows));
+  w.put(static_cast<uint32_t>(map.depth.cols));
+  w.row_major(map.K);
+  w.row_major(map.R);
+  w.row_major(map.t);
+  w.plane(map.depth);
+  w.plane(map.score);
+  w.plane(map.margin);
+
+  std::string& out = w.bytes();
+  const uint64_t size = out.size() + kChecksumBytes;
+  for (size_t i = 0; i < 8; ++i)
+    out[12 + i] = static_cast<char>((size >> (8 * i)) & 0xff);
+  w.put(depth_map_crc32(out));
+  return std::move(out);
+}
+
+SweptDepthMap decode_depth_map(std::string_view bytes) {
+  if (bytes.size() < sizeof(kDepthMapMagic) ||
+      std::memcmp(bytes.data(), kDepthMapMagic, sizeof(kDepthMapMagic)) != 0)
+    Reader::fail(bytes.size() < sizeof(kDepthMapMagic)
+                     ? "truncated: " + std::to_string(bytes.size()) +
+                           " bytes, shorter than the magic"
+                     : std::string("wrong magic (expected \"ARSDEPTH\")"));
+  Reader r(bytes.substr(sizeof(kDepthMapMagic)));
+  if (bytes.size() < sizeof(kDepthMapMagic) + 4)
+    Reader::fail("truncated: " + std::to_string(bytes.size()) +
+                 " bytes, shorter than the header");
+  const uint32_t version = r.get<uint32_t>("version");
+  if (version != kDepthMapFormatVersion)
+    Reader::fail("format version " + std::to_string(version) +
+                 ", this build reads version " +
+                 std::to_string(kDepthMapFormatVersion));
+  if (bytes.size() < kHeaderBytes)
+    Reader::fail("truncated: " + std::to_string(bytes.size()) +
+                 " bytes, shorter than the header");
+  const uint64_t size = r.get<uint64_t>("size");
+  if (bytes.size() < size)
+    Reader::fail("truncated: " + std::to_string(bytes.size()) + " of " +
+                 std::to_string(size) + " bytes");
+  if (bytes.size() > size)
+    Reader::fail(std::to_string(bytes.size() - size) +
+                 " bytes after the end of the map");
+  if (size < kHeaderBytes + kChecksumBytes)
+    Reader::fail("sizes inconsistent: a size of " + std::to_string(size) +
+                 " bytes");
+  const std::string_view body = bytes.substr(0, size - kChecksumBytes);
+  Reader tail(bytes.substr(body.size()));
+  if (tail.get<uint32_t>("checksum") != depth_map_crc32(body))
+    Reader::fail("checksum mismatch (the bytes are damaged)");
+
+  Reader b(body.substr(kHeaderBytes));
+  SweptDepthMap swept;
+  DepthMap& map = swept.map;
+  swept.sequence = b.get<uint64_t>("sequence");
+  map.id = b.text("id");
+  if (map.id.empty()) Reader::fail("an empty id");
+  const uint32_t neighbours = b.get<uint32_t>("neighbour count");
+  // Each neighbour takes at least its length: bounds the reservation.
+  if (neighbours > b.left() / 4)
+    Reader::fail("sizes inconsistent: " + std::to_string(neighbours) +
+                 " neighbours");
+  swept.neighbours.reserve(neighbours);
+  for (uint32_t i = 0; i < neighbours; ++i)
+    swept.neighbours.push_back(b.text("a neighbour's id"));
+  const uint32_t rows = b.get<uint32_t>("rows");
+  const uint32_t cols = b.get<uint32_t>("cols");
+  if (rows < 1 || cols < 1 || rows > kMaxSide || cols > kMaxSide)
+    Reader::fail("sizes inconsistent: " + std::to_string(cols) + " x " +
+                 std::to_string(rows) + " pixels");
+  map.K = b.row_major<Eigen::Matrix3d>("K");
+  map.R = b.row_major<Eigen::Matrix3d>("R");
+  map.t = b.row_major<Eigen::Vector3d>("t");
+  const uint64_t planes = 3 * sizeof(float) * uint64_t{rows} * cols;
+  if (b.left() != planes)
+    Reader::fail("sizes inconsistent: " + std::to_string(cols) + " x " +
+                 std::to_string(rows) + " pixels need " +
+                 std::to_string(planes) +
+                 " bytes of depth, score and margin, " +
+                 std::to_string(b.left()) + " are there");
+  map.depth = b.plane(rows, cols, "depth");
+  map.score = b.plane(rows, cols, "score");
+  map.margin = b.plane(rows, cols, "margin");
+  return swept;
+}
+
+}  // namespace arscout::engine

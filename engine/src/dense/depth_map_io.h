@@ -1,0 +1,55 @@
+// One key view's depth map as bytes (DenseReconstruction::
+// serialize_depth_map and restore_depth_maps): what the sweep produced and
+// nothing that changes afterwards, so the bytes of a map never change.
+//
+// Layout, version 1, all numbers little-endian:
+//   magic       8 bytes  "ARSDEPTH"
+//   version     u32      kDepthMapFormatVersion
+//   size        u64      of the whole blob, this field and the checksum
+//                        included (truncation is told apart from damage)
+//   sequence    u64      the map's place in the order of sweeping
+//   id          u32 length, then the bytes (UTF-8, not terminated)
+//   neighbours  u32 count, then each as the id
+//   rows, cols  u32, u32 (1 to 65536 each)
+//   K, R        9 f64 each, row-major
+//   t           3 f64
+//   depth       rows * cols f32, row-major (cv::Mat CV_32F rows, exactly)
+//   score       the same
+//   margin      the same
+//   checksum    u32, CRC-32 (zlib's) of every byte before it
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "arscout/engine/dense.h"
+
+namespace arscout::engine {
+
+inline constexpr char kDepthMapMagic[8] = {'A', 'R', 'S', 'D',
+                                           'E', 'P', 'T', 'H'};
+inline constexpr uint32_t kDepthMapFormatVersion = 1;
+
+// A depth map as swept: `map` with the pose its camera had then, the key
+// view's neighbours in the sweep, and its place in the order of sweeping.
+struct SweptDepthMap {
+  DepthMap map;
+  std::vector<std::string> neighbours;
+  uint64_t sequence = 0;
+};
+
+// Throws std::invalid_argument when depth, score and margin are not CV_32F
+// of one size (1 to 65536 pixels a side) or the id is empty.
+std::string encode_depth_map(const SweptDepthMap& swept);
+
+// Throws std::runtime_error naming what is wrong when `bytes` are not a
+// depth map of this format: wrong magic or version, truncated or too long,
+// a checksum mismatch, sizes that do not add up, non-finite K, R or t.
+SweptDepthMap decode_depth_map(std::string_view bytes);
+
+// CRC-32 with zlib's polynomial (0xEDB88320, reflected, inverted).
+uint32_t depth_map_crc32(std::string_view bytes);
+
+}  // namespace arscout::engine

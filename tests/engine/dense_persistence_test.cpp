@@ -1,0 +1,635 @@
+// DenseReconstruction's persistence: depth maps as bytes
+// (serialize_depth_map) and a new object rebuilt from them without sweeping
+// (restore_depth_maps), on a hand-built sparse Model of rendered street
+// views with exact poses (synthetic_site.h), as in dense_stages_test.cpp.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <optional>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "arscout/engine/dense.h"
+#include "arscout/engine/dense_reconstruction.h"
+#include "arscout/engine/reconstruction.h"
+#include "arscout/engine/synthetic_site.h"
+#include "dense/depth_map_io.h"
+
+namespace arscout::engine {
+namespace {
+
+namespace syn = synthetic;
+
+constexpr int kViews = 5;
+constexpr int kWidth = 320;
+constexpr int kHeight = 240;
+constexpr double kFocal = 280;
+
+struct Rendered {
+  syn::PinholeView view;
+  syn::Rendering image;
+};
+
+// The five converging street views at 320 x 240, rendered once.
+const std::vector<Rendered>& street() {
+  static const std::vector<Rendered> views = [] {
+    const syn::Site site = syn::street_site(3);
+    std::vector<Rendered> result;
+    for (const auto& view :
+         syn::street_cameras(kViews, {kWidth, kHeight}, kFocal))
+      result.push_back({view, syn::render(site, view)});
+    return result;
+  }();
+  return views;
+}
+
+std::string view_id(int index) { return "view" + std::to_string(index); }
+
+Eigen::Vector3d surface_point(const Rendered& r, int x, int y) {
+  const double z = r.image.depth.at<float>(y, x);
+  const Eigen::Vector3d ray = r.view.K.inverse() * Eigen::Vector3d(x, y, 1);
+  return r.view.R.transpose() * (z * ray - r.view.t);
+}
+
+// Where `r` sees X: in front, `border` pixels inside, not hidden.
+std::optional<Eigen::Vector2d> seen_at(const Rendered& r,
+                                       const Eigen::Vector3d& X, int border) {
+  const Eigen::Vector3d c = r.view.R * X + r.view.t;
+  if (c.z() <= 0) return std::nullopt;
+  const Eigen::Vector3d p = r.view.K * c;
+  const Eigen::Vector2d pixel = p.head<2>() / p.z();
+  const int u = static_cast<int>(std::lround(pixel.x()));
+  const int v = static_cast<int>(std::lround(pixel.y()));
+  if (u < border || v < border || u >= r.view.size.width - border ||
+      v >= r.view.size.height - border)
+    return std::nullopt;
+  const float z = r.image.depth.at<float>(v, u);
+  if (z <= 0 || std::abs(z - c.z()) > 0.01 * c.z()) return std::nullopt;
+  return pixel;
+}
+
+// Surface points, each seen by at least three views, and where.
+struct SparseTruth {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::vector<std::optional<Eigen::Vector2d>>> seen;
+};
+
+SparseTruth sparse_truth(int count, uint32_t seed) {
+  const auto& s = street();
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> pick(0, kViews - 1);
+  std::uniform_int_distribution<int> px(4, kWidth - 5);
+  std::uniform_int_distribution<int> py(4, kHeight - 5);
+  SparseTruth truth;
+  while (static_cast<int>(truth.points.size()) < count) {
+    const Rendered& r = s[pick(rng)];
+    const int x = px(rng), y = py(rng);
+    if (r.image.depth.at<float>(y, x) <= 0) continue;
+    const Eigen::Vector3d X = surface_point(r, x, y);
+    std::vector<std::optional<Eigen::Vector2d>> seen;
+    int views = 0;
+    for (const Rendered& v : s) {
+      seen.push_back(seen_at(v, X, 4));
+      if (seen.back()) ++views;
+    }
+    if (views < 3) continue;
+    truth.points.push_back(X);
+    truth.seen.push_back(std::move(seen));
+  }
+  return truth;
+}
+
+// The sparse model of `views` (indices into street(), in this order): exact
+// poses and intrinsics, the points two of them see, exact keypoints.
+Model build_model(const SparseTruth& truth, const std::vector<int>& views) {
+  Model model;
+  ModelCamera camera;
+  camera.id = "street";
+  const Eigen::Matrix3d& K = street()[0].view.K;
+  camera.intrinsics.width = kWidth;
+  camera.intrinsics.height = kHeight;
+  camera.intrinsics.fx = K(0, 0);
+  camera.intrinsics.fy = K(1, 1);
+  camera.intrinsics.cx = K(0, 2);
+  camera.intrinsics.cy = K(1, 2);
+  model.cameras.push_back(camera);
+  for (int v : views) {
+    const syn::PinholeView& view = street()[v].view;
+    ModelImage image;
+    image.id = view_id(v);
+    const Eigen::Quaterniond q(view.R);
+    image.qvec = {q.w(), q.x(), q.y(), q.z()};
+    image.tvec = {view.t.x(), view.t.y(), view.t.z()};
+    const Eigen::Vector3d c = view.centre();
+    image.centre = {c.x(), c.y(), c.z()};
+    model.images.push_back(std::move(image));
+  }
+  for (size_t p = 0; p < truth.points.size(); ++p) {
+    int observations = 0;
+    for (int v : views)
+      if (truth.seen[p][v]) ++observations;
+    if (observations < 2) continue;
+    ModelPoint point;
+    point.id = 1000 + static_cast<int64_t>(p);
+    point.xyz = {truth.points[p].x(), truth.points[p].y(), truth.points[p].z()};
+    for (size_t i = 0; i < views.size(); ++i) {
+      const auto& pixel = truth.seen[p][views[i]];
+      if (!pixel) continue;
+      ModelImage& image = model.images[i];
+      point.track.emplace_back(static_cast<int>(i),
+                               static_cast<int>(image.keypoints.size()));
+      image.keypoints.push_back({pixel->x(), pixel->y()});
+      image.point_ids.push_back(point.id);
+    }
+    model.points.push_back(std::move(point));
+  }
+  return model;
+}
+
+// The street photos as PNG bytes; `calls`, when given, counts requests.
+ImageSource street_images(std::atomic<int>* calls = nullptr) {
+  static const std::map<std::string, std::string> pngs = [] {
+    std::map<std::string, std::string> result;
+    for (int i = 0; i < kViews; ++i) {
+      std::vector<uchar> bytes;
+      if (!cv::imencode(".png", street()[i].image.bgr, bytes))
+        throw std::runtime_error("PNG encoding failed");
+      result[view_id(i)] = std::string(bytes.begin(), bytes.end());
+    }
+    return result;
+  }();
+  return [calls](const std::string& id) {
+    if (calls) ++*calls;
+    auto it = pngs.find(id);
+    if (it == pngs.end()) throw std::invalid_argument("no photo " + id);
+    return it->second;
+  };
+}
+
+// As dense_stages_test.cpp: 320 x 240, planes three pixels apart.
+DenseOptions small_dense_options() {
+  DenseOptions options;
+  options.long_side = kWidth;
+  options.sweep.plane_step_px = 3;
+  options.sweep.min_planes = 32;
+  return options;
+}
+
+bool same_pixels(const cv::Mat& a, const cv::Mat& b) {
+  if (a.size() != b.size() || a.type() != b.type()) return false;
+  for (int y = 0; y < a.rows; ++y)
+    if (std::memcmp(a.ptr(y), b.ptr(y), a.cols * a.elemSize()) != 0)
+      return false;
+  return true;
+}
+
+// Exactly the same points, in the same order.
+void expect_same_points(const std::vector<ColoredPoint>& a,
+                        const std::vector<ColoredPoint>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  size_t different = 0;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (a[i].x != b[i].x || a[i].y != b[i].y || a[i].z != b[i].z ||
+        a[i].r != b[i].r || a[i].g != b[i].g || a[i].b != b[i].b)
+      ++different;
+  EXPECT_EQ(different, 0u);
+}
+
+std::map<std::string, double> filtered_coverage(const DenseReconstruction& d) {
+  std::map<std::string, double> coverage;
+  for (const DepthMap& map : d.filtered_depth_maps())
+    coverage[map.id] = map.coverage();
+  return coverage;
+}
+
+// Everything observable of two dense states is the same, to the bit.
+void expect_same_state(const DenseReconstruction& a,
+                       const DenseReconstruction& b) {
+  ASSERT_EQ(a.depth_map_ids(), b.depth_map_ids());
+  for (const std::string& id : a.depth_map_ids()) {
+    const DepthMap* x = a.raw_depth_map(id);
+    const DepthMap* y = b.raw_depth_map(id);
+    ASSERT_NE(x, nullptr) << id;
+    ASSERT_NE(y, nullptr) << id;
+    EXPECT_EQ(x->id, y->id);
+    EXPECT_TRUE(same_pixels(x->depth, y->depth)) << id;
+    EXPECT_TRUE(same_pixels(x->score, y->score)) << id;
+    EXPECT_TRUE(same_pixels(x->margin, y->margin)) << id;
+    EXPECT_EQ(x->K, y->K) << id;
+    EXPECT_EQ(x->R, y->R) << id;
+    EXPECT_EQ(x->t, y->t) << id;
+    EXPECT_EQ(a.serialize_depth_map(id), b.serialize_depth_map(id)) << id;
+  }
+  EXPECT_EQ(filtered_coverage(a), filtered_coverage(b));
+  EXPECT_EQ(a.voxel_size(), b.voxel_size());
+  expect_same_points(a.points(), b.points());
+}
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// One original: all five views swept in one update(), and their bytes.
+class DensePersistence : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    truth_ = new SparseTruth(sparse_truth(300, 17));
+    model_ = new Model(build_model(*truth_, {0, 1, 2, 3, 4}));
+    original_ = new DenseReconstruction(small_dense_options());
+    const auto start = Clock::now();
+    update_ = original_->update(*model_, street_images());
+    update_wall_s_ = seconds_since(start);
+    blobs_ = new std::vector<std::string>;
+    for (const std::string& id : original_->depth_map_ids())
+      blobs_->push_back(original_->serialize_depth_map(id));
+  }
+  static void TearDownTestSuite() {
+    delete blobs_;
+    delete original_;
+    delete model_;
+    delete truth_;
+  }
+
+  // The blobs in another order than they were swept.
+  static std::vector<std::string> shuffled_blobs() {
+    std::vector<std::string> blobs = *blobs_;
+    std::shuffle(blobs.begin(), blobs.end(), std::mt19937(4));
+    std::swap(blobs.front(), blobs.back());
+    return blobs;
+  }
+
+  static std::unique_ptr<DenseReconstruction> restored(const Model& model) {
+    auto dense = std::make_unique<DenseReconstruction>(small_dense_options());
+    dense->restore_depth_maps(shuffled_blobs(), model, street_images());
+    return dense;
+  }
+
+  static SparseTruth* truth_;
+  static Model* model_;
+  static DenseReconstruction* original_;
+  static DenseUpdate update_;
+  static double update_wall_s_;
+  static std::vector<std::string>* blobs_;
+};
+SparseTruth* DensePersistence::truth_ = nullptr;
+Model* DensePersistence::model_ = nullptr;
+DenseReconstruction* DensePersistence::original_ = nullptr;
+DenseUpdate DensePersistence::update_;
+double DensePersistence::update_wall_s_ = 0;
+std::vector<std::string>* DensePersistence::blobs_ = nullptr;
+
+TEST_F(DensePersistence, OriginalSweptEveryView) {
+  const std::vector<std::string> all = {"view0", "view1", "view2", "view3",
+                                        "view4"};
+  EXPECT_EQ(update_.new_depth_maps, all);
+  EXPECT_EQ(original_->depth_map_ids(), all);
+  ASSERT_EQ(blobs_->size(), all.size());
+  EXPECT_GT(update_.points, 1000u);
+  EXPECT_TRUE(
+      DenseReconstruction(small_dense_options()).depth_map_ids().empty());
+}
+
+TEST_F(DensePersistence, SerializedBytesDescribeTheMap) {
+  const std::string& blob = (*blobs_)[2];
+  // "ARSDEPTH", version 1, the size; 12 bytes a pixel and a short header.
+  ASSERT_GT(blob.size(), 20u);
+  EXPECT_EQ(blob.substr(0, 8), "ARSDEPTH");
+  EXPECT_EQ(blob.substr(8, 4), std::string("\x01\0\0\0", 4));
+  uint64_t size = 0;
+  for (int i = 0; i < 8; ++i)
+    size |= uint64_t{static_cast<unsigned char>(blob[12 + i])} << (8 * i);
+  EXPECT_EQ(size, blob.size());
+  EXPECT_GE(blob.size(), 12u * kWidth * kHeight);
+  EXPECT_LT(blob.size(), 12u * kWidth * kHeight + 300);
+  std::cout << "one serialized " << kWidth << "x" << kHeight
+            << " map: " << blob.size() << " bytes\n";
+
+  const SweptDepthMap swept = decode_depth_map(blob);
+  const DepthMap* raw = original_->raw_depth_map("view2");
+  ASSERT_NE(raw, nullptr);
+  EXPECT_EQ(swept.map.id, "view2");
+  EXPECT_EQ(swept.sequence, 2u);
+  EXPECT_EQ(swept.neighbours.size(), 2u);  // the triplet
+  for (const std::string& n : swept.neighbours) EXPECT_NE(n, "view2");
+  EXPECT_TRUE(same_pixels(swept.map.depth, raw->depth));
+  EXPECT_TRUE(same_pixels(swept.map.score, raw->score));
+  EXPECT_TRUE(same_pixels(swept.map.margin, raw->margin));
+  EXPECT_EQ(swept.map.K, raw->K);
+  EXPECT_EQ(swept.map.R, raw->R);
+  EXPECT_EQ(swept.map.t, raw->t);
+  // The same map gives the same bytes every time.
+  EXPECT_EQ(original_->serialize_depth_map("view2"), blob);
+  EXPECT_EQ(encode_depth_map(swept), blob);
+  EXPECT_THROW(original_->serialize_depth_map("view9"), std::invalid_argument);
+}
+
+// (a) The restored state is the original's, to the bit.
+TEST_F(DensePersistence, RoundTripRebuildsTheSameState) {
+  DenseReconstruction dense(small_dense_options());
+  const DenseUpdate u =
+      dense.restore_depth_maps(shuffled_blobs(), *model_, street_images());
+  expect_same_state(*original_, dense);
+  EXPECT_EQ(u.points, update_.points);
+  EXPECT_EQ(dense.points().size(), update_.points);
+  EXPECT_GT(dense.voxel_size(), 0);
+  for (const auto& [id, coverage] : filtered_coverage(dense))
+    EXPECT_GT(coverage, 0.2) << id;
+}
+
+// (b) No sweep: nothing new, no sweeping time, one photo per key view (for
+// the colours), and a small fraction of the original's time.
+TEST_F(DensePersistence, RestoreSweepsNothing) {
+  DenseReconstruction dense(small_dense_options());
+  std::atomic<int> photos = 0;
+  const auto start = Clock::now();
+  const DenseUpdate u =
+      dense.restore_depth_maps(*blobs_, *model_, street_images(&photos));
+  const double wall_s = seconds_since(start);
+  EXPECT_TRUE(u.new_depth_maps.empty());
+  EXPECT_TRUE(u.skipped.empty());
+  EXPECT_EQ(u.sweep_s, 0);
+  EXPECT_TRUE(u.refused);
+  EXPECT_EQ(photos.load(), kViews);
+  std::cout << "original update " << update_wall_s_ << " s (sweep "
+            << update_.sweep_s << " s), restore " << wall_s << " s (filter "
+            << u.filter_s << " s, fusion and loading " << u.fusion_s << " s)\n";
+  EXPECT_LT(wall_s, 0.5 * update_.sweep_s);
+  // And update() on the restored state has nothing to sweep either.
+  photos = 0;
+  const DenseUpdate again = dense.update(*model_, street_images(&photos));
+  EXPECT_TRUE(again.new_depth_maps.empty());
+  EXPECT_FALSE(again.refused);
+  EXPECT_EQ(again.points, u.points);
+  EXPECT_EQ(photos.load(), 0);
+}
+
+// (c) After a restore, update() sweeps only the newly registered view, and
+// the result is that of the original going on.
+TEST_F(DensePersistence, LaterUpdateSweepsOnlyTheNewView) {
+  const Model first4 = build_model(*truth_, {0, 1, 2, 3});
+  DenseReconstruction original(small_dense_options());
+  original.update(first4, street_images());
+  std::vector<std::string> blobs;
+  for (const std::string& id : original.depth_map_ids())
+    blobs.push_back(original.serialize_depth_map(id));
+  std::reverse(blobs.begin(), blobs.end());
+
+  DenseReconstruction dense(small_dense_options());
+  const DenseUpdate r =
+      dense.restore_depth_maps(blobs, first4, street_images());
+  expect_same_state(original, dense);
+  EXPECT_TRUE(r.new_depth_maps.empty());
+
+  std::vector<std::string> told;
+  const DenseUpdate u =
+      dense.update(*model_, street_images(),
+                   [&](const std::string& id) { told.push_back(id); });
+  EXPECT_EQ(u.new_depth_maps, std::vector<std::string>{"view4"});
+  EXPECT_EQ(told, std::vector<std::string>{"view4"});
+  EXPECT_GT(u.sweep_s, 0);
+  const DenseUpdate o = original.update(*model_, street_images());
+  EXPECT_EQ(o.new_depth_maps, std::vector<std::string>{"view4"});
+  EXPECT_EQ(u.points, o.points);
+  EXPECT_EQ(u.refused, o.refused);
+  expect_same_state(original, dense);
+  EXPECT_EQ(dense.depth_map_ids().back(), "view4");
+  EXPECT_EQ(decode_depth_map(dense.serialize_depth_map("view4")).sequence, 4u);
+}
+
+// A copy of `blob` with its checksum made right again after an edit.
+std::string with_checksum(std::string blob) {
+  const uint32_t crc = depth_map_crc32(
+      std::string_view(blob).substr(0, blob.size() - sizeof(uint32_t)));
+  for (size_t i = 0; i < 4; ++i)
+    blob[blob.size() - 4 + i] = static_cast<char>((crc >> (8 * i)) & 0xff);
+  return blob;
+}
+
+void put_u32(std::string* blob, size_t at, uint32_t value) {
+  for (size_t i = 0; i < 4; ++i)
+    (*blob)[at + i] = static_cast<char>((value >> (8 * i)) & 0xff);
+}
+
+// Where the rows field lies: after magic, version, size, sequence, the id
+// and the neighbours.
+size_t rows_offset(const std::string& blob) {
+  const SweptDepthMap swept = decode_depth_map(blob);
+  size_t at = 8 + 4 + 8 + 8 + 4 + swept.map.id.size() + 4;
+  for (const std::string& n : swept.neighbours) at += 4 + n.size();
+  return at;
+}
+
+// The message of the std::runtime_error `restore` throws ("" when none).
+std::string error_of(DenseReconstruction* dense,
+                     const std::vector<std::string>& maps, const Model& model) {
+  try {
+    dense->restore_depth_maps(maps, model, street_images());
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// (d) Damaged bytes throw, name the damage, and leave the object as it was.
+TEST_F(DensePersistence, CorruptBytesThrowAndChangeNothing) {
+  const std::string& good = (*blobs_)[1];
+  struct Case {
+    std::string name;
+    std::string bytes;
+    std::string expect;  // in the message
+  };
+  std::vector<Case> cases;
+  {
+    std::string b = good;
+    b[0] = 'X';
+    cases.push_back({"bad magic", b, "magic"});
+    cases.push_back({"a photo", street_images()("view0"), "magic"});
+  }
+  {
+    std::string b = good;
+    put_u32(&b, 8, 2);
+    cases.push_back({"version 2", b, "version 2"});
+    cases.push_back(
+        {"version 2, checksum right", with_checksum(b), "version 2"});
+  }
+  for (size_t length : {size_t{0}, size_t{5}, size_t{8}, size_t{11}, size_t{12},
+                        size_t{19}, size_t{20}, size_t{40}, size_t{300},
+                        good.size() / 2, good.size() - 4, good.size() - 1})
+    cases.push_back({"truncated at " + std::to_string(length),
+                     good.substr(0, length), "truncated"});
+  cases.push_back({"a byte too many", good + '\0', "after the end"});
+  {
+    std::string b = good;
+    b[good.size() / 2] ^= 0x10;  // a depth bit
+    cases.push_back({"a flipped bit", b, "checksum"});
+  }
+  {
+    // Rows one more than there are: the pixels do not add up, even with
+    // the checksum made right.
+    std::string b = good;
+    put_u32(&b, rows_offset(good), kHeight + 1);
+    cases.push_back({"rows + 1", with_checksum(b), "sizes inconsistent"});
+    put_u32(&b, rows_offset(good), 0);
+    cases.push_back({"rows 0", with_checksum(b), "sizes inconsistent"});
+    // An id length beyond the end.
+    std::string c = good;
+    put_u32(&c, 28, 0x7fffffff);
+    cases.push_back({"id length", with_checksum(c), "sizes inconsistent"});
+    // The size field says the blob is shorter than it is.
+    std::string d = good;
+    put_u32(&d, 12, static_cast<uint32_t>(good.size() - 12));
+    cases.push_back({"size field", d, "after the end"});
+  }
+
+  // A fresh object stays empty.
+  DenseReconstruction fresh(small_dense_options());
+  for (const Case& c : cases) {
+    std::vector<std::string> maps = *blobs_;
+    maps.insert(maps.begin() + 2, c.bytes);
+    const std::string message = error_of(&fresh, maps, *model_);
+    EXPECT_NE(message.find(c.expect), std::string::npos)
+        << c.name << ": \"" << message << "\"";
+    EXPECT_TRUE(fresh.depth_map_ids().empty()) << c.name;
+    EXPECT_TRUE(fresh.points().empty()) << c.name;
+  }
+  EXPECT_THROW(fresh.restore_depth_maps({(*blobs_)[3]}, *model_,
+                                        [](const std::string&) -> std::string {
+                                          throw std::invalid_argument("gone");
+                                        }),
+               std::invalid_argument);
+  EXPECT_TRUE(fresh.depth_map_ids().empty());
+  EXPECT_EQ(fresh.raw_depth_map("view3"), nullptr);
+
+  // A restored object keeps its state (against a model without view4, which
+  // would otherwise drop its map).
+  DenseReconstruction dense(small_dense_options());
+  dense.restore_depth_maps({(*blobs_)[0], (*blobs_)[1], (*blobs_)[2]}, *model_,
+                           street_images());
+  const std::vector<std::string> ids = dense.depth_map_ids();
+  const std::vector<ColoredPoint> points = dense.points();
+  const auto coverage = filtered_coverage(dense);
+  const Model without4 = build_model(*truth_, {0, 1, 2, 3});
+  for (const Case& c : cases) {
+    EXPECT_THROW(dense.restore_depth_maps({(*blobs_)[3], c.bytes}, without4,
+                                          street_images()),
+                 std::runtime_error)
+        << c.name;
+  }
+  // Two maps of one view; a photo that will not come.
+  EXPECT_THROW(dense.restore_depth_maps({(*blobs_)[3], (*blobs_)[3]}, without4,
+                                        street_images()),
+               std::invalid_argument);
+  EXPECT_THROW(dense.restore_depth_maps({(*blobs_)[3]}, without4,
+                                        [](const std::string&) -> std::string {
+                                          throw std::invalid_argument("gone");
+                                        }),
+               std::invalid_argument);
+  EXPECT_EQ(dense.depth_map_ids(), ids);
+  expect_same_points(dense.points(), points);
+  EXPECT_EQ(filtered_coverage(dense), coverage);
+  for (const std::string& id : ids)
+    EXPECT_EQ(dense.serialize_depth_map(id), (*blobs_)[id.back() - '0']);
+
+  // Still usable: the rest restores, and it is the original.
+  dense.restore_depth_maps({(*blobs_)[4], (*blobs_)[3]}, *model_,
+                           street_images());
+  expect_same_state(*original_, dense);
+}
+
+// Maps swept at another dense resolution do not fit this object's photos.
+TEST_F(DensePersistence, MapsOfAnotherResolutionAreRefused) {
+  DenseOptions options = small_dense_options();
+  options.long_side = kWidth / 2;
+  DenseReconstruction dense(options);
+  try {
+    dense.restore_depth_maps(*blobs_, *model_, street_images());
+    ADD_FAILURE() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("320 x 240"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_TRUE(dense.depth_map_ids().empty());
+}
+
+// (e) A map of a capture the model no longer has is dropped: the state is
+// that of the original after withdrawing the capture.
+TEST_F(DensePersistence, MapsOfCapturesNotInTheModelAreDropped) {
+  const Model without4 = build_model(*truth_, {0, 1, 2, 3});
+  DenseReconstruction dense(small_dense_options());
+  const DenseUpdate u =
+      dense.restore_depth_maps(shuffled_blobs(), without4, street_images());
+  EXPECT_EQ(dense.depth_map_ids(),
+            (std::vector<std::string>{"view0", "view1", "view2", "view3"}));
+  EXPECT_EQ(dense.raw_depth_map("view4"), nullptr);
+  EXPECT_THROW(dense.serialize_depth_map("view4"), std::invalid_argument);
+  EXPECT_TRUE(u.new_depth_maps.empty());
+  EXPECT_EQ(dense.filtered_depth_maps().size(), 4u);
+
+  // The original (restored whole, then update() withdraws view4).
+  const std::unique_ptr<DenseReconstruction> whole = restored(*model_);
+  const DenseUpdate w = whole->update(without4, street_images());
+  EXPECT_TRUE(w.new_depth_maps.empty());
+  EXPECT_TRUE(w.refused);
+  expect_same_state(*whole, dense);
+  EXPECT_EQ(u.points, w.points);
+  EXPECT_LT(u.points, update_.points);
+  // The maps of the remaining views are the original's.
+  for (const std::string& id : dense.depth_map_ids())
+    EXPECT_EQ(dense.serialize_depth_map(id),
+              original_->serialize_depth_map(id));
+
+  // Restoring into a state that has the maps already changes nothing, and
+  // the dropped map comes back when its capture does.
+  const std::vector<ColoredPoint> before = dense.points();
+  dense.restore_depth_maps(*blobs_, without4, street_images());
+  expect_same_points(dense.points(), before);
+  dense.restore_depth_maps(*blobs_, *model_, street_images());
+  expect_same_state(*original_, dense);
+}
+
+// Bundle adjustment moves cameras: the maps follow the model's poses, while
+// their bytes keep the pose they were swept at.
+TEST_F(DensePersistence, PosesComeFromTheModelBytesStayAsSwept) {
+  Model moved = *model_;
+  for (ModelImage& image : moved.images) image.tvec[0] += 0.05;
+  DenseReconstruction dense(small_dense_options());
+  const DenseUpdate u =
+      dense.restore_depth_maps(shuffled_blobs(), moved, street_images());
+  EXPECT_GT(u.points, 0u);
+  for (size_t i = 0; i < moved.images.size(); ++i) {
+    const DepthMap* map = dense.raw_depth_map(moved.images[i].id);
+    ASSERT_NE(map, nullptr);
+    EXPECT_EQ(map->t,
+              Eigen::Vector3d(moved.images[i].tvec[0], moved.images[i].tvec[1],
+                              moved.images[i].tvec[2]));
+    EXPECT_EQ(dense.serialize_depth_map(map->id), (*blobs_)[i]);
+  }
+  // Back at the original poses: re-fused, the bytes still unchanged.
+  const DenseUpdate back = dense.update(*model_, street_images());
+  EXPECT_TRUE(back.refused);
+  EXPECT_TRUE(back.new_depth_maps.empty());
+  for (size_t i = 0; i < model_->images.size(); ++i) {
+    const DepthMap* map = dense.raw_depth_map(model_->images[i].id);
+    ASSERT_NE(map, nullptr);
+    EXPECT_EQ(map->t, original_->raw_depth_map(map->id)->t);
+    EXPECT_EQ(dense.serialize_depth_map(map->id), (*blobs_)[i]);
+  }
+}
+
+}  // namespace
+}  // namespace arscout::engine

@@ -1,0 +1,153 @@
+// The engine worker end to end on a real store: two scouts upload
+// fountain-P11 (Lausanne) and opensfm/lund (Lund) at the same time, as
+// capture documents the API would write; the worker places them in two
+// sites, reconstructs both and writes models and statuses back. A second
+// worker on the same store then finds nothing left to do.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <thread>
+
+#include "arscout/db/store.h"
+#include "arscout/engine/camera.h"
+#include "arscout/engine/ply.h"
+#include "arscout/engine/service.h"
+#include "arscout/ingest/gps.h"
+#include "test_stores.h"
+
+namespace arscout {
+namespace {
+
+namespace fs = std::filesystem;
+using db::Json;
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+// Stores one photo as the API would: the image blob, then the capture.
+void upload(db::Store& store, const std::string& scout, const fs::path& photo,
+            const ingest::GpsFix& fix, const std::string& camera) {
+  const std::string sha = store.put_blob(read_file(photo));
+  Json attrs = {{"scout", scout},
+                {"filename", photo.filename().string()},
+                {"gps", ingest::to_json(fix)},
+                {"status", "stored"},
+                {"status_reason", ""}};
+  if (!camera.empty()) attrs["camera"] = camera;
+  db::WriteOp op = db::WriteOp::put(
+      "/captures/" + scout + "-" + photo.stem().string(), "capture", attrs, 0);
+  op.blobs = db::BlobRefs{{"image", sha}};
+  store.batch({op});
+}
+
+std::vector<fs::path> photos(const std::string& dir) {
+  std::vector<fs::path> out;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().extension() == ".jpg") out.push_back(e.path());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+TEST(EngineWorker, TwoScoutsTwoSitesModelsWrittenBack) {
+  std::string fountain, lund;
+  ARSCOUT_SHARED_DATA_OR_SKIP(fountain, "strecha/fountain-P11");
+  ARSCOUT_SHARED_DATA_OR_SKIP(lund, "opensfm/lund");
+  const std::string url = testing::fresh_sqlite_url();
+  auto store = db::Store::open(url);
+
+  const engine::CameraIntrinsics K =
+      engine::read_k_matrix(fountain + "/images/K.txt", 3072, 2048);
+  store->put("/cameras/fountain", "camera",
+             Json{{"fx", K.fx},
+                  {"fy", K.fy},
+                  {"cx", K.cx},
+                  {"cy", K.cy},
+                  {"width", K.width},
+                  {"height", K.height},
+                  {"distortion", {0, 0, 0, 0, 0}},
+                  {"source", "calibrated"}});
+
+  engine::WorkerOptions options;
+  options.progress = [](const std::string& line) {
+    std::cout << "  [engine] " << line << std::endl;
+  };
+  engine::EngineWorker worker(*store, options);
+  worker.start();
+
+  const auto fixes = ingest::read_gps_csv(fountain + "/gps.csv");
+  std::thread alice([&] {
+    for (const fs::path& p : photos(fountain + "/images"))
+      upload(*store, "alice", p, fixes.at(p.filename().string()), "fountain");
+  });
+  std::thread bob([&] {
+    for (const fs::path& p : photos(lund + "/images")) {
+      const auto exif = ingest::read_exif_file(p.string());
+      ASSERT_TRUE(exif.gps) << p;
+      upload(*store, "bob", p, *exif.gps, "");
+    }
+  });
+  alice.join();
+  bob.join();
+  ASSERT_TRUE(worker.wait_idle(std::chrono::minutes(12)));
+  const engine::WorkerStats stats = worker.stats();
+  EXPECT_EQ(stats.captures_placed, 11 + 29);
+  EXPECT_EQ(stats.failures, 0);
+
+  const auto sites = store->list_children("/sites");
+  ASSERT_EQ(sites.size(), 2u);
+  for (const db::Document& site : sites) {
+    const std::string id = site.path.substr(7);
+    const auto model = store->get(site.path + "/model");
+    ASSERT_TRUE(model) << id;
+    const bool is_fountain =
+        site.attrs.at("captures")[0].get<std::string>().rfind("alice", 0) == 0;
+    const int expected = is_fountain ? 11 : 29;
+    EXPECT_EQ(site.attrs.value("capture_count", 0), expected) << id;
+    const Json& statistics = model->attrs.at("statistics");
+    std::cout << id << ": model v" << model->version << ", "
+              << statistics.dump() << std::endl;
+    EXPECT_EQ(site.attrs.value("model_version", 0), model->version);
+    EXPECT_TRUE(model->attrs.value("geo_registered", false)) << id;
+    if (is_fountain) {
+      EXPECT_EQ(statistics.value("registered", 0), 11);
+    } else {
+      EXPECT_GE(statistics.value("registered", 0), 25);
+    }
+    ASSERT_TRUE(model->blobs.count("sparse") && model->blobs.count("dense"));
+    const auto dense =
+        engine::decode_ply(store->get_blob(model->blobs.at("dense")));
+    EXPECT_GT(dense.size(), 50000u) << id;
+    // Every capture says where it went and how it fared.
+    for (const Json& c : site.attrs.at("captures")) {
+      const auto capture = store->get("/captures/" + c.get<std::string>());
+      ASSERT_TRUE(capture);
+      EXPECT_EQ(capture->attrs.value("site", ""), id);
+      if (is_fountain) {
+        EXPECT_EQ(capture->attrs.value("status", ""), "registered");
+      }
+    }
+  }
+  worker.stop();
+
+  // A restarted worker resumes from its checkpoint and has nothing to redo.
+  std::map<std::string, std::int64_t> versions;
+  for (const db::Document& site : sites)
+    versions[site.path] = store->get(site.path + "/model")->version;
+  engine::EngineWorker again(*store, options);
+  again.start();
+  ASSERT_TRUE(again.wait_idle(std::chrono::minutes(2)));
+  again.stop();
+  EXPECT_EQ(again.stats().increments, 0);
+  for (const auto& [path, version] : versions)
+    EXPECT_EQ(store->get(path + "/model")->version, version) << path;
+}
+
+}  // namespace
+}  // namespace arscout
