@@ -19,6 +19,8 @@
 
 #include "arscout/db/errors.h"
 #include "arscout/db/path.h"
+#include "arscout/engine/camera.h"
+#include "arscout/engine/image_size.h"
 #include "arscout/ingest/client.h"
 #include "arscout/ingest/gps.h"
 #include "cli_support.h"
@@ -240,6 +242,7 @@ struct ScoutArgs {
   bool watch = false;
   std::string site_hint;
   std::string camera;
+  std::string camera_k;
   std::string scout_name;
   int retries = 8;
 };
@@ -563,9 +566,53 @@ std::vector<fs::path> initial_photos(const ScoutArgs& a) {
   return files;
 }
 
+// --camera-k: the camera document /cameras/{--camera} from a 3x3 K (the
+// Strecha K.txt layout), for photos of the first photo's size; stored
+// before any upload so that the engine finds it with the first capture.
+int put_camera_from_k(const ScoutArgs& a, const fs::path& first_photo) {
+  const auto bytes = read_bytes(first_photo);
+  const auto size = bytes ? engine::read_image_size(*bytes) : std::nullopt;
+  if (!size) {
+    std::cerr << "arscout scout: cannot read the size of " << first_photo
+              << " for --camera-k\n";
+    return kExitUsage;
+  }
+  engine::CameraIntrinsics k;
+  try {
+    k = engine::read_k_matrix(a.camera_k, size->width, size->height);
+  } catch (const std::exception& e) {
+    std::cerr << "arscout scout: " << e.what() << "\n";
+    return kExitUsage;
+  }
+  const Json camera = {{"fx", k.fx},
+                       {"fy", k.fy},
+                       {"cx", k.cx},
+                       {"cy", k.cy},
+                       {"width", k.width},
+                       {"height", k.height},
+                       {"distortion", {0, 0, 0, 0, 0}},
+                       {"source", "calibrated"}};
+  ingest::Client client(client_options(a.server));
+  const std::string target = "/v1/cameras/" + a.camera;
+  const auto r = client.request("PUT", target, camera.dump(),
+                                {{"Content-Type", "application/json"}});
+  if (r.status != 200 && r.status != 201) {
+    std::cerr << "arscout scout: PUT " << target << ": HTTP " << r.status
+              << ": " << r.body << "\n";
+    return r.status == 401 || r.status == 403 ? kExitError : kExitUsage;
+  }
+  std::cout << "camera " << a.camera << ": " << k.width << "x" << k.height
+            << ", f " << k.fx << " px (from " << a.camera_k << ")" << std::endl;
+  return kExitOk;
+}
+
 int run_scout(const ScoutArgs& a) {
   if (a.dir.empty() == a.files.empty()) {
     std::cerr << "arscout scout: give either --dir DIR or photo FILES\n";
+    return kExitUsage;
+  }
+  if (!a.camera_k.empty() && a.camera.empty()) {
+    std::cerr << "arscout scout: --camera-k needs --camera ID\n";
     return kExitUsage;
   }
   install_stop_handlers();
@@ -575,6 +622,10 @@ int run_scout(const ScoutArgs& a) {
     std::cerr << "arscout scout: no .jpg/.jpeg/.png photos in " << a.dir
               << "\n";
     return kExitUsage;
+  }
+  if (!a.camera_k.empty() && !photos.empty()) {
+    if (int code = put_camera_from_k(a, photos.front()); code != kExitOk)
+      return code;
   }
   std::set<std::string> done;
   std::size_t handled = 0;
@@ -636,6 +687,10 @@ void add_scout(CLI::App& app) {
       ->needs(dir);
   cmd->add_option("--site-hint", a.site_hint, "site the photos belong to");
   cmd->add_option("--camera", a.camera, "camera id (a /cameras/{id})");
+  cmd->add_option("--camera-k", a.camera_k,
+                  "store /cameras/{--camera} first, from a 3x3 K matrix "
+                  "file (as ../shared/data/strecha/*/images/K.txt)")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--scout-name", a.scout_name,
                   "capture id prefix (default: a hash of the token)");
   cmd->add_option("--retries", a.retries,

@@ -19,6 +19,7 @@
 #include "arscout/db/path.h"
 #include "arscout/db/store.h"
 #include "arscout/engine/service.h"
+#include "capture_document.h"
 #include "site_directory.h"
 #include "site_job.h"
 
@@ -105,15 +106,7 @@ struct EngineWorker::Impl {
     }
     if (status != "stored" && status != "needs-gps") return std::nullopt;
     if (directory.site_of(id)) return std::nullopt;  // placed before
-    std::optional<GeoFix> fix;
-    const auto gps = doc->attrs.value("gps", db::Json());
-    if (gps.is_object() && gps.contains("lat") && gps.contains("lon")) {
-      fix = GeoFix{};
-      fix->lat = gps.at("lat").get<double>();
-      fix->lon = gps.at("lon").get<double>();
-      if (gps.contains("alt") && gps.at("alt").is_number())
-        fix->alt = gps.at("alt").get<double>();
-    }
+    const std::optional<GeoFix> fix = service::capture_fix(doc->attrs);
     const std::string hint = doc->attrs.value("site_hint", "");
     auto site = directory.place(id, fix, hint);
     if (!site) {

@@ -7,6 +7,7 @@
 #include "arscout/db/path.h"
 #include "arscout/db/store.h"
 #include "arscout/engine/ply.h"
+#include "capture_document.h"
 
 namespace arscout::engine::service {
 namespace {
@@ -28,44 +29,6 @@ std::string published_status(CaptureStatus status) {
       break;
   }
   return "stored";  // waiting for the site to have enough captures
-}
-
-std::optional<GeoFix> fix_of(const Json& attrs) {
-  const Json gps = attrs.value("gps", Json());
-  if (!gps.is_object() || !gps.contains("lat") || !gps.contains("lon"))
-    return std::nullopt;
-  GeoFix fix;
-  fix.lat = gps.at("lat").get<double>();
-  fix.lon = gps.at("lon").get<double>();
-  if (gps.contains("alt") && gps.at("alt").is_number())
-    fix.alt = gps.at("alt").get<double>();
-  if (gps.contains("h_acc") && gps.at("h_acc").is_number())
-    fix.h_acc = gps.at("h_acc").get<double>();
-  if (gps.contains("v_acc") && gps.at("v_acc").is_number())
-    fix.v_acc = gps.at("v_acc").get<double>();
-  return fix;
-}
-
-// A /cameras/{id} document's attrs (docs/api.md) as intrinsics.
-std::optional<CameraIntrinsics> camera_of(const Json& attrs) {
-  CameraIntrinsics k;
-  try {
-    k.width = attrs.at("width").get<int>();
-    k.height = attrs.at("height").get<int>();
-    k.fx = attrs.at("fx").get<double>();
-    k.fy = attrs.at("fy").get<double>();
-    k.cx = attrs.at("cx").get<double>();
-    k.cy = attrs.at("cy").get<double>();
-    const Json d = attrs.value("distortion", Json::array());
-    double* terms[] = {&k.k1, &k.k2, &k.p1, &k.p2, &k.k3};
-    for (size_t i = 0; i < 5 && i < d.size(); ++i)
-      *terms[i] = d[i].get<double>();
-    k.source = attrs.value("source", "calibrated");
-  } catch (const Json::exception&) {
-    return std::nullopt;
-  }
-  if (!validate(k).empty()) return std::nullopt;
-  return k;
 }
 
 std::string site_path(const std::string& site, const std::string& leaf) {
@@ -140,12 +103,12 @@ CaptureInput SiteJob::capture_input(const std::string& capture) {
   CaptureInput input;
   input.id = capture;
   input.image_bytes = image_bytes(capture);
-  input.gps = fix_of(doc->attrs);
+  input.gps = capture_fix(doc->attrs);
   const std::string camera = doc->attrs.value("camera", "");
   if (!camera.empty()) {
     input.camera_id = camera;
     if (auto cam = store_.get("/cameras/" + camera))
-      input.camera = camera_of(cam->attrs);
+      input.camera = camera_intrinsics(cam->attrs);
   } else {
     input.camera_id = "unnamed-" +
                       std::to_string(doc->attrs.value("width", 0)) + "x" +

@@ -4,6 +4,7 @@
 // device would. Each photo must be stored exactly once, with the right GPS.
 #include <csignal>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <set>
 #include <thread>
@@ -126,6 +127,41 @@ TEST_P(ScoutsTest, FourConcurrentScoutsStoreEachPhotoExactlyOnce) {
     }
   }
   EXPECT_EQ(files.size(), lund_n + fountain_n);
+}
+
+// --camera-k stores the camera document from a K matrix before the first
+// upload, for photos of the first photo's size; a K file that is not one
+// stops the scout before anything is uploaded.
+TEST_P(ScoutsTest, CameraKStoresTheCameraFirst) {
+  const std::string images = fountain_ + "/images";
+  auto ok = scout(bob_, images, "k.log",
+                  {"--gps-csv", fountain_ + "/gps.csv", "--camera", "fp11",
+                   "--camera-k", images + "/K.txt"});
+  std::string result = finish(*ok, "k.log");
+  ASSERT_EQ(result.rfind("exit 0", 0), 0u) << result;
+  auto camera = store_->get("/cameras/fp11");
+  ASSERT_TRUE(camera);
+  EXPECT_EQ(camera->attrs.value("width", 0), 3072);
+  EXPECT_EQ(camera->attrs.value("height", 0), 2048);
+  EXPECT_NEAR(camera->attrs.value("fx", 0.0), 2759.48, 0.01);
+  EXPECT_EQ(camera->attrs.value("source", ""), "calibrated");
+  // The camera was written before the first capture.
+  const auto first_capture = store_->changes(0, "/captures/*", 1);
+  ASSERT_EQ(first_capture.size(), 1u);
+  EXPECT_LT(camera->seq, first_capture[0].seq);
+  db::Query all;
+  all.pattern = "/captures/*";
+  for (const auto& doc : store_->query(all))
+    EXPECT_EQ(doc.attrs.value("camera", ""), "fp11") << doc.path;
+
+  const std::string bad_k = dir_ + "/bad_K.txt";
+  std::ofstream(bad_k) << "not a matrix\n";
+  auto bad = scout(alice_, lund_ + "/images", "bad.log",
+                   {"--camera", "x", "--camera-k", bad_k});
+  result = finish(*bad, "bad.log");
+  EXPECT_EQ(result.rfind("exit 2", 0), 0u) << result;
+  EXPECT_FALSE(store_->get("/cameras/x"));
+  EXPECT_EQ(store_->query(all).size(), count_images(images));
 }
 
 TEST_P(ScoutsTest, WrongTokensAndPlannersStoreNothing) {

@@ -5,6 +5,7 @@
 // worker on the same store then finds nothing left to do.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -147,6 +148,45 @@ TEST(EngineWorker, TwoScoutsTwoSitesModelsWrittenBack) {
   EXPECT_EQ(again.stats().increments, 0);
   for (const auto& [path, version] : versions)
     EXPECT_EQ(store->get(path + "/model")->version, version) << path;
+}
+
+// The main job's stand-in for ../shared/data: `arscout render-site` writes
+// photos of the synthetic street with exact GPS and K, and the worker
+// reconstructs them into one geo-registered site with a dense cloud.
+TEST(EngineWorker, RenderedSyntheticStreetBecomesOneSite) {
+  const std::string dir = testing::make_temp_dir("render_site");
+  const std::string command = std::string(ARSCOUT_CLI) + " render-site --out " +
+                              dir + " --views 8 > " + dir + "/render.log 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  auto store = db::Store::open(testing::fresh_sqlite_url());
+  const engine::CameraIntrinsics K =
+      engine::read_k_matrix(dir + "/images/K.txt", 1024, 768);
+  store->put("/cameras/synthetic", "camera",
+             Json{{"fx", K.fx},
+                  {"fy", K.fy},
+                  {"cx", K.cx},
+                  {"cy", K.cy},
+                  {"width", K.width},
+                  {"height", K.height},
+                  {"source", "calibrated"}});
+  engine::WorkerOptions options;
+  engine::EngineWorker worker(*store, options);
+  worker.start();
+  const auto fixes = ingest::read_gps_csv(dir + "/gps.csv");
+  const auto all = photos(dir + "/images");
+  ASSERT_EQ(all.size(), 8u);
+  for (const fs::path& p : all)
+    upload(*store, "alice", p, fixes.at(p.filename().string()), "synthetic");
+  ASSERT_TRUE(worker.wait_idle(std::chrono::minutes(5)));
+  const auto sites = store->list_children("/sites");
+  ASSERT_EQ(sites.size(), 1u);
+  const auto model = store->get(sites[0].path + "/model");
+  ASSERT_TRUE(model);
+  const Json& statistics = model->attrs.at("statistics");
+  std::cout << statistics.dump() << std::endl;
+  EXPECT_EQ(statistics.value("registered", 0), 8);
+  EXPECT_TRUE(model->attrs.value("geo_registered", false));
+  EXPECT_GT(statistics.value("dense_points", 0), 20000);
 }
 
 }  // namespace

@@ -1,0 +1,162 @@
+// `arscout summary`: the sites in a store, their model versions and
+// registered counts, and (with --models DIR) their point clouds as PLY
+// files: what the main job prints at its end.
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <thread>
+
+#include "arscout/db/path.h"
+#include "arscout/db/store.h"
+#include "cli_support.h"
+#include "command_registry.h"
+#include "commands.h"
+
+namespace arscout::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using db::Json;
+
+struct SummaryArgs {
+  std::string db;
+  std::string models;
+  double wait_s = 0;
+  std::string engine = "engine";
+};
+
+// The seq of the last change below /captures.
+std::int64_t last_capture_change(db::Store& store) {
+  std::int64_t last = 0;
+  for (auto page = store.changes(0, "/captures/*", 1000); !page.empty();
+       page = store.changes(last, "/captures/*", 1000))
+    last = page.back().seq;
+  return last;
+}
+
+// Waits until the engine's checkpoint covers every capture change (it has
+// placed and, where it could, reconstructed them all) and stays so for two
+// seconds; false at the timeout.
+bool wait_for_engine(db::Store& store, const SummaryArgs& a) {
+  const auto start = std::chrono::steady_clock::now();
+  auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                         start)
+        .count();
+  };
+  int caught_up = 0;
+  double next_report = 10;
+  while (elapsed() < a.wait_s) {
+    const std::int64_t target = last_capture_change(store);
+    const std::int64_t at = store.load_checkpoint(a.engine);
+    caught_up = at >= target ? caught_up + 1 : 0;
+    if (caught_up >= 4) return true;
+    if (elapsed() >= next_report) {
+      std::cout << "waiting for engine '" << a.engine << "': at seq " << at
+                << " of " << target << " (" << static_cast<int>(elapsed())
+                << " s)" << std::endl;
+      next_report += 10;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  }
+  return false;
+}
+
+// How many of the site's captures have each status.
+std::map<std::string, int> capture_statuses(db::Store& store,
+                                            const Json& captures) {
+  std::map<std::string, int> counts;
+  for (const Json& id : captures) {
+    auto doc = store.get("/captures/" + id.get<std::string>());
+    ++counts[doc ? doc->attrs.value("status", "?") : "missing"];
+  }
+  return counts;
+}
+
+void write_blob(db::Store& store, const std::string& sha,
+                const fs::path& path) {
+  fs::create_directories(path.parent_path());
+  std::ofstream out(path, std::ios::binary);
+  store.read_blob(sha, out);
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
+int run_summary(const SummaryArgs& a) {
+  auto store = db::Store::open(a.db);
+  if (a.wait_s > 0 && !wait_for_engine(*store, a)) {
+    std::cerr << "arscout summary: engine '" << a.engine
+              << "' has not caught up after " << a.wait_s << " s\n";
+    return kExitError;
+  }
+  const auto sites = store->list_children("/sites");
+  std::cout << sites.size() << " site" << (sites.size() == 1 ? "" : "s")
+            << " in " << a.db << "\n";
+  for (const db::Document& site : sites) {
+    const std::string id(db::leaf_name(site.path));
+    const Json& attrs = site.attrs;
+    std::cout << "\nsite " << id << " (" << attrs.value("name", id) << ")";
+    if (attrs.contains("gps"))
+      std::cout << std::fixed << std::setprecision(6) << ", centre "
+                << attrs["gps"].value("lat", 0.0) << ", "
+                << attrs["gps"].value("lon", 0.0) << std::defaultfloat;
+    std::cout << "\n  captures " << attrs.value("capture_count", 0) << ":";
+    for (const auto& [status, n] :
+         capture_statuses(*store, attrs.value("captures", Json::array())))
+      std::cout << " " << n << " " << status;
+    std::cout << "\n";
+    auto model = store->get(site.path + "/model");
+    if (!model) {
+      std::cout << "  no model yet (a site needs 3 captures)\n";
+      continue;
+    }
+    const Json s = model->attrs.value("statistics", Json::object());
+    std::cout << "  model version " << model->version << ": "
+              << s.value("registered", 0) << " registered, "
+              << s.value("sparse_points", 0) << " sparse points, "
+              << s.value("dense_points", 0) << " dense points, frame "
+              << model->attrs.value("frame", "?") << "\n";
+    for (const char* cloud : {"sparse", "dense"}) {
+      if (!model->blobs.count(cloud)) continue;
+      const std::string sha = model->blobs.at(cloud);
+      std::cout << "  " << cloud << ": /v1/blobs/" << sha;
+      if (!a.models.empty()) {
+        const fs::path path =
+            fs::path(a.models) / id / (std::string(cloud) + ".ply");
+        write_blob(*store, sha, path);
+        std::cout << " -> " << path.string();
+      }
+      std::cout << "\n";
+    }
+  }
+  std::cout << std::flush;
+  return kExitOk;
+}
+
+void add_summary_command(CLI::App& app) {
+  static SummaryArgs args;
+  CLI::App* cmd = app.add_subcommand(
+      "summary",
+      "list the sites, their captures' status and model versions; with "
+      "--models DIR write each site's point clouds as PLY files");
+  cmd->add_option("--db", args.db,
+                  "database URL: sqlite:FILE or postgresql://...")
+      ->required();
+  cmd->add_option("--models", args.models,
+                  "write DIR/SITE/sparse.ply and DIR/SITE/dense.ply");
+  cmd->add_option("--wait", args.wait_s,
+                  "first wait up to this many seconds for the engine to "
+                  "catch up with every capture")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--engine-name", args.engine,
+                  "the engine whose checkpoint --wait watches")
+      ->capture_default_str();
+  cmd->callback([] { run_command([] { return run_summary(args); }); });
+}
+
+const CommandRegistration registration(26, add_summary_command);
+
+}  // namespace
+}  // namespace arscout::cli
