@@ -174,7 +174,11 @@ struct EngineWorker::Impl {
                      const std::vector<Work>& work,
                      std::unique_lock<std::mutex>& lock) {
     try {
+      const auto run_start = std::chrono::steady_clock::now();
       service::Increment increment = job.run(work);
+      const double run_ms = std::chrono::duration<double, std::milli>(
+                                std::chrono::steady_clock::now() - run_start)
+                                .count();
       const auto info = directory.site(site);
       lock.lock();
       std::multiset<std::int64_t> others = in_flight;
@@ -194,9 +198,16 @@ struct EngineWorker::Impl {
                                                "checkpoint",
                                                db::Json{{"seq", checkpoint}}));
       for (db::WriteOp& op : increment.ops) op.author = options.name;
+      const auto commit_start = std::chrono::steady_clock::now();
       store.batch(increment.ops);
       job.committed();
-      log(increment.summary);
+      log(increment.summary + ", ready in " +
+          std::to_string(static_cast<int>(run_ms)) + " ms, committed in " +
+          std::to_string(static_cast<int>(
+              std::chrono::duration<double, std::milli>(
+                  std::chrono::steady_clock::now() - commit_start)
+                  .count())) +
+          " ms");
       lock.lock();
       for (const Work& w : work) in_flight.erase(in_flight.find(w.seq));
       saved_checkpoint = std::max(saved_checkpoint, checkpoint);

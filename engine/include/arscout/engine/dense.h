@@ -27,7 +27,7 @@ struct PlaneSweepOptions {
   int window = 7;  // ZNCC window side, pixels (odd, 3 to 31)
   // Depth range from the key view's sparse points (2nd and 98th
   // percentiles), widened by this fraction on each side.
-  double depth_margin = 0.25;
+  double depth_margin = 0.15;
   // Planes are spaced so that one step moves a pixel by about this much in
   // the neighbour with the widest baseline; sub-plane refinement does the
   // rest. Bounded by min_planes and max_planes per direction.
