@@ -223,9 +223,13 @@ Increment SiteJob::run(const std::vector<Work>& work) {
   summary << "site " << id_ << ": +" << report.added.size() << " capture"
           << (report.added.size() == 1 ? "" : "s");
   if (!report.withdrawn.empty()) summary << ", -" << report.withdrawn.size();
-  summary << ", " << model.images.size() << " registered, "
+  summary << ", " << model.images.size() << " registered"
+          << (model.geo_registered ? " (ENU)" : " (local frame)") << ", "
           << model.points.size() << " points";
-  if (dense_) summary << ", dense " << report.dense_points;
+  if (dense_)
+    summary << ", dense " << report.dense_points << " (voxel "
+            << dense_->voxel_size()
+            << (report.dense.refused ? ", re-fused" : "") << ")";
   if (publish_model) summary << ", model v" << pending_model_version_;
   summary << " (" << static_cast<int>(report.total_s * 1000) << " ms)";
   increment.summary = summary.str();
