@@ -1,8 +1,8 @@
-// The engine worker end to end on a real store: two scouts upload
-// fountain-P11 (Lausanne) and opensfm/lund (Lund) at the same time, as
-// capture documents the API would write; the worker places them in two
-// sites, reconstructs both and writes models and statuses back. A second
-// worker on the same store then finds nothing left to do.
+// The engine worker end to end on a real store (SQLite and PostgreSQL): two
+// scouts upload fountain-P11 (Lausanne) and opensfm/lund (Lund) at the same
+// time, as capture documents the API would write; the worker places them
+// in two sites, reconstructs both and writes models and statuses back. A
+// second worker on the same store then finds nothing left to do.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -56,11 +56,13 @@ std::vector<fs::path> photos(const std::string& dir) {
   return out;
 }
 
-TEST(EngineWorker, TwoScoutsTwoSitesModelsWrittenBack) {
-  std::string fountain, lund;
+class EngineWorkerOn : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(EngineWorkerOn, TwoScoutsTwoSitesModelsWrittenBack) {
+  std::string fountain, lund, url;
   ARSCOUT_SHARED_DATA_OR_SKIP(fountain, "strecha/fountain-P11");
   ARSCOUT_SHARED_DATA_OR_SKIP(lund, "opensfm/lund");
-  const std::string url = testing::fresh_sqlite_url();
+  ARSCOUT_FRESH_STORE_OR_SKIP(url, GetParam());
   auto store = db::Store::open(url);
 
   const engine::CameraIntrinsics K =
@@ -149,6 +151,10 @@ TEST(EngineWorker, TwoScoutsTwoSitesModelsWrittenBack) {
   for (const auto& [path, version] : versions)
     EXPECT_EQ(store->get(path + "/model")->version, version) << path;
 }
+
+INSTANTIATE_TEST_SUITE_P(Backends, EngineWorkerOn,
+                         ::testing::Values("sqlite", "postgresql"),
+                         [](const auto& info) { return info.param; });
 
 // The main job's stand-in for ../shared/data: `arscout render-site` writes
 // photos of the synthetic street with exact GPS and K, and the worker
