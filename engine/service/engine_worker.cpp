@@ -94,7 +94,9 @@ struct EngineWorker::Impl {
   // The work a capture change asks for, and its site; nullopt for changes
   // that need none (the engine's own status updates among them).
   std::optional<std::pair<std::string, Work>> place(const db::Change& change) {
-    if (change.op == db::OpType::kDelete) return std::nullopt;
+    // Its own status updates need no work.
+    if (change.op == db::OpType::kDelete || change.author == options.name)
+      return std::nullopt;
     auto doc = store.get(change.path);
     if (!doc || doc->kind != "capture") return std::nullopt;
     const std::string id(db::leaf_name(change.path));
@@ -105,7 +107,8 @@ struct EngineWorker::Impl {
       return std::make_pair(*site, Work{Work::Kind::kWithdraw, id, change.seq});
     }
     if (status != "stored" && status != "needs-gps") return std::nullopt;
-    if (directory.site_of(id)) return std::nullopt;  // placed before
+    // A capture placed before (the change seen again after a restart) goes
+    // to its site again: the site's state says whether it was processed.
     const std::optional<GeoFix> fix = service::capture_fix(doc->attrs);
     const std::string hint = doc->attrs.value("site_hint", "");
     auto site = directory.place(id, fix, hint);
