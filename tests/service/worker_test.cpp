@@ -193,6 +193,24 @@ TEST(EngineWorker, RenderedSyntheticStreetBecomesOneSite) {
   EXPECT_EQ(statistics.value("registered", 0), 8);
   EXPECT_TRUE(model->attrs.value("geo_registered", false));
   EXPECT_GT(statistics.value("dense_points", 0), 20000);
+
+  // A withdrawn capture (the API sets its status) yields a model version
+  // without it, and its depth map goes.
+  const std::string withdrawn = "alice-" + all[3].stem().string();
+  ASSERT_TRUE(store->get(sites[0].path + "/depth/" + withdrawn));
+  store->patch("/captures/" + withdrawn, Json{{"status", "withdrawn"}});
+  ASSERT_TRUE(worker.wait_idle(std::chrono::minutes(5)));
+  const auto after = store->get(sites[0].path + "/model");
+  ASSERT_TRUE(after);
+  EXPECT_EQ(after->version, model->version + 1);
+  EXPECT_EQ(after->attrs.at("statistics").value("registered", 0), 7);
+  for (const Json& image : after->attrs.at("images"))
+    EXPECT_NE(image.value("id", ""), withdrawn);
+  EXPECT_EQ(after->attrs.at("increment").at("withdrawn"),
+            Json::array({withdrawn}));
+  EXPECT_FALSE(store->get(sites[0].path + "/depth/" + withdrawn));
+  EXPECT_EQ(store->get("/captures/" + withdrawn)->attrs.value("status", ""),
+            "withdrawn");
 }
 
 }  // namespace
