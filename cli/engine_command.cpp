@@ -19,7 +19,8 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
                   "worker name: its feed checkpoint /checkpoints/NAME")
       ->capture_default_str();
   cmd->add_option("--site-radius", o->site_radius_m,
-                  "metres: a capture joins the nearest site within it")
+                  "metres: a capture joins the nearest site whose footprint "
+                  "(centre and extent) comes this close, else founds one")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
   cmd->add_option("--site-threads", o->site_threads,
