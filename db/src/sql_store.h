@@ -38,6 +38,15 @@ class SqlStore : public Store {
   std::int64_t last_seq() override;
   void wait_for_change(std::int64_t after,
                        std::chrono::milliseconds timeout) override;
+  std::vector<std::string> claim_leases(const std::vector<std::string>& names,
+                                        const std::string& holder,
+                                        std::chrono::milliseconds ttl,
+                                        std::size_t max_new) override;
+  std::vector<std::string> renew_leases(const std::string& holder,
+                                        std::chrono::milliseconds ttl) override;
+  void release_leases(const std::string& holder,
+                      const std::vector<std::string>& names) override;
+  std::vector<Lease> leases(std::string_view prefix) override;
   StoreStats stats() override;
   std::vector<int> schema_versions() override;
 

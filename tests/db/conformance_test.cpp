@@ -545,7 +545,7 @@ TEST_P(StoreConformance, ReopeningKeepsDataAndSchema) {
   auto reopened = Store::open(url_);
   EXPECT_EQ(reopened->get("/persist")->attrs["v"], 42);
   EXPECT_EQ(reopened->get_blob(blob), "kept");
-  EXPECT_EQ(reopened->schema_versions(), std::vector<int>{1});
+  EXPECT_EQ(reopened->schema_versions(), (std::vector<int>{1, 2}));
   EXPECT_EQ(reopened->last_seq(), 1);
   EXPECT_EQ(reopened->backend(), GetParam());
 }

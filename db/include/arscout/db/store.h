@@ -74,6 +74,16 @@ struct BlobInfo {
   std::int64_t size = 0;
 };
 
+// A named, time-limited claim (see Store::claim_leases).
+struct Lease {
+  std::string name;
+  std::string holder;  // empty when free
+  // Until it expires by the database's clock; zero or less: expired (a free
+  // lease reads as expired).
+  std::chrono::milliseconds remaining{0};
+  std::int64_t generation = 0;  // +1 whenever it passes to another holder
+};
+
 struct StoreStats {
   std::int64_t documents = 0;  // live documents
   std::int64_t blobs = 0;
@@ -167,6 +177,31 @@ class Store {
   // (kind "checkpoint", attrs {"seq": N}). load returns 0 when none exists.
   WriteResult save_checkpoint(const std::string& name, std::int64_t seq);
   std::int64_t load_checkpoint(const std::string& name);
+
+  // --- leases ----------------------------------------------------------------
+  // Named, time-limited claims by which workers share out work: a worker
+  // holds a lease while it renews it; when it stops renewing (it died), the
+  // lease expires and another may take it. Expiry is judged by the database's
+  // clock, so workers on different machines agree. Leases are coordination,
+  // not data: they are not documents and write nothing to the change log.
+  //
+  // Takes, for `holder` and `ttl` from now, those of `names` that are free,
+  // expired or already holder's (those are renewed), but at most `max_new`
+  // that were not holder's. A name another worker is claiming at this moment
+  // is skipped, never waited for (PostgreSQL: SELECT ... FOR UPDATE SKIP
+  // LOCKED). Returns the names of `names` that holder holds afterwards.
+  virtual std::vector<std::string> claim_leases(
+      const std::vector<std::string>& names, const std::string& holder,
+      std::chrono::milliseconds ttl, std::size_t max_new) = 0;
+  // Extends every lease holder still holds to `ttl` from now (an expired one
+  // too, while nobody took it) and returns their names, in order.
+  virtual std::vector<std::string> renew_leases(
+      const std::string& holder, std::chrono::milliseconds ttl) = 0;
+  // Frees those of `names` (every one when empty) that holder holds.
+  virtual void release_leases(const std::string& holder,
+                              const std::vector<std::string>& names = {}) = 0;
+  // The leases whose names start with prefix, ordered by name.
+  virtual std::vector<Lease> leases(std::string_view prefix = "") = 0;
 
   virtual StoreStats stats() = 0;
   // Schema versions applied, in order (from the migrations table).
