@@ -27,6 +27,15 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
                   "sites reconstructed at the same time")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
+  cmd->add_option_function<double>(
+         "--lease-ttl",
+         [o](double seconds) {
+           o->lease_ttl = std::chrono::milliseconds(
+               static_cast<std::int64_t>(seconds * 1000));
+         },
+         "seconds a site lease lasts unrenewed: when a worker dies, others "
+         "take its sites over after this (renewed every third; default 15)")
+      ->check(CLI::Range(0.3, 3600.0));
   cmd->add_flag("!--no-dense", o->dense, "sparse models only");
   cmd->add_option("--dense-long-side", o->dense_options.long_side,
                   "dense working resolution, long side in px")

@@ -19,8 +19,7 @@ struct LeaseSql {
 
 LeaseSql lease_sql(Dialect dialect) {
   if (dialect == Dialect::kPostgres)
-    return {"clock_timestamp()",
-            "clock_timestamp() + make_interval(secs => ?)",
+    return {"clock_timestamp()", "clock_timestamp() + make_interval(secs => ?)",
             "COALESCE(CAST(ROUND(EXTRACT(EPOCH FROM (expires_at - "
             "clock_timestamp())) * 1000) AS bigint), 0)",
             " FOR UPDATE SKIP LOCKED", " FOR UPDATE"};
@@ -65,8 +64,9 @@ std::vector<std::string> SqlStore::claim_leases(
           "INSERT INTO leases (name) VALUES (?) ON CONFLICT (name) DO NOTHING",
           {name}));
       const std::string select =
-          std::string("SELECT holder, CASE WHEN expires_at IS NULL OR "
-                      "expires_at <= ") +
+          std::string(
+              "SELECT holder, CASE WHEN expires_at IS NULL OR "
+              "expires_at <= ") +
           q.now + " THEN 1 ELSE 0 END FROM leases WHERE name = ?";
       auto rows = s.query(make_sql(dialect_, select + q.skip_locked, {name}));
       if (rows.empty()) {

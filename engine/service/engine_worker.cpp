@@ -8,6 +8,12 @@
 // oldest change still in flight, so a crash never skips work (it may redo
 // some: delivery is at least once, and the restored state skips what it
 // already holds).
+//
+// Sites are reconstructed only while this worker holds their lease (see
+// site_leases.h). Work for a site it does not hold is "deferred": it stays
+// in flight, holding the checkpoint back, until the heartbeat either claims
+// the site (the work then runs here) or sees the holder's committed state
+// pass it (attrs.through_seq of the site's engine document).
 #include <algorithm>
 #include <condition_variable>
 #include <deque>
@@ -22,6 +28,7 @@
 #include "capture_document.h"
 #include "site_directory.h"
 #include "site_job.h"
+#include "site_leases.h"
 
 namespace arscout::engine {
 
@@ -29,11 +36,15 @@ using service::Work;
 
 struct EngineWorker::Impl {
   Impl(db::Store& s, WorkerOptions o)
-      : store(s), options(std::move(o)), directory(options.site_radius_m) {}
+      : store(s),
+        options(std::move(o)),
+        directory(options.site_radius_m),
+        leases(store, options.name, options.lease_ttl) {}
 
   struct SiteQueue {
     std::unique_ptr<service::SiteJob> job;
     std::deque<Work> pending;
+    std::deque<Work> deferred;  // while another worker holds the site
     bool running = false;
     bool ready = false;
   };
@@ -41,6 +52,7 @@ struct EngineWorker::Impl {
   db::Store& store;
   const WorkerOptions options;
   service::SiteDirectory directory;
+  service::SiteLeases leases;  // used by the heartbeat thread only
 
   mutable std::mutex mutex;
   std::condition_variable changed;
@@ -50,6 +62,9 @@ struct EngineWorker::Impl {
   std::int64_t last_placed = 0;  // every change <= it is done or in flight
   std::int64_t saved_checkpoint = 0;
   bool stopping = false;
+  std::set<std::string> held;  // sites whose lease this worker holds
+  bool claim_wanted = false;   // work was deferred since the last beat
+  std::condition_variable beat_cv;
   WorkerStats stats;
   std::unique_ptr<db::Subscription> subscription;
   std::vector<std::thread> threads;
@@ -83,9 +98,15 @@ struct EngineWorker::Impl {
     std::lock_guard lock(mutex);
     if (queued) {
       SiteQueue& q = sites[queued->first];
-      q.pending.push_back(queued->second);
       in_flight.insert(change.seq);
-      make_ready(queued->first, q);
+      if (held.count(queued->first)) {
+        q.pending.push_back(queued->second);
+        make_ready(queued->first, q);
+      } else {
+        q.deferred.push_back(queued->second);
+        claim_wanted = true;
+        beat_cv.notify_all();
+      }
     }
     last_placed = std::max(last_placed, change.seq);
     changed.notify_all();
@@ -107,6 +128,12 @@ struct EngineWorker::Impl {
       return std::make_pair(*site, Work{Work::Kind::kWithdraw, id, change.seq});
     }
     if (status != "stored" && status != "needs-gps") return std::nullopt;
+    // The engine patches `site` in the batch that commits the capture into
+    // its site's state: a capture carrying it (a photo still waiting for
+    // neighbours, as another worker published it) needs nothing more.
+    const std::string committed_site = doc->attrs.value("site", "");
+    if (!committed_site.empty() && directory.site_of(id) == committed_site)
+      return std::nullopt;
     // A capture placed before (the change seen again after a restart) goes
     // to its site again: the site's state says whether it was processed.
     const std::optional<GeoFix> fix = service::capture_fix(doc->attrs);
@@ -150,6 +177,10 @@ struct EngineWorker::Impl {
       ready.pop_front();
       SiteQueue& q = sites[site];
       q.ready = false;
+      if (!held.count(site)) {
+        defer(q);
+        continue;
+      }
       q.running = true;
       std::vector<Work> work(q.pending.begin(), q.pending.end());
       q.pending.clear();
@@ -168,8 +199,113 @@ struct EngineWorker::Impl {
         std::this_thread::sleep_for(std::chrono::seconds(1));
         lock.lock();
       }
-      make_ready(site, q);
+      if (held.count(site)) {
+        make_ready(site, q);
+      } else {
+        defer(q);
+        q.job.reset();
+      }
       changed.notify_all();
+    }
+  }
+
+  // --- leases (heartbeat thread) ------------------------------------------
+  // Moves a site's queued work aside: another worker holds the site.
+  static void defer(SiteQueue& q) {
+    q.deferred.insert(q.deferred.end(), q.pending.begin(), q.pending.end());
+    q.pending.clear();
+    std::sort(q.deferred.begin(), q.deferred.end(),
+              [](const Work& a, const Work& b) { return a.seq < b.seq; });
+  }
+
+  // The site became this worker's: its deferred work runs here.
+  void gain(const std::string& site) {
+    SiteQueue& q = sites[site];
+    q.pending.insert(q.pending.end(), q.deferred.begin(), q.deferred.end());
+    q.deferred.clear();
+    std::sort(q.pending.begin(), q.pending.end(),
+              [](const Work& a, const Work& b) { return a.seq < b.seq; });
+    make_ready(site, q);
+    changed.notify_all();
+  }
+
+  void lose(const std::string& site) {
+    log("site " + site + ": lease lost to another worker");
+    SiteQueue& q = sites[site];
+    defer(q);
+    if (!q.running) q.job.reset();  // a running one is dropped when done
+  }
+
+  // Work another worker has committed needs nothing more from this one.
+  void settle(const std::string& site, std::int64_t through_seq) {
+    SiteQueue& q = sites[site];
+    while (!q.deferred.empty() && q.deferred.front().seq <= through_seq) {
+      in_flight.erase(in_flight.find(q.deferred.front().seq));
+      q.deferred.pop_front();
+    }
+    changed.notify_all();
+  }
+
+  void renew_leases() {
+    const std::set<std::string> now_held = leases.renew();
+    std::lock_guard lock(mutex);
+    for (const std::string& site : held)
+      if (!now_held.count(site)) lose(site);
+    // Held before this process started (a restart under the same name).
+    for (const std::string& site : now_held)
+      if (!held.count(site)) gain(site);
+    held = now_held;
+    stats.sites_held = static_cast<std::int64_t>(held.size());
+  }
+
+  // Claims the sites with deferred work, within this worker's share; for
+  // the others, settles what their holders have committed.
+  void claim_sites() {
+    std::vector<std::string> wanted;
+    std::size_t held_count = 0;
+    {
+      std::lock_guard lock(mutex);
+      claim_wanted = false;
+      for (const auto& [id, q] : sites)
+        if (!q.deferred.empty() && !held.count(id)) wanted.push_back(id);
+      held_count = held.size();
+    }
+    if (wanted.empty()) return;
+    const std::set<std::string> taken =
+        leases.claim(wanted, directory.sites().size(), held_count);
+    std::map<std::string, std::int64_t> settled;
+    for (const std::string& site : wanted)
+      if (!taken.count(site)) settled[site] = leases.settled_through(site);
+    std::lock_guard lock(mutex);
+    for (const std::string& site : taken) {
+      log("site " + site + ": lease taken");
+      held.insert(site);
+      gain(site);
+    }
+    for (const auto& [site, through] : settled) settle(site, through);
+    stats.sites_held = static_cast<std::int64_t>(held.size());
+    stats.sites_taken += static_cast<std::int64_t>(taken.size());
+  }
+
+  void heartbeat() {
+    const auto period =
+        std::max(options.lease_ttl / 3, std::chrono::milliseconds(10));
+    auto next_renewal = std::chrono::steady_clock::now() + period;
+    std::unique_lock lock(mutex);
+    while (!stopping) {
+      beat_cv.wait_until(lock, next_renewal,
+                         [&] { return stopping || claim_wanted; });
+      if (stopping) return;
+      const bool renew = std::chrono::steady_clock::now() >= next_renewal;
+      lock.unlock();
+      try {
+        if (renew) renew_leases();
+        claim_sites();
+      } catch (const std::exception& e) {
+        log(std::string("lease heartbeat failed, retrying: ") + e.what());
+      }
+      if (renew) next_renewal = std::chrono::steady_clock::now() + period;
+      lock.lock();
     }
   }
 
@@ -282,9 +418,16 @@ void EngineWorker::start() {
     std::lock_guard lock(w.mutex);
     w.last_placed = w.saved_checkpoint = w.stats.checkpoint = since;
     w.stopping = false;
+    // A restarted worker begins afresh from the checkpoint.
+    w.sites.clear();
+    w.ready.clear();
+    w.in_flight.clear();
+    w.held.clear();
   }
   w.log("engine " + w.options.name + ": " + std::to_string(stored.size()) +
         " sites, following /captures/* from seq " + std::to_string(since));
+  w.renew_leases();
+  w.threads.emplace_back([&w] { w.heartbeat(); });
   for (int i = 0; i < std::max(1, w.options.site_threads); ++i)
     w.threads.emplace_back([&w] { w.run_sites(); });
   w.subscription = w.store.subscribe(
@@ -302,8 +445,24 @@ void EngineWorker::stop() {
     w.stopping = true;
   }
   w.changed.notify_all();
+  w.beat_cv.notify_all();
   for (std::thread& t : w.threads) t.join();
+  const bool had_threads = !w.threads.empty();
   w.threads.clear();
+  if (!had_threads) return;
+  // The sites go back at once, rather than when their leases expire.
+  try {
+    w.leases.release();
+  } catch (const std::exception& e) {
+    w.log(std::string("leases not released (they will expire): ") + e.what());
+  }
+  std::lock_guard lock(w.mutex);
+  for (auto& [id, q] : w.sites) {
+    w.defer(q);
+    q.job.reset();
+  }
+  w.held.clear();
+  w.stats.sites_held = 0;
 }
 
 bool EngineWorker::wait_idle(std::chrono::milliseconds timeout) {

@@ -1,5 +1,6 @@
 #include "site_job.h"
 
+#include <algorithm>
 #include <chrono>
 #include <sstream>
 #include <stdexcept>
@@ -73,6 +74,8 @@ void SiteJob::restore() {
   if (auto model = store_.get(site_path(id_, "model")))
     model_version_ = model->version;
   auto state = store_.get(site_path(id_, "engine"));
+  engine_version_ = state ? state->version : 0;
+  through_seq_ = state ? state->attrs.value("through_seq", std::int64_t{0}) : 0;
   if (state && state->blobs.count("state")) {
     *sparse_ = Reconstruction::restore(
         store_.get_blob(state->blobs.at("state")), options_.reconstruction);
@@ -148,7 +151,9 @@ Increment SiteJob::run(const std::vector<Work>& work) {
   pending_depth_maps_.clear();
   pending_removed_maps_.clear();
   IncrementReport report;
+  pending_through_seq_ = through_seq_;
   for (const Work& w : work) {
+    pending_through_seq_ = std::max(pending_through_seq_, w.seq);
     if (w.kind == Work::Kind::kAdd) {
       add(w.capture, &report);
     } else if (sparse_->remove_capture(w.capture)) {
@@ -212,9 +217,12 @@ Increment SiteJob::run(const std::vector<Work>& work) {
   Json statuses = Json::object();
   for (const auto& [c, s] : statuses_) statuses[c] = s;
   for (const auto& [c, s] : pending_statuses_) statuses[c] = s;
-  db::WriteOp state = db::WriteOp::put(
-      site_path(id_, "engine"), "engine-state",
-      Json{{"statuses", statuses}, {"registered", model.images.size()}});
+  db::WriteOp state =
+      db::WriteOp::put(site_path(id_, "engine"), "engine-state",
+                       Json{{"statuses", statuses},
+                            {"registered", model.images.size()},
+                            {"through_seq", pending_through_seq_}},
+                       engine_version_);
   state.blobs = db::BlobRefs{{"state", store_.put_blob(sparse_->serialize())}};
   ops.push_back(std::move(state));
 
@@ -242,6 +250,8 @@ void SiteJob::committed() {
   for (const std::string& m : pending_depth_maps_) depth_maps_.insert(m);
   for (const std::string& m : pending_removed_maps_) depth_maps_.erase(m);
   model_version_ = pending_model_version_;
+  through_seq_ = pending_through_seq_;
+  ++engine_version_;
   pending_statuses_.clear();
   pending_depth_maps_.clear();
 }

@@ -48,7 +48,11 @@ class SiteJob {
   // Applies `work` to the in-memory state and returns the writes that
   // publish it (without the site document and the checkpoint, which the
   // worker adds). Throws db::StoreError when the store fails; the caller
-  // then calls reset() and retries later.
+  // then calls reset() and retries later. The writes are fenced: the engine
+  // state document is written on the condition that it is still the
+  // version this job restored or last wrote, so a worker that lost the
+  // site's lease while it ran cannot overwrite the new holder's work (its
+  // batch fails with a conflict).
   Increment run(const std::vector<Work>& work);
   // The batch of the last run() committed.
   void committed();
@@ -77,6 +81,10 @@ class SiteJob {
   std::set<std::string> pending_depth_maps_, pending_removed_maps_;
   std::int64_t model_version_ = 0;
   std::int64_t pending_model_version_ = 0;
+  std::int64_t engine_version_ = 0;  // of /sites/{id}/engine, 0: none yet
+  // The highest change seq folded into the state (attrs.through_seq).
+  std::int64_t through_seq_ = 0;
+  std::int64_t pending_through_seq_ = 0;
 };
 
 }  // namespace arscout::engine::service

@@ -119,7 +119,8 @@ TEST_P(Leases, ConcurrentClaimersNeverShareALease) {
       auto store = Store::open(url_);
       while (!go) std::this_thread::yield();
       for (int round = 0; round < 5; ++round) {
-        Names held = store->claim_leases(sites, "w" + std::to_string(w), 30s, 3);
+        Names held =
+            store->claim_leases(sites, "w" + std::to_string(w), 30s, 3);
         got[w] = held;
       }
     });

@@ -29,6 +29,12 @@
 //
 // Delivery is at least once: a change seen again after a crash finds its
 // capture already in the restored state and is skipped.
+//
+// Several workers can follow one database: every worker places every
+// capture (placing is a pure function of the feed, so they agree), but a
+// site is reconstructed only by the worker holding its lease; the others
+// keep its work until they see it committed, and take the site over when
+// its holder's lease expires.
 #pragma once
 
 #include <chrono>
@@ -58,6 +64,11 @@ struct WorkerOptions {
   // Sites reconstructed at the same time; one site's work never waits for
   // another's beyond this.
   int site_threads = 2;
+  // Several workers may share one database (docs/service.md, "Several
+  // workers"): each holds a lease per site it reconstructs and renews it
+  // every third of this; a worker that stops renewing (it died) loses its
+  // sites to the others once this has passed. Names must differ.
+  std::chrono::milliseconds lease_ttl{15000};
   // Told one line per increment and per placed capture; empty: silent.
   std::function<void(const std::string&)> progress;
 };
@@ -68,6 +79,8 @@ struct WorkerStats {
   std::int64_t increments = 0;  // committed model versions, all sites
   std::int64_t checkpoint = 0;  // last feed position saved
   std::int64_t failures = 0;    // increments that failed (retried later)
+  std::int64_t sites_held = 0;  // site leases held now
+  std::int64_t sites_taken = 0;  // site leases claimed, all time
 };
 
 class EngineWorker {
