@@ -19,6 +19,7 @@
 #include <deque>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <thread>
 
@@ -45,6 +46,7 @@ struct EngineWorker::Impl {
     std::unique_ptr<service::SiteJob> job;
     std::deque<Work> pending;
     std::deque<Work> deferred;  // while another worker holds the site
+    bool dense_retry = false;   // a dense phase failed: run one again
     bool running = false;
     bool ready = false;
   };
@@ -157,7 +159,7 @@ struct EngineWorker::Impl {
   }
 
   void make_ready(const std::string& site, SiteQueue& q) {
-    if (q.running || q.ready || q.pending.empty()) return;
+    if (q.running || q.ready || (q.pending.empty() && !q.dense_retry)) return;
     q.ready = true;
     ready.push_back(site);
   }
@@ -182,6 +184,7 @@ struct EngineWorker::Impl {
         continue;
       }
       q.running = true;
+      q.dense_retry = false;
       std::vector<Work> work(q.pending.begin(), q.pending.end());
       q.pending.clear();
       if (!q.job)
@@ -192,9 +195,11 @@ struct EngineWorker::Impl {
       // run_increment returns with the lock held.
       q.running = false;
       if (!ok) {
-        // Back to the front of the queue, after a pause: the store may be
-        // briefly unavailable (a restarting server).
         q.pending.insert(q.pending.begin(), work.begin(), work.end());
+      }
+      if (!ok || q.dense_retry) {
+        // After a pause: the store may be briefly unavailable (a
+        // restarting server).
         lock.unlock();
         std::this_thread::sleep_for(std::chrono::seconds(1));
         lock.lock();
@@ -309,50 +314,26 @@ struct EngineWorker::Impl {
     }
   }
 
+  // Runs one increment of a site: the sparse phase, committed with the
+  // checkpoint, then the dense phase (a further model version). Returns
+  // false, with the lock held, when the sparse phase failed.
   bool run_increment(const std::string& site, service::SiteJob& job,
                      const std::vector<Work>& work,
                      std::unique_lock<std::mutex>& lock) {
     try {
-      const auto run_start = std::chrono::steady_clock::now();
-      service::Increment increment = job.run(work);
-      const double run_ms = std::chrono::duration<double, std::milli>(
-                                std::chrono::steady_clock::now() - run_start)
-                                .count();
-      const auto info = directory.site(site);
+      service::Increment increment = timed([&] { return job.run(work); });
       lock.lock();
       std::multiset<std::int64_t> others = in_flight;
       for (const Work& w : work) others.erase(others.find(w.seq));
       const std::int64_t checkpoint =
           others.empty() ? last_placed : *others.begin() - 1;
       lock.unlock();
-      db::Json attrs =
-          service::SiteDirectory::to_attrs(*info, directory.radius_m());
-      attrs["registered"] = job.registered();
-      attrs["model_version"] =
-          job.model_version() + (increment.model_written ? 1 : 0);
-      attrs["state"] = job.registered() > 0 ? "modelled" : "waiting";
-      increment.ops.push_back(
-          db::WriteOp::put("/sites/" + site, "site", attrs));
-      increment.ops.push_back(db::WriteOp::put("/checkpoints/" + options.name,
-                                               "checkpoint",
-                                               db::Json{{"seq", checkpoint}}));
-      for (db::WriteOp& op : increment.ops) op.author = options.name;
-      const auto commit_start = std::chrono::steady_clock::now();
-      store.batch(increment.ops);
-      job.committed();
-      log(increment.summary + ", ready in " +
-          std::to_string(static_cast<int>(run_ms)) + " ms, committed in " +
-          std::to_string(static_cast<int>(
-              std::chrono::duration<double, std::milli>(
-                  std::chrono::steady_clock::now() - commit_start)
-                  .count())) +
-          " ms");
+      commit(site, job, increment, checkpoint);
       lock.lock();
       for (const Work& w : work) in_flight.erase(in_flight.find(w.seq));
       saved_checkpoint = std::max(saved_checkpoint, checkpoint);
       stats.checkpoint = saved_checkpoint;
       stats.increments += increment.model_written ? 1 : 0;
-      return true;
     } catch (const std::exception& e) {
       job.reset();
       log("site " + site + ": increment failed, will retry: " + e.what());
@@ -360,6 +341,67 @@ struct EngineWorker::Impl {
       ++stats.failures;
       return false;
     }
+    if (!job.dense_due()) return true;
+    lock.unlock();
+    try {
+      service::Increment dense = timed([&] { return job.run_dense(); });
+      commit(site, job, dense, std::nullopt);
+      lock.lock();
+      stats.increments += dense.model_written ? 1 : 0;
+    } catch (const std::exception& e) {
+      // The sparse phase stands; the engine state says the dense cloud is
+      // behind, so the site's next increment (or a restart) catches up.
+      job.reset();
+      log("site " + site + ": dense phase failed, will catch up: " + e.what());
+      lock.lock();
+      sites[site].dense_retry = true;
+      ++stats.failures;
+    }
+    return true;
+  }
+
+  // Calls make() and appends its time to the increment's summary.
+  template <typename Make>
+  static service::Increment timed(Make make) {
+    const auto start = std::chrono::steady_clock::now();
+    service::Increment increment = make();
+    increment.summary += ", ready in " +
+                         std::to_string(static_cast<int>(
+                             std::chrono::duration<double, std::milli>(
+                                 std::chrono::steady_clock::now() - start)
+                                 .count())) +
+                         " ms";
+    return increment;
+  }
+
+  // Commits an increment's writes with the site document (and the
+  // checkpoint, when given) in one batch, authored by this worker.
+  void commit(const std::string& site, service::SiteJob& job,
+              service::Increment& increment,
+              std::optional<std::int64_t> checkpoint) {
+    const auto info = directory.site(site);
+    db::Json attrs =
+        service::SiteDirectory::to_attrs(*info, directory.radius_m());
+    attrs["registered"] = job.registered();
+    attrs["model_version"] =
+        job.model_version() + (increment.model_written ? 1 : 0);
+    attrs["state"] = job.registered() > 0 ? "modelled" : "waiting";
+    attrs["engine"] = options.name;
+    increment.ops.push_back(db::WriteOp::put("/sites/" + site, "site", attrs));
+    if (checkpoint)
+      increment.ops.push_back(db::WriteOp::put("/checkpoints/" + options.name,
+                                               "checkpoint",
+                                               db::Json{{"seq", *checkpoint}}));
+    for (db::WriteOp& op : increment.ops) op.author = options.name;
+    const auto start = std::chrono::steady_clock::now();
+    store.batch(increment.ops);
+    job.committed();
+    log(increment.summary + ", committed in " +
+        std::to_string(
+            static_cast<int>(std::chrono::duration<double, std::milli>(
+                                 std::chrono::steady_clock::now() - start)
+                                 .count())) +
+        " ms");
   }
 
   // With nothing in flight the feed position can move past changes that
@@ -473,7 +515,7 @@ bool EngineWorker::wait_idle(std::chrono::milliseconds timeout) {
   return w.changed.wait_until(lock, deadline, [&] {
     if (w.last_placed < target || !w.in_flight.empty()) return false;
     for (const auto& [id, q] : w.sites)
-      if (q.running || !q.pending.empty()) return false;
+      if (q.running || !q.pending.empty() || q.dense_retry) return false;
     return true;
   });
 }

@@ -71,11 +71,24 @@ void SiteJob::restore() {
   sparse_ = std::make_unique<Reconstruction>(options_.reconstruction);
   if (options_.dense)
     dense_ = std::make_unique<DenseReconstruction>(options_.dense_options);
-  if (auto model = store_.get(site_path(id_, "model")))
+  dense_sha_.clear();
+  dense_points_ = 0;
+  if (auto model = store_.get(site_path(id_, "model"))) {
     model_version_ = model->version;
+    if (model->blobs.count("dense")) dense_sha_ = model->blobs.at("dense");
+    dense_points_ = model->attrs.value("statistics", Json::object())
+                        .value("dense_points", std::size_t{0});
+  }
+  pending_dense_sha_ = dense_sha_;
   auto state = store_.get(site_path(id_, "engine"));
   engine_version_ = state ? state->version : 0;
   through_seq_ = state ? state->attrs.value("through_seq", std::int64_t{0}) : 0;
+  // A crash between the two phases left the dense cloud behind.
+  dense_due_ =
+      options_.dense && state && state->attrs.value("dense_due", false);
+  dense_running_ = false;
+  dense_added_.clear();
+  dense_withdrawn_.clear();
   if (state && state->blobs.count("state")) {
     *sparse_ = Reconstruction::restore(
         store_.get_blob(state->blobs.at("state")), options_.reconstruction);
@@ -161,29 +174,17 @@ Increment SiteJob::run(const std::vector<Work>& work) {
     }
   }
   const Model model = sparse_->model();
-  std::vector<db::WriteOp> ops;
   const bool changed = !report.added.empty() || !report.withdrawn.empty();
   if (dense_ && changed && (!model.images.empty() || !depth_maps_.empty())) {
-    report.dense = dense_->update(
-        model, [this](const std::string& c) { return image_bytes(c); });
-    report.dense_points = report.dense.points;
-    for (const std::string& map : report.dense.new_depth_maps) {
-      const std::string sha = store_.put_blob(dense_->serialize_depth_map(map));
-      db::WriteOp op = db::WriteOp::put(site_path(id_, "depth/" + map),
-                                        "depth-map", Json{{"capture", map}});
-      op.blobs = db::BlobRefs{{"map", sha}};
-      ops.push_back(std::move(op));
-      pending_depth_maps_.insert(map);
-    }
-    for (const std::string& gone : report.withdrawn) {
-      if (!depth_maps_.count(gone)) continue;
-      ops.push_back(db::WriteOp::remove(site_path(id_, "depth/" + gone)));
-      pending_removed_maps_.insert(gone);
-    }
+    dense_due_ = true;
+    for (const std::string& c : report.added) dense_added_.push_back(c);
+    for (const std::string& c : report.withdrawn) dense_withdrawn_.push_back(c);
   }
+  report.dense_points = dense_points_;
   report.total_s = seconds_since(start);
 
   Increment increment;
+  std::vector<db::WriteOp> ops;
   // Capture statuses that changed since they were last published.
   const std::vector<CaptureState> captures = sparse_->captures();
   for (const CaptureState& c : captures) {
@@ -202,15 +203,7 @@ Increment SiteJob::run(const std::vector<Work>& work) {
   const bool publish_model =
       changed && (!model.images.empty() || model_version_ > 0);
   if (publish_model) {
-    db::WriteOp op =
-        db::WriteOp::put(site_path(id_, "model"), "model",
-                         model_attrs(id_, model, captures, report));
-    db::BlobRefs blobs{{"sparse", store_.put_blob(sparse_ply(model))}};
-    if (dense_)
-      blobs["dense"] =
-          store_.put_blob(encode_ply(dense_->points(), "arscout dense model"));
-    op.blobs = blobs;
-    ops.push_back(std::move(op));
+    ops.push_back(model_op(model, captures, report));
     increment.model_written = true;
   }
   // The engine state, so that a restart needs no recomputation.
@@ -221,7 +214,8 @@ Increment SiteJob::run(const std::vector<Work>& work) {
       db::WriteOp::put(site_path(id_, "engine"), "engine-state",
                        Json{{"statuses", statuses},
                             {"registered", model.images.size()},
-                            {"through_seq", pending_through_seq_}},
+                            {"through_seq", pending_through_seq_},
+                            {"dense_due", dense_due_}},
                        engine_version_);
   state.blobs = db::BlobRefs{{"state", store_.put_blob(sparse_->serialize())}};
   ops.push_back(std::move(state));
@@ -234,18 +228,103 @@ Increment SiteJob::run(const std::vector<Work>& work) {
   summary << ", " << model.images.size() << " registered"
           << (model.geo_registered ? " (ENU)" : " (local frame)") << ", "
           << model.points.size() << " points";
-  if (dense_)
-    summary << ", dense " << report.dense_points << " (voxel "
-            << dense_->voxel_size()
-            << (report.dense.refused ? ", re-fused" : "") << ")";
   if (publish_model) summary << ", model v" << pending_model_version_;
+  if (dense_due_) summary << ", dense to follow";
   summary << " (" << static_cast<int>(report.total_s * 1000) << " ms)";
   increment.summary = summary.str();
   increment.ops = std::move(ops);
   return increment;
 }
 
+Increment SiteJob::run_dense() {
+  const auto start = Clock::now();
+  if (!loaded_) restore();
+  pending_statuses_.clear();
+  pending_depth_maps_.clear();
+  pending_removed_maps_.clear();
+  pending_through_seq_ = through_seq_;
+  IncrementReport report;
+  report.added = dense_added_;
+  report.withdrawn = dense_withdrawn_;
+  const Model model = sparse_->model();
+  report.dense = dense_->update(
+      model, [this](const std::string& c) { return image_bytes(c); });
+  report.dense_points = report.dense.points;
+  std::vector<db::WriteOp> ops;
+  for (const std::string& map : report.dense.new_depth_maps) {
+    const std::string sha = store_.put_blob(dense_->serialize_depth_map(map));
+    db::WriteOp op = db::WriteOp::put(site_path(id_, "depth/" + map),
+                                      "depth-map", Json{{"capture", map}});
+    op.blobs = db::BlobRefs{{"map", sha}};
+    ops.push_back(std::move(op));
+    pending_depth_maps_.insert(map);
+  }
+  const std::vector<std::string> kept = dense_->depth_map_ids();
+  for (const std::string& map : depth_maps_) {
+    if (std::find(kept.begin(), kept.end(), map) != kept.end()) continue;
+    ops.push_back(db::WriteOp::remove(site_path(id_, "depth/" + map)));
+    pending_removed_maps_.insert(map);
+  }
+  report.total_s = seconds_since(start);
+  const std::vector<CaptureState> captures = sparse_->captures();
+  const bool publish_model = !model.images.empty() || model_version_ > 0;
+  Increment increment;
+  if (publish_model) {
+    pending_dense_points_ = report.dense_points;
+    ops.push_back(model_op(model, captures, report, /*dense_current=*/true));
+    increment.model_written = true;
+  }
+  // Fenced like the sparse phase: a patch on the version this job wrote.
+  ops.push_back(db::WriteOp::patch(
+      site_path(id_, "engine"), Json{{"dense_due", false}}, engine_version_));
+  pending_model_version_ = model_version_ + (publish_model ? 1 : 0);
+  std::ostringstream summary;
+  summary << "site " << id_ << ": dense " << report.dense_points
+          << " points (voxel " << dense_->voxel_size()
+          << (report.dense.refused ? ", re-fused" : "") << ", "
+          << report.dense.new_depth_maps.size() << " new depth map"
+          << (report.dense.new_depth_maps.size() == 1 ? "" : "s") << ")";
+  if (publish_model) summary << ", model v" << pending_model_version_;
+  summary << " (" << static_cast<int>(report.total_s * 1000) << " ms)";
+  increment.summary = summary.str();
+  increment.ops = std::move(ops);
+  dense_running_ = true;
+  return increment;
+}
+
+db::WriteOp SiteJob::model_op(const Model& model,
+                              const std::vector<CaptureState>& captures,
+                              const IncrementReport& report,
+                              bool dense_current) {
+  Json attrs = model_attrs(id_, model, captures, report);
+  attrs["dense_state"] =
+      !dense_ ? "off" : (dense_current || !dense_due_ ? "current" : "pending");
+  db::WriteOp op = db::WriteOp::put(site_path(id_, "model"), "model", attrs);
+  db::BlobRefs blobs{{"sparse", store_.put_blob(sparse_ply(model))}};
+  if (dense_) {
+    // The sparse phase republishes the last dense cloud; the dense phase
+    // replaces it.
+    blobs["dense"] = dense_current
+                         ? store_.put_blob(encode_ply(dense_->points(),
+                                                      "arscout dense model"))
+                         : dense_sha_;
+    if (blobs["dense"].empty())
+      blobs["dense"] = store_.put_blob(encode_ply({}, "arscout dense model"));
+    pending_dense_sha_ = blobs["dense"];
+  }
+  op.blobs = blobs;
+  return op;
+}
+
 void SiteJob::committed() {
+  if (dense_running_) {
+    dense_running_ = false;
+    dense_due_ = false;
+    dense_added_.clear();
+    dense_withdrawn_.clear();
+    dense_points_ = pending_dense_points_;
+  }
+  dense_sha_ = pending_dense_sha_;
   for (const auto& [c, s] : pending_statuses_) statuses_[c] = s;
   for (const std::string& m : pending_depth_maps_) depth_maps_.insert(m);
   for (const std::string& m : pending_removed_maps_) depth_maps_.erase(m);

@@ -54,7 +54,15 @@ class SiteJob {
   // site's lease while it ran cannot overwrite the new holder's work (its
   // batch fails with a conflict).
   Increment run(const std::vector<Work>& work);
-  // The batch of the last run() committed.
+  // True when the last run() changed the model and the dense cloud has yet
+  // to follow (also after a restart that found it behind).
+  bool dense_due() const { return dense_due_; }
+  // The dense phase of an increment: sweeps the new key views, fuses, and
+  // returns the writes of a further model version with the new cloud. The
+  // sparse phase (run) publishes first, so that a photo shows up registered
+  // without waiting for its depth map. Throws like run().
+  Increment run_dense();
+  // The batch of the last run() or run_dense() committed.
   void committed();
   // Forgets the in-memory state: the next run() restores it from the store.
   void reset();
@@ -64,6 +72,10 @@ class SiteJob {
 
  private:
   void restore();
+  db::WriteOp model_op(const Model& model,
+                       const std::vector<CaptureState>& captures,
+                       const IncrementReport& report,
+                       bool dense_current = false);
   void add(const std::string& capture, IncrementReport* report);
   CaptureInput capture_input(const std::string& capture);
   std::string image_bytes(const std::string& capture);
@@ -85,6 +97,12 @@ class SiteJob {
   // The highest change seq folded into the state (attrs.through_seq).
   std::int64_t through_seq_ = 0;
   std::int64_t pending_through_seq_ = 0;
+  // The dense phase still to run, and what it covers.
+  bool dense_due_ = false;
+  bool dense_running_ = false;
+  std::vector<std::string> dense_added_, dense_withdrawn_;
+  std::string dense_sha_, pending_dense_sha_;  // the published dense PLY
+  std::size_t dense_points_ = 0, pending_dense_points_ = 0;
 };
 
 }  // namespace arscout::engine::service

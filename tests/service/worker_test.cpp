@@ -17,6 +17,9 @@
 #include "arscout/engine/ply.h"
 #include "arscout/engine/service.h"
 #include "arscout/ingest/gps.h"
+#include <Eigen/Geometry>
+
+#include "model_eval.h"
 #include "test_stores.h"
 
 namespace arscout {
@@ -54,6 +57,42 @@ std::vector<fs::path> photos(const std::string& dir) {
     if (e.path().extension() == ".jpg") out.push_back(e.path());
   std::sort(out.begin(), out.end());
   return out;
+}
+
+// The fountain model's cameras against the scene's ground truth, with the
+// reconstruction core's targets (tests/engine/acceptance): median centre
+// error <= 5 mm and rotation <= 0.1 degrees after a similarity alignment,
+// geo-registration within 1 m of the true positions.
+void expect_fountain_accuracy(const Json& model, const std::string& scene) {
+  std::map<std::string, eval::Pose> estimated;
+  std::map<std::string, eval::GeoRow> geo;
+  for (const Json& image : model.at("images")) {
+    const std::string name =
+        image.at("id").get<std::string>().substr(6) + ".jpg";  // "alice-"
+    const auto q = image.at("qvec").get<std::array<double, 4>>();
+    eval::Pose pose;
+    pose.name = name;
+    pose.R = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
+    const auto t = image.at("tvec").get<std::array<double, 3>>();
+    pose.t = Eigen::Vector3d(t[0], t[1], t[2]);
+    estimated[name] = pose;
+    const Json& g = image.at("geodetic");
+    geo[name] = eval::GeoRow{g.at("lat"), g.at("lon"), g.at("alt")};
+  }
+  const eval::PoseComparison poses = eval::compare_to_ground_truth(
+      estimated, eval::read_strecha_ground_truth(scene + "/gt_dense_cameras"));
+  int geo_matched = 0;
+  const double geo_m = eval::median_geo_distance(
+      geo, eval::read_geo_csv(scene + "/gps_truth.csv"), &geo_matched);
+  std::cout << "fountain against ground truth: median centre error "
+            << poses.median_centre_error * 1000 << " mm, rotation "
+            << poses.median_rotation_error_deg << " deg, geo " << geo_m << " m"
+            << std::endl;
+  EXPECT_EQ(poses.matched, 11);
+  EXPECT_LE(poses.median_centre_error, 0.005);
+  EXPECT_LE(poses.median_rotation_error_deg, 0.1);
+  EXPECT_EQ(geo_matched, 11);
+  EXPECT_LE(geo_m, 1.0);
 }
 
 class EngineWorkerOn : public ::testing::TestWithParam<std::string> {};
@@ -120,6 +159,7 @@ TEST_P(EngineWorkerOn, TwoScoutsTwoSitesModelsWrittenBack) {
     EXPECT_TRUE(model->attrs.value("geo_registered", false)) << id;
     if (is_fountain) {
       EXPECT_EQ(statistics.value("registered", 0), 11);
+      expect_fountain_accuracy(model->attrs, fountain);
     } else {
       EXPECT_GE(statistics.value("registered", 0), 25);
     }
@@ -191,6 +231,7 @@ TEST(EngineWorker, RenderedSyntheticStreetBecomesOneSite) {
   const Json& statistics = model->attrs.at("statistics");
   std::cout << statistics.dump() << std::endl;
   EXPECT_EQ(statistics.value("registered", 0), 8);
+  EXPECT_EQ(model->attrs.value("dense_state", ""), "current");
   EXPECT_TRUE(model->attrs.value("geo_registered", false));
   EXPECT_GT(statistics.value("dense_points", 0), 20000);
 
@@ -202,7 +243,11 @@ TEST(EngineWorker, RenderedSyntheticStreetBecomesOneSite) {
   ASSERT_TRUE(worker.wait_idle(std::chrono::minutes(5)));
   const auto after = store->get(sites[0].path + "/model");
   ASSERT_TRUE(after);
-  EXPECT_EQ(after->version, model->version + 1);
+  // Two versions: the sparse phase's (7 cameras, the old cloud), then the
+  // dense phase's (the cloud without the withdrawn view).
+  EXPECT_EQ(after->version, model->version + 2);
+  EXPECT_EQ(after->attrs.value("dense_state", ""), "current");
+  EXPECT_NE(after->blobs.at("dense"), model->blobs.at("dense"));
   EXPECT_EQ(after->attrs.at("statistics").value("registered", 0), 7);
   for (const Json& image : after->attrs.at("images"))
     EXPECT_NE(image.value("id", ""), withdrawn);
