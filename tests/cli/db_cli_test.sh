@@ -26,7 +26,7 @@ contains() {  # contains NAME TEXT
 }
 
 check init 0 "$arscout" db init "$url"
-contains init '"schema_version":1'
+contains init '"schema_version":2'
 check put 0 "$arscout" db put "$url" /captures/c1 '{"gps":{"lat":47.0,"lon":15.0}}' --kind capture --expect-version 0
 contains put '"version":1'
 check get 0 "$arscout" db get "$url" /captures/c1
