@@ -37,9 +37,19 @@ std::int64_t last_capture_change(db::Store& store) {
   return last;
 }
 
+// Sites whose latest model still waits for its dense phase.
+int sites_awaiting_dense(db::Store& store) {
+  int behind = 0;
+  for (const db::Document& site : store.list_children("/sites")) {
+    auto model = store.get(site.path + "/model");
+    if (model && model->attrs.value("dense_state", "") == "pending") ++behind;
+  }
+  return behind;
+}
+
 // Waits until the engine's checkpoint covers every capture change (it has
-// placed and, where it could, reconstructed them all) and stays so for two
-// seconds; false at the timeout.
+// placed and, where it could, reconstructed them all), no model waits for
+// its dense cloud, and both stay so for two seconds; false at the timeout.
 bool wait_for_engine(db::Store& store, const SummaryArgs& a) {
   const auto start = std::chrono::steady_clock::now();
   auto elapsed = [&] {
@@ -52,12 +62,16 @@ bool wait_for_engine(db::Store& store, const SummaryArgs& a) {
   while (elapsed() < a.wait_s) {
     const std::int64_t target = last_capture_change(store);
     const std::int64_t at = store.load_checkpoint(a.engine);
-    caught_up = at >= target ? caught_up + 1 : 0;
+    const int dense_behind = sites_awaiting_dense(store);
+    caught_up = at >= target && dense_behind == 0 ? caught_up + 1 : 0;
     if (caught_up >= 4) return true;
     if (elapsed() >= next_report) {
       std::cout << "waiting for engine '" << a.engine << "': at seq " << at
-                << " of " << target << " (" << static_cast<int>(elapsed())
-                << " s)" << std::endl;
+                << " of " << target;
+      if (dense_behind > 0)
+        std::cout << ", dense cloud to follow on " << dense_behind << " site"
+                  << (dense_behind == 1 ? "" : "s");
+      std::cout << " (" << static_cast<int>(elapsed()) << " s)" << std::endl;
       next_report += 10;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
@@ -148,7 +162,7 @@ void add_summary_command(CLI::App& app) {
                   "write DIR/SITE/sparse.ply and DIR/SITE/dense.ply");
   cmd->add_option("--wait", args.wait_s,
                   "first wait up to this many seconds for the engine to "
-                  "catch up with every capture")
+                  "catch up with every capture and finish the dense clouds")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--engine-name", args.engine,
                   "the engine whose checkpoint --wait watches")
