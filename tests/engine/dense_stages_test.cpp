@@ -516,6 +516,44 @@ TEST_F(DenseStagesRenderPoints, NearerPointWinsInEitherOrder) {
   }
 }
 
+// orbit_view: a cube of points seen from north-east and above is centred,
+// fits the frame (but for corners beyond the 95 % radius), +z up.
+TEST(DenseStagesOrbitView, FramesTheCloudUprightFromTheAskedDirection) {
+  std::vector<ColoredPoint> cube;
+  for (int i = 0; i <= 10; ++i)
+    for (int j = 0; j <= 10; ++j)
+      for (int k = 0; k <= 10; ++k)
+        cube.push_back({10.0f + i * 0.2f, -5.0f + j * 0.2f, 2.0f + k * 0.2f,
+                        200, 100, 50});
+  cube.push_back({1000, 1000, 1000, 255, 255, 255});  // a stray point
+  const cv::Size size(640, 480);
+  const PinholeView view = orbit_view(cube, 45, 30, size);
+  // The camera sits north-east of and above the cube's median (11, -4, 3).
+  const Eigen::Vector3d C = -view.R.transpose() * view.t;
+  EXPECT_GT(C.x(), 11);
+  EXPECT_GT(C.y(), -4);
+  EXPECT_GT(C.z(), 3);
+  EXPECT_NEAR(std::atan2(C.x() - 11, C.y() + 4), M_PI / 4, 1e-9);
+  // The median projects to the image centre; 95 % of the points are inside.
+  auto project = [&](const Eigen::Vector3d& X) {
+    const Eigen::Vector3d h = view.K * (view.R * X + view.t);
+    return Eigen::Vector2d(h.x() / h.z(), h.y() / h.z());
+  };
+  EXPECT_NEAR(project({11, -4, 3}).x(), 320, 1e-6);
+  EXPECT_NEAR(project({11, -4, 3}).y(), 240, 1e-6);
+  size_t inside = 0;
+  for (size_t i = 0; i + 1 < cube.size(); ++i) {
+    const Eigen::Vector2d uv = project({cube[i].x, cube[i].y, cube[i].z});
+    inside += uv.x() >= 0 && uv.x() < 640 && uv.y() >= 0 && uv.y() < 480;
+  }
+  EXPECT_GE(inside, 0.95 * (cube.size() - 1));
+  // +z is up in the image: a higher point lands on a smaller row.
+  EXPECT_LT(project({11, -4, 4}).y(), project({11, -4, 3}).y());
+  const PointRendering out = render_points(cube, view.K, view.R, view.t, size);
+  EXPECT_GT(count_where(out.depth > 0), 1000);
+  EXPECT_THROW(orbit_view({}, 0, 30, size), std::invalid_argument);
+}
+
 TEST_F(DenseStagesRenderPoints, PointsBehindOrOutsideAreSkipped) {
   const PointRendering out = draw({{0.1f, 0.2f, -2.0f, 255, 255, 255},
                                    {0.0f, 0.0f, 0.0f, 255, 255, 255},

@@ -5,6 +5,9 @@
 #include <fstream>
 
 #include <gtest/gtest.h>
+#include <iostream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "model_eval.h"
 #include "run_cli.h"
@@ -51,6 +54,54 @@ TEST(ReconstructAcceptance, FountainP11MeetsTheAccuracyTargets) {
   // The raw fixes are off by about 2.5 m.
   EXPECT_LE(run.geo_median_m, 1.0);
   EXPECT_TRUE(std::filesystem::file_size(out + "/sparse.ply") > 1000);
+
+  // `arscout render`: the model drawn from 0005.jpg's camera looks like the
+  // photo where points land (their colours came from the photos), and an
+  // orbit view is not blank.
+  cv::Mat photo = cv::imread(scene + "/images/0005.jpg");
+  cv::resize(photo, photo, cv::Size(768, 512), 0, 0, cv::INTER_AREA);
+  cv::Mat grey_photo;
+  cv::cvtColor(photo, grey_photo, cv::COLOR_BGR2GRAY);
+  // Normalised cross-correlation of the drawing from `view` with photo
+  // 0005 over the pixels it covers, and how many those are.
+  auto compare = [&](const std::string& view, int* covered_px) {
+    const std::string png = out + "/view-" + view + ".png";
+    run_cli({"render", "--model", out, "--view", view, "--width", "768",
+             "--radius", "1", "-o", png},
+            out + "/render.log");
+    const cv::Mat drawn = cv::imread(png);
+    EXPECT_EQ(drawn.size(), grey_photo.size());
+    cv::Mat grey_drawn;
+    cv::cvtColor(drawn, grey_drawn, cv::COLOR_BGR2GRAY);
+    const cv::Mat covered = grey_drawn > 0;
+    *covered_px = cv::countNonZero(covered);
+    cv::Scalar m_drawn, s_drawn, m_photo, s_photo;
+    cv::meanStdDev(grey_drawn, m_drawn, s_drawn, covered);
+    cv::meanStdDev(grey_photo, m_photo, s_photo, covered);
+    cv::Mat a, b, product;
+    grey_drawn.convertTo(a, CV_64F, 1, -m_drawn[0]);
+    grey_photo.convertTo(b, CV_64F, 1, -m_photo[0]);
+    cv::multiply(a, b, product);
+    return cv::mean(product, covered)[0] / (s_drawn[0] * s_photo[0]);
+  };
+  int covered_px = 0, other_px = 0;
+  const double same = compare("0005.jpg", &covered_px);
+  // A control: the cloud drawn from another camera does not match 0005.
+  const double other = compare("0000.jpg", &other_px);
+  std::cout << "render --view: " << covered_px << " pixels covered, "
+            << "correlation with the photo " << same << " (drawn from "
+            << "0000.jpg's camera: " << other << ")" << std::endl;
+  EXPECT_GT(covered_px, 5000);
+  EXPECT_GT(same, 0.4);
+  EXPECT_LT(other, same - 0.3);
+  run_cli({"render", "--model", out, "--orbit", "--width", "640", "--height",
+           "480", "-o", out + "/orbit.png"},
+          out + "/render.log");
+  const cv::Mat orbit = cv::imread(out + "/orbit.png", cv::IMREAD_GRAYSCALE);
+  ASSERT_EQ(orbit.size(), cv::Size(640, 480));
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(orbit, mean, stddev);
+  EXPECT_GT(stddev[0], 5);
 }
 
 // entry-P10 meets the rotation and GPS targets; its median centre error

@@ -26,4 +26,22 @@ PointRendering render_points(const std::vector<ColoredPoint>& points,
                              const Eigen::Vector3d& t, cv::Size size,
                              int radius = 1);
 
+// A pinhole camera: intrinsics K, world-to-camera R and t, image size.
+struct PinholeView {
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  cv::Size size;
+};
+
+// A view of the whole cloud from outside, for reports: the camera looks at
+// the cloud's median point from `azimuth_deg` (clockwise from +y, north in
+// an ENU frame) and `elevation_deg` above the x-y plane (clamped to
+// [-89, 89]), with +z up in the image, a 60-degree horizontal field of view,
+// and far enough back that the nearest 95 % of the points around the
+// median fit the frame. Throws std::invalid_argument for an empty cloud or
+// an empty size.
+PinholeView orbit_view(const std::vector<ColoredPoint>& points,
+                       double azimuth_deg, double elevation_deg, cv::Size size);
+
 }  // namespace arscout::engine
