@@ -1,6 +1,7 @@
 // `arscout render`: draws a model's point cloud offline (CPU, z-buffer, no
 // GPU) from one of its cameras or from an orbit view, for reports and
 // tests.
+#include <cctype>
 #include <filesystem>
 #include <iostream>
 
@@ -93,6 +94,10 @@ int run_render(const RenderArgs& a) {
   if (!fs::exists(path)) throw bad(a.model + ": no such file or folder");
   if (a.view.empty() == !a.orbit)
     throw bad("give exactly one of --view IMAGE and --orbit");
+  std::string extension = fs::path(a.output).extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(c));
+  if (extension != ".png" && extension != ".jpg" && extension != ".jpeg")
+    throw bad(a.output + ": the output must be a .png or .jpg file");
   const std::optional<engine::Model> model = colmap_model(path);
   const std::vector<engine::ColoredPoint> points = model_points(path, model);
   if (points.empty()) throw bad(a.model + ": no points to draw");
