@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <memory>
 #include <iostream>
 #include <map>
 #include <optional>
@@ -26,6 +28,7 @@
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
+#include "scout_overlay.h"
 
 namespace arscout::cli {
 namespace {
@@ -245,6 +248,8 @@ struct ScoutArgs {
   std::string camera_k;
   std::string scout_name;
   int retries = 8;
+  std::string overlay_dir;
+  double overlay_timeout_s = 120;
 };
 
 // Where a photo's request GPS comes from: a CSV row by file name, a GPX track
@@ -360,6 +365,11 @@ class Uploader {
     send(name, *bytes, path);
   }
 
+  // Called with (capture id, file name) for every photo the server took.
+  void on_stored(std::function<void(const std::string&, const std::string&)> f) {
+    on_stored_ = std::move(f);
+  }
+
   int succeeded() const { return succeeded_; }
   // The server refused the token or its role: later photos would be too.
   bool refused() const { return refused_; }
@@ -450,6 +460,7 @@ class Uploader {
     if (ok) {
       line << accepted(*out.answer, id, gps_text, why);
       ++succeeded_;
+      if (on_stored_) on_stored_(id, name);
       bytes_sent_ += size;
     } else {
       line << gps_text << (why.empty() ? "" : " (" + why + ")") << "  "
@@ -515,6 +526,7 @@ class Uploader {
   Client client_;
   GpsSource gps_;
   std::string prefix_;
+  std::function<void(const std::string&, const std::string&)> on_stored_;
   int uploads_started_ = 0;
   bool refused_ = false;
   int succeeded_ = 0;
@@ -617,6 +629,15 @@ int run_scout(const ScoutArgs& a) {
   }
   install_stop_handlers();
   Uploader uploader(a);
+  std::unique_ptr<OverlaySaver> overlays;
+  if (!a.overlay_dir.empty()) {
+    overlays = std::make_unique<OverlaySaver>(client_options(a.server),
+                                              a.overlay_dir,
+                                              a.overlay_timeout_s);
+    uploader.on_stored([&](const std::string& id, const std::string& name) {
+      overlays->add(id, name);
+    });
+  }
   auto photos = initial_photos(a);
   if (photos.empty() && !a.watch) {
     std::cerr << "arscout scout: no .jpg/.jpeg/.png photos in " << a.dir
@@ -638,6 +659,10 @@ int run_scout(const ScoutArgs& a) {
   if (a.watch && !stop_requested() && !uploader.refused())
     watch_folder(a.dir, done, uploader);
 
+  if (overlays) {
+    const int saved = overlays->finish();
+    std::cout << saved << " overlays saved in " << a.overlay_dir << std::endl;
+  }
   int total = uploader.succeeded() + uploader.failed();
   bool interrupted = !a.watch && handled < photos.size();
   std::cout << uploader.succeeded() << " of " << total << " photos uploaded ("
@@ -698,6 +723,13 @@ void add_scout(CLI::App& app) {
                   "to 8 s apart")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--overlay", a.overlay_dir,
+                  "save each photo's AR overlay (the site's model drawn over "
+                  "it) as DIR/NAME.overlay.jpg once the engine registers it");
+  cmd->add_option("--overlay-timeout", a.overlay_timeout_s,
+                  "seconds to wait for a photo to be registered")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   cmd->callback([] { run_client_command([] { return run_scout(a); }); });
 }
 

@@ -1,9 +1,11 @@
 // `arscout serve`: the HTTP API over a store.
+#include <filesystem>
 #include <iostream>
 #include <thread>
 
 #include "arscout/engine/service.h"
 #include "arscout/ingest/server.h"
+#include "arscout/viewer/routes.h"
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
@@ -21,8 +23,27 @@ struct ServeArgs {
   int io_threads = 2;
   int workers = 32;
   bool with_engine = false;
+  std::string web_root = viewer::default_web_root();
   engine::WorkerOptions engine;
 };
+
+// The web viewer's files; a missing three.js is worth a line at start-up,
+// not a page that stays blank.
+void mount_viewer(const std::string& web_root,
+                  ingest::ServerOptions* options) {
+  if (web_root.empty()) return;
+  namespace fs = std::filesystem;
+  if (!fs::exists(fs::path(web_root) / "index.html")) {
+    std::cerr << "arscout serve: no web viewer at " << web_root
+              << " (index.html missing); serving the API only" << std::endl;
+    return;
+  }
+  if (!fs::exists(fs::path(web_root) / "node_modules/three/build"))
+    std::cerr << "arscout serve: three.js is not installed in " << web_root
+              << "/node_modules (run: npm ci --prefix " << web_root
+              << "); the viewer page will not draw" << std::endl;
+  options->static_mounts = viewer::web_mounts(web_root);
+}
 
 // "HOST:PORT" or "[V6]:PORT".
 bool split_listen(const std::string& text, std::string* host,
@@ -55,6 +76,8 @@ int serve(ServeArgs& a) {
   options.worker_threads = a.workers;
   install_stop_handlers();
   auto store = db::Store::open(a.db);
+  options.routes = viewer::viewer_routes(*store);
+  mount_viewer(a.web_root, &options);
   ingest::Server server(*store, options);
   server.start();
   std::cout << "arscout serving " << store->backend() << " store at "
@@ -98,6 +121,9 @@ void add_serve_command(CLI::App& app) {
                   "handler threads (uploads, queries, long-polls)")
       ->capture_default_str()
       ->check(CLI::Range(1, 1024));
+  cmd->add_option("--web-root", args.web_root,
+                  "folder of the web viewer served at / (\"\": none)")
+      ->capture_default_str();
   cmd->add_flag("--with-engine", args.with_engine,
                 "also run an engine worker in this process (docs/service.md)");
   add_engine_worker_options(cmd, &args.engine);

@@ -151,12 +151,21 @@ HttpResponse Api::dispatch(const HttpRequest& req, std::string* route) {
     r.body = metrics_.render();
     return r;
   }
+  if (!starts_with(path, "/v1/")) {
+    if (auto file = serve_static(static_mounts_, req)) {
+      *route = m + " (static file)";
+      return *file;
+    }
+  }
   bool known =
       starts_with(path, std::string(kDocs) + "/") || path == kCaptures ||
       starts_with(path, std::string(kCaptures) + "/") ||
       starts_with(path, kBlobs) || starts_with(path, kCameras) ||
       path == "/v1/changes" || path == "/v1/sites" || path == "/v1/subscribe";
-  if (!known) {
+  const ApiRoute* extra = nullptr;
+  for (const ApiRoute& r : routes_)
+    if (!extra && r.matches(req)) extra = &r;
+  if (!known && !extra) {
     *route = "other";
     return HttpResponse::error(404, "not_found", "no route " + path);
   }
@@ -167,6 +176,10 @@ HttpResponse Api::dispatch(const HttpRequest& req, std::string* route) {
         req.header("authorization").empty()
             ? "an Authorization: Bearer token is required"
             : "the bearer token is not valid");
+  if (extra) {
+    *route = extra->name;
+    return extra->handle(req, *who);
+  }
   ApiContext ctx{store_, metrics_, *who};
 
   if (starts_with(path, kDocs)) {
@@ -207,9 +220,17 @@ HttpResponse Api::dispatch(const HttpRequest& req, std::string* route) {
 
 std::variant<Api::Subscribe, HttpResponse> Api::check_subscribe(
     const HttpRequest& req) {
-  if (!authenticate(store_, req.header("authorization")))
-    return HttpResponse::error(
-        401, "unauthorized", "a valid Authorization: Bearer token is required");
+  // Browsers cannot set headers on a WebSocket, so the token may come as
+  // ?access_token= here (and only here: elsewhere URLs end up in logs and
+  // histories for no reason).
+  std::string authorization = req.header("authorization");
+  if (auto it = req.query.find("access_token");
+      authorization.empty() && it != req.query.end())
+    authorization = "Bearer " + it->second;
+  if (!authenticate(store_, authorization))
+    return HttpResponse::error(401, "unauthorized",
+                               "a valid Authorization: Bearer token (or "
+                               "?access_token=) is required");
   std::string error;
   auto since = int_param(req, "since", 0, 0, INT64_MAX, &error);
   if (!since) return HttpResponse::error(400, "bad_request", error);

@@ -5,17 +5,24 @@
 #include <cstdint>
 #include <string>
 #include <variant>
+#include <vector>
 
 #include "arscout/db/store.h"
 #include "arscout/ingest/auth.h"
-#include "http_types.h"
+#include "arscout/ingest/http_types.h"
+#include "arscout/ingest/server.h"
 #include "metrics.h"
 
 namespace arscout::ingest {
 
 class Api {
  public:
-  Api(db::Store& store, Metrics& metrics) : store_(store), metrics_(metrics) {}
+  Api(db::Store& store, Metrics& metrics, std::vector<ApiRoute> routes = {},
+      std::vector<StaticMount> static_mounts = {})
+      : store_(store),
+        metrics_(metrics),
+        routes_(std::move(routes)),
+        static_mounts_(std::move(static_mounts)) {}
 
   // Answers one request; never throws. Records it in the metrics.
   HttpResponse handle(const HttpRequest& request);
@@ -37,7 +44,14 @@ class Api {
 
   db::Store& store_;
   Metrics& metrics_;
+  std::vector<ApiRoute> routes_;
+  std::vector<StaticMount> static_mounts_;
 };
+
+// static_files.cpp: a GET or HEAD under one of `mounts` (the longest
+// matching prefix), or nullopt when no mount covers the path.
+std::optional<HttpResponse> serve_static(const std::vector<StaticMount>& mounts,
+                                         const HttpRequest& request);
 
 // The route template of a path, for metrics ("/v1/docs/*", "other").
 std::string route_template(const std::string& method, const std::string& path);

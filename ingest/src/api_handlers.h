@@ -6,7 +6,7 @@
 
 #include "arscout/db/store.h"
 #include "arscout/ingest/auth.h"
-#include "http_types.h"
+#include "arscout/ingest/http_types.h"
 #include "metrics.h"
 
 namespace arscout::ingest {

@@ -329,7 +329,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
 struct Server::Impl {
   Impl(db::Store& store, ServerOptions opts)
       : options(std::move(opts)),
-        api(store, metrics),
+        api(store, metrics, options.routes, options.static_mounts),
         workers(static_cast<std::size_t>(std::max(1, options.worker_threads))),
         acceptor(ioc),
         tls_context(ssl::context::tls_server) {}

@@ -1,4 +1,4 @@
-#include "http_types.h"
+#include "arscout/ingest/http_types.h"
 
 namespace arscout::ingest {
 namespace {

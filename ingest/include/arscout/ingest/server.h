@@ -4,12 +4,35 @@
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "arscout/db/store.h"
+#include "arscout/ingest/auth.h"
+#include "arscout/ingest/http_types.h"
 
 namespace arscout::ingest {
+
+// A read-only resource added to the v1 API by another library (the
+// viewer's overlays, thumbnails and exports), so ingest need not link it.
+// It is asked after the built-in routes' authentication: every request it
+// sees carries a valid token (any role). It runs on the handler pool.
+struct ApiRoute {
+  std::string name;  // for metrics, e.g. "GET /v1/sites/*/export"
+  std::function<bool(const HttpRequest&)> matches;
+  std::function<HttpResponse(const HttpRequest&, const Principal&)> handle;
+};
+
+// Files under `directory` served without a token at `url_prefix` (ends in
+// '/'), GET and HEAD only: the web viewer. A path ending in '/' serves its
+// index.html; ".." segments, links out of the directory and anything but a
+// regular file are 404.
+struct StaticMount {
+  std::string url_prefix;
+  std::string directory;
+};
 
 struct ServerOptions {
   std::string host = "127.0.0.1";
@@ -26,6 +49,11 @@ struct ServerOptions {
   // Handlers (store access, image decoding, long-polls) run here, off the
   // network threads; a long-poll holds one for up to 60 s.
   int worker_threads = 32;
+  // Checked in order, before the built-in /v1 routes.
+  std::vector<ApiRoute> routes;
+  // The longest matching prefix wins; /v1/, /healthz and /metrics never
+  // reach them.
+  std::vector<StaticMount> static_mounts;
 };
 
 class Server {

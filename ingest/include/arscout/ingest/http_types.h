@@ -1,5 +1,6 @@
 // Plain HTTP request and response values. The API handlers see only these,
-// so only beast_server.cpp compiles Boost.Beast.
+// so only beast_server.cpp compiles Boost.Beast; routes added by other
+// libraries (ServerOptions::routes) see them too.
 #pragma once
 
 #include <map>

@@ -1,0 +1,92 @@
+// `arscout export`: a site's model in a standard file (docs/frames.md), the
+// same bytes as GET /v1/sites/{id}/export.
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include "arscout/db/errors.h"
+#include "arscout/viewer/exports.h"
+#include "cli_support.h"
+#include "command_registry.h"
+#include "commands.h"
+
+namespace arscout::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using db::ErrorCode;
+using db::StoreError;
+
+struct ExportArgs {
+  std::string db;
+  std::string site;
+  std::string format;
+  std::string cloud = "dense";
+  std::string output;
+};
+
+// Writes next to `path` and renames, so a reader never sees half a file
+// and a failed export leaves an older one intact.
+void write_atomically(const std::string& path, const std::string& bytes) {
+  const std::string temporary = path + ".part";
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.flush();
+    if (!out) {
+      std::error_code ignored;
+      fs::remove(temporary, ignored);
+      throw StoreError(ErrorCode::kUnavailable, path + ": cannot write");
+    }
+  }
+  fs::rename(temporary, path);
+}
+
+int run_export(const ExportArgs& a) {
+  const auto format = viewer::parse_export_format(a.format);
+  if (!format)
+    throw StoreError(ErrorCode::kInvalidArgument,
+                     "--format must be ply, colmap, geocsv or ecef-ply, not '" +
+                         a.format + "'");
+  const viewer::Cloud cloud =
+      a.cloud == "sparse" ? viewer::Cloud::kSparse : viewer::Cloud::kDense;
+  auto store = db::Store::open(a.db);
+  const viewer::ExportFile file =
+      viewer::export_site(*store, a.site, *format, cloud);
+  if (a.output == "-") {
+    std::cout.write(file.bytes.data(),
+                    static_cast<std::streamsize>(file.bytes.size()));
+    return kExitOk;
+  }
+  write_atomically(a.output, file.bytes);
+  std::cerr << "wrote " << file.bytes.size() << " bytes (" << file.filename
+            << ") to " << a.output << std::endl;
+  return kExitOk;
+}
+
+void add_export_command(CLI::App& app) {
+  static ExportArgs args;
+  CLI::App* cmd = app.add_subcommand(
+      "export",
+      "write a site's current model as ply (ENU), colmap (text model, tar), "
+      "geocsv (camera positions) or ecef-ply (GIS); docs/frames.md");
+  cmd->add_option("--db", args.db, "database URL: sqlite:FILE or postgresql://...")
+      ->required();
+  cmd->add_option("--site", args.site, "site id, e.g. s-alice-0000")
+      ->required();
+  cmd->add_option("--format", args.format, "ply | colmap | geocsv | ecef-ply")
+      ->required();
+  cmd->add_option("--cloud", args.cloud,
+                  "for ply and ecef-ply: dense (when the model has one) or "
+                  "sparse")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"dense", "sparse"}));
+  cmd->add_option("-o,--output", args.output, "file to write ('-': stdout)")
+      ->required();
+  cmd->callback([] { run_command([] { return run_export(args); }); });
+}
+
+const CommandRegistration registration(54, add_export_command);
+
+}  // namespace
+}  // namespace arscout::cli

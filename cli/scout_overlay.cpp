@@ -1,0 +1,128 @@
+#include "scout_overlay.h"
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include "cli_support.h"
+
+namespace arscout::cli {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+struct OverlaySaver::Pending {
+  std::string id;
+  std::string file_name;
+  Clock::time_point deadline;
+};
+
+namespace {
+
+// One line, written at once: the upload thread prints too.
+void say(const std::string& line) { std::cout << line + "\n" << std::flush; }
+
+void write_file(const fs::path& path, const std::string& bytes) {
+  const fs::path part = path.string() + ".part";
+  {
+    std::ofstream out(part, std::ios::binary | std::ios::trunc);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    if (!out) throw std::runtime_error(part.string() + ": cannot write");
+  }
+  fs::rename(part, path);
+}
+
+}  // namespace
+
+OverlaySaver::OverlaySaver(ingest::ClientOptions client, std::string dir,
+                           double timeout_s)
+    : client_options_(std::move(client)),
+      dir_(std::move(dir)),
+      timeout_s_(timeout_s) {
+  fs::create_directories(dir_);
+  thread_ = std::thread([this] { run(); });
+}
+
+OverlaySaver::~OverlaySaver() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  changed_.notify_all();
+  thread_.join();
+}
+
+void OverlaySaver::add(const std::string& capture_id,
+                       const std::string& file_name) {
+  auto p = std::make_shared<Pending>(Pending{
+      capture_id, file_name,
+      Clock::now() + std::chrono::milliseconds(
+                         static_cast<long long>(timeout_s_ * 1000))});
+  {
+    std::lock_guard lock(mutex_);
+    pending_.push_back(std::move(p));
+  }
+  changed_.notify_all();
+}
+
+int OverlaySaver::finish() {
+  std::unique_lock lock(mutex_);
+  while (!pending_.empty() && !stop_requested())
+    changed_.wait_for(lock, std::chrono::milliseconds(200));
+  return saved_;
+}
+
+void OverlaySaver::run() {
+  ingest::Client client(client_options_);
+  std::unique_lock lock(mutex_);
+  while (!stopping_) {
+    // Poll a copy: add() must not wait for the network.
+    const auto round = pending_;
+    lock.unlock();
+    std::vector<std::shared_ptr<Pending>> done;
+    for (const auto& p : round)
+      if (poll(client, *p)) done.push_back(p);
+    lock.lock();
+    for (const auto& p : done) std::erase(pending_, p);
+    changed_.notify_all();
+    changed_.wait_for(lock, std::chrono::milliseconds(500));
+  }
+}
+
+bool OverlaySaver::poll(ingest::Client& client, const Pending& p) {
+  const std::string name = p.file_name;
+  try {
+    const auto doc = client.get("/v1/docs/captures/" + p.id);
+    const nlohmann::json attrs =
+        doc.status == 200 ? doc.json().value("attrs", nlohmann::json::object())
+                          : nlohmann::json::object();
+    const std::string status = attrs.value("status", "");
+    if (status == "rejected" || status == "withdrawn" ||
+        status == "needs-gps") {
+      say(name + "  no overlay: " + status + " " +
+          attrs.value("status_reason", ""));
+      return true;
+    }
+    if (status == "registered") {
+      const auto overlay =
+          client.get("/v1/captures/" + p.id + "/overlay.jpg");
+      if (overlay.status == 200) {
+        const fs::path out =
+            fs::path(dir_) / (fs::path(name).stem().string() + ".overlay.jpg");
+        write_file(out, overlay.body);
+        say(name + "  overlay " + out.string());
+        std::lock_guard lock(mutex_);
+        ++saved_;
+        return true;
+      }
+    }
+  } catch (const std::exception&) {  // network trouble: try again later
+  }
+  if (Clock::now() < p.deadline) return false;
+  say(name + "  no overlay: not registered within " +
+      std::to_string(static_cast<int>(timeout_s_)) + " s");
+  return true;
+}
+
+}  // namespace arscout::cli

@@ -1,0 +1,292 @@
+// The viewer's outputs on a real site: fountain-P11 as the scouts and the
+// engine built it (the viewer_fountain fixture, make_fountain_site.sh).
+//
+// - Overlay: projected through the model document's camera, every sparse
+//   point lands on the keypoints that observe it (mean <= 2 px).
+// - Exports: the COLMAP tar reads back with the same poses; the geo CSV is
+//   the model's geo-registration and compares with the ground truth; the
+//   PLYs hold the clouds in their frames.
+// - HTTP: the same bytes through the server, and its errors.
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "arscout/db/store.h"
+#include "arscout/engine/model_io.h"
+#include "arscout/ingest/auth.h"
+#include "arscout/ingest/client.h"
+#include "arscout/ingest/server.h"
+#include "arscout/viewer/exports.h"
+#include "arscout/viewer/overlay.h"
+#include "arscout/viewer/routes.h"
+#include "model_eval.h"
+#include "test_stores.h"
+
+namespace arscout::viewer {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string read_file(const fs::path& path) {
+  std::ostringstream bytes;
+  bytes << std::ifstream(path, std::ios::binary).rdbuf();
+  return bytes.str();
+}
+
+// "alice-0005.jpg" -> "0005.jpg", the ground truth's names.
+std::string photo_name(const std::string& capture) {
+  return capture.substr(capture.find('-') + 1);
+}
+
+class FountainSite : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ARSCOUT_SHARED_DATA_OR_SKIP(scene_, "strecha/fountain-P11");
+    const fs::path site(ARSCOUT_VIEWER_SITE);
+    if (!fs::exists(site / "ready")) {
+      const std::string why = "no fountain site at " + site.string() +
+                              " (the viewer.fountain_site fixture failed?)";
+      if (testing::in_ci()) FAIL() << why;
+      GTEST_SKIP() << why;
+    }
+    // A copy: tests must not change the fixture the others read.
+    dir_ = testing::make_temp_dir("viewer-site");
+    for (const char* name : {"arscout.db", "arscout.db-wal", "arscout.db-shm"})
+      if (fs::exists(site / name)) fs::copy_file(site / name, dir_ / name);
+    store_ = db::Store::open("sqlite:" + (dir_ / "arscout.db").string());
+    const auto sites = store_->list_children("/sites");
+    ASSERT_EQ(sites.size(), 1u);
+    site_ = sites[0].path.substr(7);
+    model_ = load_site_model(*store_, site_);
+  }
+
+  std::string scene_;
+  fs::path dir_;
+  std::unique_ptr<db::Store> store_;
+  std::string site_;
+  SiteModel model_;
+};
+
+TEST_F(FountainSite, OverlayProjectsSparsePointsOntoTheirKeypoints) {
+  const engine::Model full = load_full_model(*store_, model_);
+  std::map<int64_t, Eigen::Vector3d> points;
+  for (const engine::ModelPoint& p : full.points)
+    points[p.id] = Eigen::Vector3d(p.xyz[0], p.xyz[1], p.xyz[2]);
+  ASSERT_EQ(full.images.size(), 10u);
+  double worst = 0;
+  for (const engine::ModelImage& image : full.images) {
+    // The camera the overlay endpoint draws with: the model document's.
+    const auto camera = image_camera(model_, image.id);
+    ASSERT_TRUE(camera) << image.id;
+    double sum = 0;
+    int n = 0;
+    for (size_t k = 0; k < image.keypoints.size(); ++k) {
+      if (image.point_ids[k] < 0) continue;
+      const auto pixel = project(*camera, points.at(image.point_ids[k]));
+      ASSERT_TRUE(pixel);
+      sum += (*pixel - Eigen::Vector2d(image.keypoints[k][0],
+                                       image.keypoints[k][1]))
+                 .norm();
+      ++n;
+    }
+    ASSERT_GT(n, 200) << image.id;
+    const double mean = sum / n;
+    worst = std::max(worst, mean);
+    EXPECT_LE(mean, 2.0) << image.id;
+  }
+  std::cout << "overlay: sparse points vs their keypoints, worst image mean "
+            << worst << " px" << std::endl;
+}
+
+TEST_F(FountainSite, OverlayDrawsTheModelOverThePhoto) {
+  const std::string jpeg = overlay_jpeg(*store_, "alice-0005.jpg", {});
+  const cv::Mat overlay = cv::imdecode(
+      cv::Mat(1, static_cast<int>(jpeg.size()), CV_8U,
+              const_cast<char*>(jpeg.data())),
+      cv::IMREAD_COLOR);
+  ASSERT_EQ(overlay.size(), cv::Size(1280, 853));
+  cv::Mat photo = cv::imread(scene_ + "/images/0005.jpg", cv::IMREAD_COLOR);
+  cv::resize(photo, photo, overlay.size(), 0, 0, cv::INTER_AREA);
+  cv::Mat difference;
+  cv::absdiff(photo, overlay, difference);
+  cv::cvtColor(difference, difference, cv::COLOR_BGR2GRAY);
+  const double drawn = cv::countNonZero(difference > 40) /
+                       static_cast<double>(difference.total());
+  std::cout << "overlay of 0005.jpg: " << drawn * 100 << " % of the pixels drawn"
+            << std::endl;
+  EXPECT_GT(drawn, 0.3);
+  EXPECT_THROW(overlay_jpeg(*store_, "alice-nope.jpg", {}), db::StoreError);
+}
+
+TEST_F(FountainSite, ColmapExportReadsBackWithTheSamePoses) {
+  const ExportFile file = export_site(*store_, site_, ExportFormat::kColmap);
+  EXPECT_EQ(file.content_type, "application/x-tar");
+  std::ofstream(dir_ / "model.tar", std::ios::binary) << file.bytes;
+  ASSERT_EQ(std::system(("tar -xf '" + (dir_ / "model.tar").string() +
+                         "' -C '" + dir_.string() + "'")
+                            .c_str()),
+            0);
+  const engine::Model back = engine::read_colmap_text((dir_ / site_).string());
+  const Json& images = model_.attrs.at("images");
+  ASSERT_EQ(back.images.size(), images.size());
+  std::map<std::string, eval::Pose> estimated;
+  for (size_t i = 0; i < images.size(); ++i) {
+    const engine::ModelImage& b = back.images[i];
+    EXPECT_EQ(b.id, images[i].at("id"));
+    const auto q = images[i].at("qvec").get<std::array<double, 4>>();
+    const auto t = images[i].at("tvec").get<std::array<double, 3>>();
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(b.qvec[k], q[k], 1e-12);
+    for (int k = 0; k < 3; ++k)
+      EXPECT_NEAR(b.tvec[k], t[k], 1e-9 * (1 + std::abs(t[k])));
+    eval::Pose pose;
+    pose.name = photo_name(b.id);
+    pose.R = Eigen::Quaterniond(b.qvec[0], b.qvec[1], b.qvec[2], b.qvec[3])
+                 .toRotationMatrix();
+    pose.t = Eigen::Vector3d(b.tvec[0], b.tvec[1], b.tvec[2]);
+    estimated[pose.name] = pose;
+  }
+  EXPECT_EQ(static_cast<int64_t>(back.points.size()),
+            model_.attrs.at("statistics").at("sparse_points").get<int64_t>());
+  // The export is something the evaluation tools can judge: against the
+  // Strecha ground truth, as the reconstruction tests do.
+  const eval::PoseComparison truth = eval::compare_to_ground_truth(
+      estimated, eval::read_strecha_ground_truth(scene_ + "/gt_dense_cameras"));
+  std::cout << "COLMAP export vs ground truth: median centre error "
+            << truth.median_centre_error * 1000 << " mm, rotation "
+            << truth.median_rotation_error_deg << " deg" << std::endl;
+  EXPECT_EQ(truth.matched, 10);
+  EXPECT_LE(truth.median_centre_error, 0.005);
+  EXPECT_LE(truth.median_rotation_error_deg, 0.1);
+}
+
+TEST_F(FountainSite, GeoCsvIsTheModelsGeoRegistration) {
+  const ExportFile file = export_site(*store_, site_, ExportFormat::kGeoCsv);
+  std::ofstream(dir_ / "cameras.csv") << file.bytes;
+  const auto rows = eval::read_geo_csv((dir_ / "cameras.csv").string());
+  const Json& images = model_.attrs.at("images");
+  ASSERT_EQ(rows.size(), images.size());
+  std::map<std::string, eval::GeoRow> renamed;
+  for (const Json& image : images) {
+    const std::string id = image.at("id");
+    ASSERT_TRUE(rows.count(id)) << id;
+    const eval::GeoRow& row = rows.at(id);
+    const Json& g = image.at("geodetic");
+    EXPECT_NEAR(row.lat, g.at("lat").get<double>(), 1e-9);
+    EXPECT_NEAR(row.lon, g.at("lon").get<double>(), 1e-9);
+    EXPECT_NEAR(row.alt, g.at("alt").get<double>(), 1e-3);
+    renamed[photo_name(id)] = row;
+  }
+  int matched = 0;
+  const double metres = eval::median_geo_distance(
+      renamed, eval::read_geo_csv(scene_ + "/gps_truth.csv"), &matched);
+  std::cout << "geo CSV vs gps_truth.csv: median " << metres << " m over "
+            << matched << " cameras" << std::endl;
+  EXPECT_EQ(matched, 10);
+  EXPECT_LE(metres, 1.0);
+}
+
+TEST_F(FountainSite, PlyExportsHoldTheCloudsInTheirFrames) {
+  const ExportFile enu = export_site(*store_, site_, ExportFormat::kPly);
+  EXPECT_EQ(enu.bytes, store_->get_blob(model_.dense_blob));
+  const ExportFile sparse =
+      export_site(*store_, site_, ExportFormat::kPly, Cloud::kSparse);
+  EXPECT_EQ(sparse.bytes, store_->get_blob(model_.sparse_blob));
+  const auto cloud = engine::decode_ply(enu.bytes);
+
+  const ExportFile ecef = export_site(*store_, site_, ExportFormat::kEcefPly);
+  const size_t end = ecef.bytes.find("end_header\n");
+  ASSERT_NE(end, std::string::npos);
+  EXPECT_NE(ecef.bytes.find("element vertex " + std::to_string(cloud.size())),
+            std::string::npos);
+  ASSERT_EQ(ecef.bytes.size() - end - 11, cloud.size() * 27);
+  // Each point is the ENU point moved into ECEF: distances are kept, and
+  // the cloud sits within 100 m of the ENU origin on the ellipsoid.
+  const Json& o = model_.attrs.at("enu_origin");
+  const engine::EnuFrame frame({o.at("lat"), o.at("lon"), o.at("alt")});
+  const auto origin = frame.to_ecef({0, 0, 0});
+  auto ecef_point = [&](size_t i) {
+    double v[3];
+    std::memcpy(v, ecef.bytes.data() + end + 11 + 27 * i, sizeof v);
+    return Eigen::Vector3d(v[0], v[1], v[2]);
+  };
+  for (size_t i = 0; i < cloud.size(); i += cloud.size() / 50) {
+    const Eigen::Vector3d p = ecef_point(i);
+    const Eigen::Vector3d enu_p(cloud[i].x, cloud[i].y, cloud[i].z);
+    EXPECT_NEAR((p - Eigen::Vector3d(origin[0], origin[1], origin[2])).norm(),
+                enu_p.norm(), 1e-4);
+  }
+}
+
+TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
+  const std::string planner =
+      ingest::create_token(*store_, ingest::Role::kPlanner, "pat");
+  ingest::ServerOptions options;
+  options.port = 0;
+  options.routes = viewer_routes(*store_);
+  ingest::Server server(*store_, options);
+  server.start();
+  ingest::ClientOptions client_options;
+  client_options.server = "http://127.0.0.1:" + std::to_string(server.port());
+  client_options.token = planner;
+  ingest::Client client(client_options);
+
+  const auto tar = client.get("/v1/sites/" + site_ + "/export?format=colmap");
+  ASSERT_EQ(tar.status, 200) << tar.body;
+  EXPECT_EQ(tar.body,
+            export_site(*store_, site_, ExportFormat::kColmap).bytes);
+  EXPECT_NE(tar.headers.at("content-disposition").find("colmap.tar"),
+            std::string::npos);
+  const auto overlay = client.get("/v1/captures/alice-0003.jpg/overlay.jpg");
+  ASSERT_EQ(overlay.status, 200);
+  EXPECT_EQ(overlay.headers.at("content-type"), "image/jpeg");
+  const auto thumbnail =
+      client.get("/v1/captures/alice-0003.jpg/thumbnail.jpg?size=200");
+  ASSERT_EQ(thumbnail.status, 200);
+  const cv::Mat small = cv::imdecode(
+      cv::Mat(1, static_cast<int>(thumbnail.body.size()), CV_8U,
+              const_cast<char*>(thumbnail.body.data())),
+      cv::IMREAD_COLOR);
+  EXPECT_EQ(small.size(), cv::Size(200, 133));
+
+  EXPECT_EQ(client.get("/v1/sites/" + site_ + "/export?format=obj").status,
+            400);
+  EXPECT_EQ(client.get("/v1/sites/nowhere/export?format=ply").status, 404);
+  EXPECT_EQ(client.get("/v1/captures/nobody/overlay.jpg").status, 404);
+  EXPECT_EQ(client.get("/v1/captures/alice-0003.jpg/thumbnail.jpg?size=0")
+                .status,
+            400);
+  EXPECT_EQ(client.request("DELETE", "/v1/captures/alice-0003.jpg/overlay.jpg")
+                .status,
+            405);
+  client_options.token = "";
+  EXPECT_EQ(ingest::Client(client_options)
+                .get("/v1/sites/" + site_ + "/export?format=ply")
+                .status,
+            401);
+}
+
+TEST_F(FountainSite, ExportCommandWritesTheSameFile) {
+  store_.reset();  // the command opens the store itself
+  const std::string out = (dir_ / "cameras.csv").string();
+  const std::string command = std::string(ARSCOUT_CLI) +
+                              " export --db sqlite:" +
+                              (dir_ / "arscout.db").string() + " --site " +
+                              site_ + " --format geocsv -o " + out;
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  store_ = db::Store::open("sqlite:" + (dir_ / "arscout.db").string());
+  EXPECT_EQ(read_file(out),
+            export_site(*store_, site_, ExportFormat::kGeoCsv).bytes);
+  const std::string bad = std::string(ARSCOUT_CLI) + " export --db sqlite:" +
+                          (dir_ / "arscout.db").string() + " --site " + site_ +
+                          " --format obj -o " + out + " 2>/dev/null";
+  EXPECT_NE(std::system(bad.c_str()), 0);
+}
+
+}  // namespace
+}  // namespace arscout::viewer

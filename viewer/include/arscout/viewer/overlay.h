@@ -1,0 +1,48 @@
+// The scout's AR overlay (the paper's 3D-registered display): the site's
+// current model drawn over one capture's photo through the capture's
+// estimated pose and intrinsics, points z-buffered and coloured by depth.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "arscout/db/store.h"
+#include "arscout/engine/camera.h"
+#include "arscout/engine/ply.h"
+#include "arscout/viewer/site_model.h"
+
+namespace arscout::viewer {
+
+// The pixel (original-photo pixels, OpenCV convention) where the world
+// point X appears through the camera, with its lens distortion; nullopt
+// behind the camera.
+std::optional<Eigen::Vector2d> project(const ImageCamera& camera,
+                                       const Eigen::Vector3d& X);
+
+struct OverlayOptions {
+  int max_side = 1280;  // the output's long side (never above the photo's)
+  Cloud cloud = Cloud::kDense;
+  int radius = -1;        // splat half-size in output pixels; -1: by size
+  double opacity = 0.75;  // of the drawn points over the photo
+};
+
+// Draws `points` over `photo` (BGR, original size) seen by `camera`: each
+// point is projected with project(), splatted, z-buffered, and coloured by
+// its depth (turbo colour map, near red, far blue, over the 2nd-98th
+// percentile of the drawn depths). Returns the drawn image at the options'
+// size.
+cv::Mat draw_overlay(const cv::Mat& photo, const ImageCamera& camera,
+                     const std::vector<engine::ColoredPoint>& points,
+                     const OverlayOptions& options);
+
+// The overlay of capture `capture` as JPEG bytes, from the store: its
+// photo, its site's current model. Throws db::StoreError kNotFound when the
+// capture is unknown or not (yet) registered in its site's model.
+std::string overlay_jpeg(db::Store& store, const std::string& capture,
+                         const OverlayOptions& options);
+
+}  // namespace arscout::viewer

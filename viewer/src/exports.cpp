@@ -1,0 +1,185 @@
+#include "arscout/viewer/exports.h"
+
+#include <bit>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "arscout/db/errors.h"
+#include "arscout/engine/geo.h"
+#include "arscout/engine/model_io.h"
+#include "tar_writer.h"
+
+namespace arscout::viewer {
+namespace {
+
+namespace fs = std::filesystem;
+using db::ErrorCode;
+using db::StoreError;
+
+// A folder of its own under the system's temporary directory, removed with
+// everything in it when the scope ends: the model writers write files.
+class ScratchDir {
+ public:
+  ScratchDir() {
+    std::random_device entropy;
+    path_ = fs::temp_directory_path() /
+            ("arscout-export-" + std::to_string(entropy()) + "-" +
+             std::to_string(entropy()));
+    fs::create_directories(path_);
+  }
+  ~ScratchDir() {
+    std::error_code ignored;
+    fs::remove_all(path_, ignored);
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  if (!in.good() && !in.eof())
+    throw StoreError(ErrorCode::kInternal, path.string() + ": cannot read");
+  return bytes.str();
+}
+
+// The full model, read again if the engine committed in between.
+engine::Model consistent_full_model(db::Store& store, const std::string& site,
+                                    SiteModel* model) {
+  for (int attempt = 0;; ++attempt) {
+    *model = load_site_model(store, site);
+    try {
+      return load_full_model(store, *model);
+    } catch (const StoreError& e) {
+      if (e.code() != ErrorCode::kUnavailable || attempt == 4) throw;
+    }
+  }
+}
+
+engine::Geodetic origin_of(const SiteModel& model) {
+  const Json origin = model.attrs.value("enu_origin", Json());
+  if (!model.attrs.value("geo_registered", false) || !origin.is_object())
+    throw StoreError(ErrorCode::kInvalidArgument,
+                     "site " + model.site +
+                         ": the model is not geo-registered yet (fewer than "
+                         "three registered captures with GPS), so it has no "
+                         "geographic frame to export");
+  return {origin.at("lat"), origin.at("lon"), origin.at("alt")};
+}
+
+ExportFile colmap_tar(db::Store& store, const std::string& site) {
+  SiteModel model;
+  const engine::Model full = consistent_full_model(store, site, &model);
+  ScratchDir scratch;
+  engine::write_colmap_text(full, scratch.path().string());
+  // The model's commit time, so the same version always exports the same
+  // bytes.
+  const long long mtime = model.updated_us / 1000000;
+  TarWriter tar;
+  for (const char* name : {"cameras.txt", "images.txt", "points3D.txt"})
+    tar.add(site + "/" + name, read_file(scratch.path() / name), mtime);
+  return {site + "-v" + std::to_string(model.version) + "-colmap.tar",
+          "application/x-tar", tar.finish()};
+}
+
+ExportFile geo_csv(db::Store& store, const std::string& site) {
+  SiteModel model;
+  const engine::Model full = consistent_full_model(store, site, &model);
+  origin_of(model);  // refuses a model without geography
+  ScratchDir scratch;
+  const fs::path file = scratch.path() / "cameras_geo.csv";
+  engine::write_geo_csv(full, file.string());
+  return {site + "-v" + std::to_string(model.version) + "-cameras.csv",
+          "text/csv; charset=utf-8", read_file(file)};
+}
+
+std::string cloud_name(const SiteModel& model, Cloud cloud) {
+  return cloud == Cloud::kDense && !model.dense_blob.empty() ? "dense"
+                                                             : "sparse";
+}
+
+}  // namespace
+
+std::optional<ExportFormat> parse_export_format(const std::string& name) {
+  if (name == "ply") return ExportFormat::kPly;
+  if (name == "colmap") return ExportFormat::kColmap;
+  if (name == "geocsv") return ExportFormat::kGeoCsv;
+  if (name == "ecef-ply") return ExportFormat::kEcefPly;
+  return std::nullopt;
+}
+
+const char* to_string(ExportFormat format) {
+  switch (format) {
+    case ExportFormat::kPly:
+      return "ply";
+    case ExportFormat::kColmap:
+      return "colmap";
+    case ExportFormat::kGeoCsv:
+      return "geocsv";
+    case ExportFormat::kEcefPly:
+      return "ecef-ply";
+  }
+  return "?";
+}
+
+std::string encode_ecef_ply(const std::vector<engine::ColoredPoint>& points,
+                            const engine::Geodetic& origin,
+                            const std::string& comment) {
+  if (comment.find('\n') != std::string::npos)
+    throw std::invalid_argument("ecef ply: the comment holds a line break");
+  std::ostringstream header;
+  header << "ply\nformat binary_little_endian 1.0\ncomment " << comment
+         << "\nelement vertex " << points.size()
+         << "\nproperty double x\nproperty double y\nproperty double z\n"
+            "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+            "end_header\n";
+  std::string out = header.str();
+  const size_t start = out.size();
+  constexpr size_t kStride = 3 * sizeof(double) + 3;
+  out.resize(start + points.size() * kStride);
+  const engine::EnuFrame frame(origin);
+  char* at = out.data() + start;
+  for (const engine::ColoredPoint& p : points) {
+    const std::array<double, 3> ecef = frame.to_ecef({p.x, p.y, p.z});
+    // x86 and ARM hosts are little-endian, as the header says.
+    static_assert(std::endian::native == std::endian::little);
+    std::memcpy(at, ecef.data(), 3 * sizeof(double));
+    at[24] = static_cast<char>(p.r);
+    at[25] = static_cast<char>(p.g);
+    at[26] = static_cast<char>(p.b);
+    at += kStride;
+  }
+  return out;
+}
+
+ExportFile export_site(db::Store& store, const std::string& site,
+                       ExportFormat format, Cloud cloud) {
+  if (format == ExportFormat::kColmap) return colmap_tar(store, site);
+  if (format == ExportFormat::kGeoCsv) return geo_csv(store, site);
+  const SiteModel model = load_site_model(store, site);
+  const std::string which = cloud_name(model, cloud);
+  const std::string base =
+      site + "-v" + std::to_string(model.version) + "-" + which;
+  if (format == ExportFormat::kPly) {
+    const std::string& blob =
+        which == "dense" ? model.dense_blob : model.sparse_blob;
+    if (blob.empty())
+      throw StoreError(ErrorCode::kNotFound,
+                       "site " + site + ": the model has no point cloud");
+    return {base + ".ply", "application/x-ply", store.get_blob(blob)};
+  }
+  const engine::Geodetic origin = origin_of(model);
+  const std::string comment =
+      "arscout site " + site + " model v" + std::to_string(model.version) +
+      " " + which + " cloud; frame ECEF WGS84 (EPSG:4978), metres";
+  return {base + "-ecef.ply", "application/x-ply",
+          encode_ecef_ply(load_cloud(store, model, cloud), origin, comment)};
+}
+
+}  // namespace arscout::viewer

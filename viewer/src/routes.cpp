@@ -1,0 +1,215 @@
+#include "arscout/viewer/routes.h"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "arscout/db/errors.h"
+#include "arscout/viewer/exports.h"
+#include "arscout/viewer/overlay.h"
+
+namespace arscout::viewer {
+namespace {
+
+using db::ErrorCode;
+using db::StoreError;
+using ingest::HttpRequest;
+using ingest::HttpResponse;
+
+// "/v1/{collection}/{id}/{leaf}" -> id, or "" when the path is not that.
+std::string id_between(const std::string& path, const std::string& collection,
+                       const std::string& leaf) {
+  const std::string head = "/v1/" + collection + "/";
+  const std::string tail = "/" + leaf;
+  if (path.size() <= head.size() + tail.size() ||
+      path.compare(0, head.size(), head) != 0 ||
+      path.compare(path.size() - tail.size(), tail.size(), tail) != 0)
+    return "";
+  std::string id =
+      path.substr(head.size(), path.size() - head.size() - tail.size());
+  return id.find('/') == std::string::npos ? id : "";
+}
+
+HttpResponse error_response(const StoreError& e) {
+  switch (e.code()) {
+    case ErrorCode::kNotFound:
+    case ErrorCode::kUnknownBlob:
+      return HttpResponse::error(404, "not_found", e.what());
+    case ErrorCode::kInvalidArgument:
+      return HttpResponse::error(422, "unprocessable", e.what());
+    case ErrorCode::kUnavailable:
+      return HttpResponse::error(503, "unavailable", e.what());
+    default:
+      return HttpResponse::error(500, "internal", e.what());
+  }
+}
+
+// Runs `make` for a GET; other methods get 405, store errors their status.
+template <typename Make>
+HttpResponse get_only(const HttpRequest& req, Make make) {
+  if (req.method != "GET") {
+    HttpResponse r = HttpResponse::error(405, "method_not_allowed",
+                                         "this resource allows GET");
+    r.headers.emplace_back("Allow", "GET");
+    return r;
+  }
+  try {
+    return make();
+  } catch (const StoreError& e) {
+    return error_response(e);
+  }
+}
+
+// An integer query parameter in [lo, hi], else a 400 through *bad.
+int int_query(const HttpRequest& req, const std::string& name, int fallback,
+              int lo, int hi, std::optional<HttpResponse>* bad) {
+  auto it = req.query.find(name);
+  if (it == req.query.end()) return fallback;
+  try {
+    size_t used = 0;
+    const int v = std::stoi(it->second, &used);
+    if (used == it->second.size() && v >= lo && v <= hi) return v;
+  } catch (const std::exception&) {
+  }
+  *bad = HttpResponse::error(400, "bad_request",
+                             "query parameter '" + name +
+                                 "' must be an integer in [" +
+                                 std::to_string(lo) + ", " +
+                                 std::to_string(hi) + "]");
+  return fallback;
+}
+
+std::optional<Cloud> cloud_query(const HttpRequest& req,
+                                 std::optional<HttpResponse>* bad) {
+  auto it = req.query.find("cloud");
+  if (it == req.query.end() || it->second == "dense") return Cloud::kDense;
+  if (it->second == "sparse") return Cloud::kSparse;
+  *bad = HttpResponse::error(400, "bad_request",
+                             "query parameter 'cloud' must be dense or sparse");
+  return std::nullopt;
+}
+
+HttpResponse jpeg(std::string bytes) {
+  HttpResponse r;
+  r.content_type = "image/jpeg";
+  r.body = std::move(bytes);
+  return r;
+}
+
+HttpResponse overlay(db::Store& store, const HttpRequest& req,
+                     const std::string& capture) {
+  std::optional<HttpResponse> bad;
+  OverlayOptions options;
+  options.max_side = int_query(req, "max_side", 1280, 64, 4096, &bad);
+  if (auto cloud = cloud_query(req, &bad)) options.cloud = *cloud;
+  if (bad) return *bad;
+  HttpResponse r = jpeg(overlay_jpeg(store, capture, options));
+  r.headers.emplace_back("Cache-Control", "no-cache");
+  return r;
+}
+
+std::string thumbnail_jpeg(db::Store& store, const std::string& capture,
+                           int size) {
+  const auto doc = store.get("/captures/" + capture);
+  if (!doc || !doc->blobs.count("image"))
+    throw StoreError(ErrorCode::kNotFound, "no capture " + capture);
+  const std::string bytes = store.get_blob(doc->blobs.at("image"));
+  const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8U,
+                    const_cast<char*>(bytes.data()));
+  // A reduced decode is far quicker than decoding 12 MP and shrinking.
+  const int width = doc->attrs.value("width", 0);
+  const int height = doc->attrs.value("height", 0);
+  const int factor = std::max(width, height) / std::max(size, 1);
+  const int flag = factor >= 8   ? cv::IMREAD_REDUCED_COLOR_8
+                   : factor >= 4 ? cv::IMREAD_REDUCED_COLOR_4
+                   : factor >= 2 ? cv::IMREAD_REDUCED_COLOR_2
+                                 : cv::IMREAD_COLOR;
+  cv::Mat image = cv::imdecode(raw, flag | cv::IMREAD_IGNORE_ORIENTATION);
+  if (image.empty())
+    throw StoreError(ErrorCode::kInternal,
+                     "the photo of capture " + capture + " does not decode");
+  const double scale =
+      std::min(1.0, static_cast<double>(size) / std::max(image.cols, image.rows));
+  if (scale < 1)
+    cv::resize(image, image, cv::Size(), scale, scale, cv::INTER_AREA);
+  std::vector<uchar> out;
+  cv::imencode(".jpg", image, out, {cv::IMWRITE_JPEG_QUALITY, 80});
+  return std::string(out.begin(), out.end());
+}
+
+HttpResponse thumbnail(db::Store& store, const HttpRequest& req,
+                       const std::string& capture) {
+  std::optional<HttpResponse> bad;
+  const int size = int_query(req, "size", 256, 16, 1024, &bad);
+  if (bad) return *bad;
+  HttpResponse r = jpeg(thumbnail_jpeg(store, capture, size));
+  // A capture's photo never changes.
+  r.headers.emplace_back("Cache-Control", "private, max-age=86400");
+  return r;
+}
+
+HttpResponse site_export(db::Store& store, const HttpRequest& req,
+                         const std::string& site) {
+  auto it = req.query.find("format");
+  const auto format = it == req.query.end()
+                          ? std::nullopt
+                          : parse_export_format(it->second);
+  if (!format)
+    return HttpResponse::error(
+        400, "bad_request",
+        "query parameter 'format' must be ply, colmap, geocsv or ecef-ply");
+  std::optional<HttpResponse> bad;
+  const auto cloud = cloud_query(req, &bad);
+  if (bad) return *bad;
+  ExportFile file = export_site(store, site, *format, *cloud);
+  HttpResponse r;
+  r.content_type = file.content_type;
+  r.body = std::move(file.bytes);
+  r.headers.emplace_back("Content-Disposition",
+                         "attachment; filename=\"" + file.filename + "\"");
+  return r;
+}
+
+ingest::ApiRoute route(
+    const std::string& name, const std::string& collection,
+    const std::string& leaf,
+    std::function<HttpResponse(const HttpRequest&, const std::string&)> make) {
+  ingest::ApiRoute r;
+  r.name = name;
+  r.matches = [collection, leaf](const HttpRequest& req) {
+    return !id_between(req.path, collection, leaf).empty();
+  };
+  r.handle = [collection, leaf, make](const HttpRequest& req,
+                                      const ingest::Principal&) {
+    const std::string id = id_between(req.path, collection, leaf);
+    return get_only(req, [&] { return make(req, id); });
+  };
+  return r;
+}
+
+}  // namespace
+
+std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
+  db::Store* s = &store;
+  return {
+      route("GET /v1/captures/*/overlay.jpg", "captures", "overlay.jpg",
+            [s](const HttpRequest& req, const std::string& id) {
+              return overlay(*s, req, id);
+            }),
+      route("GET /v1/captures/*/thumbnail.jpg", "captures", "thumbnail.jpg",
+            [s](const HttpRequest& req, const std::string& id) {
+              return thumbnail(*s, req, id);
+            }),
+      route("GET /v1/sites/*/export", "sites", "export",
+            [s](const HttpRequest& req, const std::string& id) {
+              return site_export(*s, req, id);
+            }),
+  };
+}
+
+std::vector<ingest::StaticMount> web_mounts(const std::string& web_root) {
+  return {{"/", web_root}, {"/vendor/three/", web_root + "/node_modules/three"}};
+}
+
+std::string default_web_root() { return ARSCOUT_WEB_ROOT; }
+
+}  // namespace arscout::viewer
