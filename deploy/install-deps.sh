@@ -19,6 +19,9 @@ packages=(
   util-linux procps
   # PCL's pcl_ply2pcd: the test that our PLY files open in standard tools
   pcl-tools
+  # the web viewer: Node.js for npm (three.js, playwright-core) and
+  # Chromium for the browser test
+  nodejs chromium
 )
 
 sudo_cmd=()
@@ -29,3 +32,11 @@ fi
 export DEBIAN_FRONTEND=noninteractive
 "${sudo_cmd[@]}" apt-get update
 "${sudo_cmd[@]}" apt-get install -y --no-install-recommends "${packages[@]}"
+# Debian's npm, unless the installed Node.js brings its own (NodeSource's
+# package does, and conflicts with Debian's npm).
+if ! command -v npm > /dev/null; then
+  "${sudo_cmd[@]}" apt-get install -y --no-install-recommends npm
+fi
+
+# The web viewer's packages, exactly as locked (viewer/web/package-lock.json).
+npm ci --prefix "$(dirname "$0")/../viewer/web" --no-audit --no-fund
