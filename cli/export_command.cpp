@@ -70,7 +70,8 @@ void add_export_command(CLI::App& app) {
       "export",
       "write a site's current model as ply (ENU), colmap (text model, tar), "
       "geocsv (camera positions) or ecef-ply (GIS); docs/frames.md");
-  cmd->add_option("--db", args.db, "database URL: sqlite:FILE or postgresql://...")
+  cmd->add_option("--db", args.db,
+                  "database URL: sqlite:FILE or postgresql://...")
       ->required();
   cmd->add_option("--site", args.site, "site id, e.g. s-alice-0000")
       ->required();

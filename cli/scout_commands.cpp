@@ -9,9 +9,9 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <memory>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -366,7 +366,8 @@ class Uploader {
   }
 
   // Called with (capture id, file name) for every photo the server took.
-  void on_stored(std::function<void(const std::string&, const std::string&)> f) {
+  void on_stored(
+      std::function<void(const std::string&, const std::string&)> f) {
     on_stored_ = std::move(f);
   }
 
@@ -631,9 +632,8 @@ int run_scout(const ScoutArgs& a) {
   Uploader uploader(a);
   std::unique_ptr<OverlaySaver> overlays;
   if (!a.overlay_dir.empty()) {
-    overlays = std::make_unique<OverlaySaver>(client_options(a.server),
-                                              a.overlay_dir,
-                                              a.overlay_timeout_s);
+    overlays = std::make_unique<OverlaySaver>(
+        client_options(a.server), a.overlay_dir, a.overlay_timeout_s);
     uploader.on_stored([&](const std::string& id, const std::string& name) {
       overlays->add(id, name);
     });

@@ -55,10 +55,10 @@ OverlaySaver::~OverlaySaver() {
 
 void OverlaySaver::add(const std::string& capture_id,
                        const std::string& file_name) {
-  auto p = std::make_shared<Pending>(Pending{
-      capture_id, file_name,
-      Clock::now() + std::chrono::milliseconds(
-                         static_cast<long long>(timeout_s_ * 1000))});
+  auto p = std::make_shared<Pending>(
+      Pending{capture_id, file_name,
+              Clock::now() + std::chrono::milliseconds(
+                                 static_cast<long long>(timeout_s_ * 1000))});
   {
     std::lock_guard lock(mutex_);
     pending_.push_back(std::move(p));
@@ -105,8 +105,7 @@ bool OverlaySaver::poll(ingest::Client& client, const Pending& p) {
       return true;
     }
     if (status == "registered") {
-      const auto overlay =
-          client.get("/v1/captures/" + p.id + "/overlay.jpg");
+      const auto overlay = client.get("/v1/captures/" + p.id + "/overlay.jpg");
       if (overlay.status == 200) {
         const fs::path out =
             fs::path(dir_) / (fs::path(name).stem().string() + ".overlay.jpg");

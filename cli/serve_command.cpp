@@ -29,8 +29,7 @@ struct ServeArgs {
 
 // The web viewer's files; a missing three.js is worth a line at start-up,
 // not a page that stays blank.
-void mount_viewer(const std::string& web_root,
-                  ingest::ServerOptions* options) {
+void mount_viewer(const std::string& web_root, ingest::ServerOptions* options) {
   if (web_root.empty()) return;
   namespace fs = std::filesystem;
   if (!fs::exists(fs::path(web_root) / "index.html")) {

@@ -54,8 +54,7 @@ class ExtensionsTest : public ::testing::Test {
         *store_, metrics_, std::vector<ApiRoute>{echo},
         std::vector<StaticMount>{
             {"/", (root_ / "web").string()},
-            {"/vendor/three/",
-             (root_ / "web/node_modules/three").string()}});
+            {"/vendor/three/", (root_ / "web/node_modules/three").string()}});
   }
 
   std::unique_ptr<db::Store> store_;
@@ -102,8 +101,7 @@ TEST_F(ExtensionsTest, WebSocketTakesTheTokenFromTheQuery) {
   r.query["access_token"] = "ars_wrong";
   EXPECT_TRUE(std::holds_alternative<HttpResponse>(api_->check_subscribe(r)));
   r.query["access_token"] = token_;
-  EXPECT_TRUE(
-      std::holds_alternative<Api::Subscribe>(api_->check_subscribe(r)));
+  EXPECT_TRUE(std::holds_alternative<Api::Subscribe>(api_->check_subscribe(r)));
   // Only the WebSocket takes it: elsewhere a URL token is not a login.
   HttpRequest sites = get("/v1/sites");
   sites.query["access_token"] = token_;

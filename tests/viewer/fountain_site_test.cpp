@@ -12,8 +12,8 @@
 #include <fstream>
 #include <sstream>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -90,8 +90,8 @@ TEST_F(FountainSite, OverlayProjectsSparsePointsOntoTheirKeypoints) {
       if (image.point_ids[k] < 0) continue;
       const auto pixel = project(*camera, points.at(image.point_ids[k]));
       ASSERT_TRUE(pixel);
-      sum += (*pixel - Eigen::Vector2d(image.keypoints[k][0],
-                                       image.keypoints[k][1]))
+      sum += (*pixel -
+              Eigen::Vector2d(image.keypoints[k][0], image.keypoints[k][1]))
                  .norm();
       ++n;
     }
@@ -106,10 +106,10 @@ TEST_F(FountainSite, OverlayProjectsSparsePointsOntoTheirKeypoints) {
 
 TEST_F(FountainSite, OverlayDrawsTheModelOverThePhoto) {
   const std::string jpeg = overlay_jpeg(*store_, "alice-0005.jpg", {});
-  const cv::Mat overlay = cv::imdecode(
-      cv::Mat(1, static_cast<int>(jpeg.size()), CV_8U,
-              const_cast<char*>(jpeg.data())),
-      cv::IMREAD_COLOR);
+  const cv::Mat overlay =
+      cv::imdecode(cv::Mat(1, static_cast<int>(jpeg.size()), CV_8U,
+                           const_cast<char*>(jpeg.data())),
+                   cv::IMREAD_COLOR);
   ASSERT_EQ(overlay.size(), cv::Size(1280, 853));
   cv::Mat photo = cv::imread(scene_ + "/images/0005.jpg", cv::IMREAD_COLOR);
   cv::resize(photo, photo, overlay.size(), 0, 0, cv::INTER_AREA);
@@ -118,8 +118,8 @@ TEST_F(FountainSite, OverlayDrawsTheModelOverThePhoto) {
   cv::cvtColor(difference, difference, cv::COLOR_BGR2GRAY);
   const double drawn = cv::countNonZero(difference > 40) /
                        static_cast<double>(difference.total());
-  std::cout << "overlay of 0005.jpg: " << drawn * 100 << " % of the pixels drawn"
-            << std::endl;
+  std::cout << "overlay of 0005.jpg: " << drawn * 100
+            << " % of the pixels drawn" << std::endl;
   EXPECT_GT(drawn, 0.3);
   EXPECT_THROW(overlay_jpeg(*store_, "alice-nope.jpg", {}), db::StoreError);
 }
@@ -238,8 +238,7 @@ TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
 
   const auto tar = client.get("/v1/sites/" + site_ + "/export?format=colmap");
   ASSERT_EQ(tar.status, 200) << tar.body;
-  EXPECT_EQ(tar.body,
-            export_site(*store_, site_, ExportFormat::kColmap).bytes);
+  EXPECT_EQ(tar.body, export_site(*store_, site_, ExportFormat::kColmap).bytes);
   EXPECT_NE(tar.headers.at("content-disposition").find("colmap.tar"),
             std::string::npos);
   const auto overlay = client.get("/v1/captures/alice-0003.jpg/overlay.jpg");
@@ -248,19 +247,19 @@ TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
   const auto thumbnail =
       client.get("/v1/captures/alice-0003.jpg/thumbnail.jpg?size=200");
   ASSERT_EQ(thumbnail.status, 200);
-  const cv::Mat small = cv::imdecode(
-      cv::Mat(1, static_cast<int>(thumbnail.body.size()), CV_8U,
-              const_cast<char*>(thumbnail.body.data())),
-      cv::IMREAD_COLOR);
+  const cv::Mat small =
+      cv::imdecode(cv::Mat(1, static_cast<int>(thumbnail.body.size()), CV_8U,
+                           const_cast<char*>(thumbnail.body.data())),
+                   cv::IMREAD_COLOR);
   EXPECT_EQ(small.size(), cv::Size(200, 133));
 
   EXPECT_EQ(client.get("/v1/sites/" + site_ + "/export?format=obj").status,
             400);
   EXPECT_EQ(client.get("/v1/sites/nowhere/export?format=ply").status, 404);
   EXPECT_EQ(client.get("/v1/captures/nobody/overlay.jpg").status, 404);
-  EXPECT_EQ(client.get("/v1/captures/alice-0003.jpg/thumbnail.jpg?size=0")
-                .status,
-            400);
+  EXPECT_EQ(
+      client.get("/v1/captures/alice-0003.jpg/thumbnail.jpg?size=0").status,
+      400);
   EXPECT_EQ(client.request("DELETE", "/v1/captures/alice-0003.jpg/overlay.jpg")
                 .status,
             405);
@@ -274,10 +273,10 @@ TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
 TEST_F(FountainSite, ExportCommandWritesTheSameFile) {
   store_.reset();  // the command opens the store itself
   const std::string out = (dir_ / "cameras.csv").string();
-  const std::string command = std::string(ARSCOUT_CLI) +
-                              " export --db sqlite:" +
-                              (dir_ / "arscout.db").string() + " --site " +
-                              site_ + " --format geocsv -o " + out;
+  const std::string command =
+      std::string(ARSCOUT_CLI) +
+      " export --db sqlite:" + (dir_ / "arscout.db").string() + " --site " +
+      site_ + " --format geocsv -o " + out;
   ASSERT_EQ(std::system(command.c_str()), 0);
   store_ = db::Store::open("sqlite:" + (dir_ / "arscout.db").string());
   EXPECT_EQ(read_file(out),

@@ -8,8 +8,8 @@
 #include <fstream>
 #include <sstream>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
 
 #include "arscout/viewer/exports.h"
@@ -63,8 +63,8 @@ TEST(ViewerProject, AgreesWithOpenCvIncludingDistortion) {
       EXPECT_NEAR(got->y(), expected[0].y, 1e-6);
     }
   // Behind the camera: nothing.
-  EXPECT_FALSE(project(camera, -camera.R.transpose() * camera.t -
-                                   camera.R.transpose().col(2)));
+  EXPECT_FALSE(project(
+      camera, -camera.R.transpose() * camera.t - camera.R.transpose().col(2)));
 }
 
 // Two walls facing the camera: a near one over the left half of the view,
@@ -113,7 +113,8 @@ TEST(ViewerOverlay, NearPointsHideFarOnesAndAreColouredWarm) {
   options.max_side = 320;
   const cv::Mat small = draw_overlay(photo, camera, two_walls(camera), options);
   ASSERT_EQ(small.size(), cv::Size(320, 240));
-  const cv::Vec3b l = small.at<cv::Vec3b>(120, 150), r = small.at<cv::Vec3b>(120, 170);
+  const cv::Vec3b l = small.at<cv::Vec3b>(120, 150),
+                  r = small.at<cv::Vec3b>(120, 170);
   EXPECT_GT(l[2], l[0]);
   EXPECT_GT(r[0], r[2]);
 }

@@ -175,9 +175,9 @@ ExportFile export_site(db::Store& store, const std::string& site,
     return {base + ".ply", "application/x-ply", store.get_blob(blob)};
   }
   const engine::Geodetic origin = origin_of(model);
-  const std::string comment =
-      "arscout site " + site + " model v" + std::to_string(model.version) +
-      " " + which + " cloud; frame ECEF WGS84 (EPSG:4978), metres";
+  const std::string comment = "arscout site " + site + " model v" +
+                              std::to_string(model.version) + " " + which +
+                              " cloud; frame ECEF WGS84 (EPSG:4978), metres";
   return {base + "-ecef.ply", "application/x-ply",
           encode_ecef_ply(load_cloud(store, model, cloud), origin, comment)};
 }

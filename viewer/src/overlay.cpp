@@ -24,7 +24,8 @@ std::pair<float, float> depth_range(const cv::Mat& depth) {
       if (float z = depth.at<float>(y, x); z > 0) drawn.push_back(z);
   if (drawn.empty()) return {0.f, 1.f};
   auto at = [&](double q) {
-    auto it = drawn.begin() + static_cast<std::ptrdiff_t>(q * (drawn.size() - 1));
+    auto it =
+        drawn.begin() + static_cast<std::ptrdiff_t>(q * (drawn.size() - 1));
     std::nth_element(drawn.begin(), it, drawn.end());
     return *it;
   };
@@ -42,8 +43,10 @@ cv::Mat splat_depths(const ImageCamera& camera,
     const auto pixel = project(camera, X);
     if (!pixel) continue;
     // Pixel centres map as OpenCV's resize maps them.
-    const int u = static_cast<int>(std::lround((pixel->x() + 0.5) * scale - 0.5));
-    const int v = static_cast<int>(std::lround((pixel->y() + 0.5) * scale - 0.5));
+    const int u =
+        static_cast<int>(std::lround((pixel->x() + 0.5) * scale - 0.5));
+    const int v =
+        static_cast<int>(std::lround((pixel->y() + 0.5) * scale - 0.5));
     if (u < -radius || v < -radius || u >= size.width + radius ||
         v >= size.height + radius)
       continue;
@@ -158,9 +161,8 @@ std::string overlay_jpeg(db::Store& store, const std::string& capture,
   if (photo.empty())
     throw StoreError(ErrorCode::kInternal,
                      "the photo of capture " + capture + " does not decode");
-  const cv::Mat drawn =
-      draw_overlay(photo, *camera, load_cloud(store, model, options.cloud),
-                   options);
+  const cv::Mat drawn = draw_overlay(
+      photo, *camera, load_cloud(store, model, options.cloud), options);
   std::vector<uchar> jpeg;
   cv::imencode(".jpg", drawn, jpeg, {cv::IMWRITE_JPEG_QUALITY, 88});
   return std::string(jpeg.begin(), jpeg.end());

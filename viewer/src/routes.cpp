@@ -70,11 +70,10 @@ int int_query(const HttpRequest& req, const std::string& name, int fallback,
     if (used == it->second.size() && v >= lo && v <= hi) return v;
   } catch (const std::exception&) {
   }
-  *bad = HttpResponse::error(400, "bad_request",
-                             "query parameter '" + name +
-                                 "' must be an integer in [" +
-                                 std::to_string(lo) + ", " +
-                                 std::to_string(hi) + "]");
+  *bad = HttpResponse::error(
+      400, "bad_request",
+      "query parameter '" + name + "' must be an integer in [" +
+          std::to_string(lo) + ", " + std::to_string(hi) + "]");
   return fallback;
 }
 
@@ -127,8 +126,8 @@ std::string thumbnail_jpeg(db::Store& store, const std::string& capture,
   if (image.empty())
     throw StoreError(ErrorCode::kInternal,
                      "the photo of capture " + capture + " does not decode");
-  const double scale =
-      std::min(1.0, static_cast<double>(size) / std::max(image.cols, image.rows));
+  const double scale = std::min(
+      1.0, static_cast<double>(size) / std::max(image.cols, image.rows));
   if (scale < 1)
     cv::resize(image, image, cv::Size(), scale, scale, cv::INTER_AREA);
   std::vector<uchar> out;
@@ -150,9 +149,8 @@ HttpResponse thumbnail(db::Store& store, const HttpRequest& req,
 HttpResponse site_export(db::Store& store, const HttpRequest& req,
                          const std::string& site) {
   auto it = req.query.find("format");
-  const auto format = it == req.query.end()
-                          ? std::nullopt
-                          : parse_export_format(it->second);
+  const auto format =
+      it == req.query.end() ? std::nullopt : parse_export_format(it->second);
   if (!format)
     return HttpResponse::error(
         400, "bad_request",
@@ -207,7 +205,8 @@ std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
 }
 
 std::vector<ingest::StaticMount> web_mounts(const std::string& web_root) {
-  return {{"/", web_root}, {"/vendor/three/", web_root + "/node_modules/three"}};
+  return {{"/", web_root},
+          {"/vendor/three/", web_root + "/node_modules/three"}};
 }
 
 std::string default_web_root() { return ARSCOUT_WEB_ROOT; }

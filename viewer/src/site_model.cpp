@@ -84,9 +84,9 @@ engine::Model load_full_model(db::Store& store, const SiteModel& model) {
 std::vector<engine::ColoredPoint> load_cloud(db::Store& store,
                                              const SiteModel& model,
                                              Cloud which) {
-  const std::string& blob =
-      which == Cloud::kDense && !model.dense_blob.empty() ? model.dense_blob
-                                                          : model.sparse_blob;
+  const std::string& blob = which == Cloud::kDense && !model.dense_blob.empty()
+                                ? model.dense_blob
+                                : model.sparse_blob;
   if (blob.empty()) return {};
   return engine::decode_ply(store.get_blob(blob));
 }
@@ -100,7 +100,8 @@ std::optional<ImageCamera> image_camera(const SiteModel& model,
     camera.id = capture;
     // "camera" names an entry of "cameras" by its id.
     for (const Json& c : cameras)
-      if (c.at("id") == image.at("camera")) camera.intrinsics = intrinsics_of(c);
+      if (c.at("id") == image.at("camera"))
+        camera.intrinsics = intrinsics_of(c);
     if (camera.intrinsics.width <= 0)
       throw db::StoreError(db::ErrorCode::kInternal,
                            "model of " + model.site + ": image " + capture +

@@ -26,11 +26,11 @@ using Json = nlohmann::json;
 // The model document of one site.
 struct SiteModel {
   std::string site;
-  std::int64_t version = 0;  // the model version (the document's version)
+  std::int64_t version = 0;     // the model version (the document's version)
   std::int64_t updated_us = 0;  // when it was committed (Unix microseconds)
-  Json attrs;                // the document's attributes
-  std::string sparse_blob;   // SHA-256 of the sparse PLY ("" if none)
-  std::string dense_blob;    // SHA-256 of the dense PLY ("" if none)
+  Json attrs;                   // the document's attributes
+  std::string sparse_blob;      // SHA-256 of the sparse PLY ("" if none)
+  std::string dense_blob;       // SHA-256 of the dense PLY ("" if none)
 };
 
 // Throws db::StoreError kNotFound ("site S has no model yet") when there is
