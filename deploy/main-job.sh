@@ -12,7 +12,8 @@
 #
 # Environment: ARSCOUT_BIN (default build/cli/arscout), ARSCOUT_MAIN_JOB_DIR
 # (default arscout-main-job: the database, logs and models),
-# ARSCOUT_DATA (default ../shared/data).
+# ARSCOUT_DATA (default ../shared/data), ARSCOUT_MAIN_JOB_SERVE=1 (keep
+# serving the API and the web viewer after the summary, until Ctrl-C).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${ARSCOUT_BIN:-build/cli/arscout}
@@ -41,7 +42,9 @@ for _ in $(seq 100); do
   sleep 0.1
 done
 [ -n "$url" ] || { echo "main job: the server did not start" >&2; exit 1; }
+planner=$("$bin" token create --db "$db" --role planner --name planner)
 echo "== server at $url (log: $work/server.log); engine lines follow"
+echo "== planners: open $url/ in a browser while it runs, token $planner"
 tail -f "$work/server.log" --pid "$server_pid" | sed -n 's/^/   engine  /p' &
 
 fountain="$data/strecha/fountain-P11"
@@ -72,3 +75,7 @@ echo "== uploads done; waiting for the engine to finish"
 echo
 echo "models: $work/models/SITE/{sparse,dense}.ply; the same files are served"
 echo "at $url/v1/blobs/SHA256 (GET /v1/docs/sites/SITE/model names them)"
+if [ "${ARSCOUT_MAIN_JOB_SERVE:-0}" = 1 ]; then
+  echo "== still serving at $url/ (planner token $planner); Ctrl-C stops"
+  wait "$server_pid"
+fi
