@@ -56,6 +56,10 @@ SiteModel load_site_model(db::Store& store, const std::string& site) {
   model.attrs = doc->attrs;
   model.sparse_blob = blob_of(*doc, "sparse");
   model.dense_blob = blob_of(*doc, "dense");
+  // Before its first dense phase a model carries an empty dense PLY.
+  if (doc->attrs.value("statistics", Json::object()).value("dense_points", 0) ==
+      0)
+    model.dense_blob.clear();
   return model;
 }
 

@@ -1,6 +1,7 @@
 // The arscout web viewer: sites, a site's model in 3D, live updates.
 // This module holds the state and wires the others together.
 
+import * as THREE from 'three';
 import { ApiClient, UnauthorizedError, healthz, tokenStore, encodePath } from './api.js';
 import { parsePly } from './ply.js';
 import { Viewer, robustBounds } from './scene.js';
@@ -9,7 +10,6 @@ import { LiveFeed } from './live.js';
 import { renderSites, markSelectedSite, captureStatuses, renderCaptures, siteId } from './sites.js';
 import { status, progress, tokenDialog, overlayDialog, viewMessage, showLiveState } from './ui.js';
 import { debounce, serialized, formatCount, formatTime } from './util.js';
-import * as THREE from 'three';
 
 const $ = (id) => document.getElementById(id);
 
@@ -172,6 +172,7 @@ function resetSiteState() {
   state.model = null;
   state.shownKind = null;
   state.framed = false;
+  state.frustumDepth = 1;
   state.thumbnails?.dispose();
   state.thumbnails = null;
   viewer.clearCloud();
@@ -234,17 +235,30 @@ function showModelDetails(doc) {
   $('model-details').textContent = parts.join(' · ');
 }
 
+/**
+ * The clouds a model offers. Until its first dense cloud is computed a
+ * model carries an empty dense placeholder, which does not count.
+ */
+function cloudKinds(doc) {
+  const blobs = doc?.blobs || {};
+  const stats = doc?.attrs?.statistics || {};
+  return {
+    sparse: Boolean(blobs.sparse),
+    dense: Boolean(blobs.dense) && stats.dense_points !== 0,
+  };
+}
+
 /** Which cloud to show: the user's choice if the model has it, else dense if present. */
 function cloudKind(doc) {
-  const blobs = doc.blobs || {};
-  if (state.chosenKind && blobs[state.chosenKind]) return state.chosenKind;
-  return blobs.dense ? 'dense' : 'sparse';
+  const kinds = cloudKinds(doc);
+  if (state.chosenKind && kinds[state.chosenKind]) return state.chosenKind;
+  return kinds.dense ? 'dense' : 'sparse';
 }
 
 function showKindControls(doc, kind) {
-  const blobs = doc?.blobs || {};
-  $('cloud-sparse').disabled = !blobs.sparse;
-  $('cloud-dense').disabled = !blobs.dense;
+  const kinds = cloudKinds(doc);
+  $('cloud-sparse').disabled = !kinds.sparse;
+  $('cloud-dense').disabled = !kinds.dense;
   $('cloud-sparse').checked = kind === 'sparse';
   $('cloud-dense').checked = kind === 'dense';
 }
@@ -290,7 +304,7 @@ function viewDirection(attrs, centre, up) {
   const from = n ? mean.divideScalar(n).sub(centre) : new THREE.Vector3();
   from.addScaledVector(up, -from.dot(up)); // horizontal part
   if (from.lengthSq() < 1e-9) {
-    from.set(0, -1, 0).addScaledVector(up, -up.y);
+    from.set(0, -1, 0).addScaledVector(up, up.y); // south, levelled
     if (from.lengthSq() < 1e-9) from.set(1, 0, 0);
   }
   return from.normalize().addScaledVector(up, 0.45).normalize();
@@ -334,18 +348,19 @@ async function showModel(doc, generation, signal) {
   }
   const cloud = await cloudFor(hash, `${kind} cloud`, signal);
   if (generation !== state.generation) return;
-  // The camera is framed once per site; later versions keep the user's view.
-  if (!state.framed) frameOn(cloud, doc.attrs || {});
+  // The camera is framed once per site (on its first cloud with points);
+  // later versions keep the user's view.
+  if (!state.framed && cloud.count > 0) frameOn(cloud, doc.attrs || {});
   viewer.setCloud(cloud);
   viewer.frusta.update(doc.attrs || {}, state.frustumDepth, state.thumbnails);
   state.model = doc;
   state.shownKind = kind;
-  viewMessage('');
+  viewMessage(cloud.count > 0 ? '' : 'The model has no points yet.');
   showModelVersion(doc.version);
   showPointCount(cloud.count, kind);
   showModelDetails(doc);
   renderCaptureList();
-  document.body.dataset.cloud = 'loaded';
+  if (cloud.count > 0) document.body.dataset.cloud = 'loaded';
 }
 
 /** Fetches the open site's model and shows it if it is newer (or another kind). */

@@ -70,15 +70,16 @@ export function captureStatuses(id, site, model, captureDocs) {
 
   const rows = [...ids].map((capture) => {
     const attrs = byId.get(capture)?.attrs || {};
-    let status = attrs.status || inModel[capture] || 'unknown';
-    // "stored" only says the upload worked; the model knows it is queued.
-    if (status === 'stored' && inModel[capture] === 'pending') status = 'pending';
+    const status = attrs.status || inModel[capture] || 'unknown';
+    // A stored capture the model lists as pending was tried but is not
+    // registered yet (the engine tries again as the model grows).
+    const waiting = status === 'stored' && inModel[capture] === 'pending';
     return {
       id: capture,
       filename: attrs.filename || '',
       scout: attrs.scout || '',
       status,
-      reason: attrs.status_reason || '',
+      reason: attrs.status_reason || (waiting ? 'not registered yet' : ''),
       received: attrs.received || '',
     };
   });

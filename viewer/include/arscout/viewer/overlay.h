@@ -27,7 +27,7 @@ struct OverlayOptions {
   int max_side = 1280;  // the output's long side (never above the photo's)
   Cloud cloud = Cloud::kDense;
   int radius = -1;        // splat half-size in output pixels; -1: by size
-  double opacity = 0.75;  // of the drawn points over the photo
+  double opacity = 0.55;  // of the drawn points over the photo
 };
 
 // Draws `points` over `photo` (BGR, original size) seen by `camera`: each
