@@ -253,6 +253,14 @@ TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
                    cv::IMREAD_COLOR);
   EXPECT_EQ(small.size(), cv::Size(200, 133));
 
+  const auto captures = client.get("/v1/sites/" + site_ + "/captures");
+  ASSERT_EQ(captures.status, 200);
+  const Json listed = captures.json().at("captures");
+  ASSERT_EQ(listed.size(), 10u);
+  for (const Json& doc : listed) EXPECT_EQ(doc.at("attrs").at("site"), site_);
+  EXPECT_TRUE(
+      client.get("/v1/sites/nowhere/captures").json().at("captures").empty());
+
   EXPECT_EQ(client.get("/v1/sites/" + site_ + "/export?format=obj").status,
             400);
   EXPECT_EQ(client.get("/v1/sites/nowhere/export?format=ply").status, 404);

@@ -167,6 +167,19 @@ HttpResponse site_export(db::Store& store, const HttpRequest& req,
   return r;
 }
 
+// The site's capture documents (those whose `site` is it), by path: what
+// a viewer lists without fetching every capture on the server.
+HttpResponse site_captures(db::Store& store, const std::string& site) {
+  db::Query query;
+  query.pattern = "/captures/*";
+  query.equals = {{"site", site}};
+  query.limit = 100000;
+  Json docs = Json::array();
+  for (const db::Document& doc : store.query(query))
+    docs.push_back(db::to_json(doc));
+  return HttpResponse::json(200, Json{{"captures", docs}});
+}
+
 ingest::ApiRoute route(
     const std::string& name, const std::string& collection,
     const std::string& leaf,
@@ -196,6 +209,10 @@ std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
       route("GET /v1/captures/*/thumbnail.jpg", "captures", "thumbnail.jpg",
             [s](const HttpRequest& req, const std::string& id) {
               return thumbnail(*s, req, id);
+            }),
+      route("GET /v1/sites/*/captures", "sites", "captures",
+            [s](const HttpRequest&, const std::string& id) {
+              return site_captures(*s, id);
             }),
       route("GET /v1/sites/*/export", "sites", "export",
             [s](const HttpRequest& req, const std::string& id) {

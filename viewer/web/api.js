@@ -105,9 +105,10 @@ export class ApiClient {
     return body.sites || [];
   }
 
-  async captures() {
-    const body = await this.json('/v1/docs/captures?depth=1');
-    return (body.documents || []).filter((d) => d.kind === 'capture');
+  /** The capture documents the engine has placed in `site`. */
+  async captures(site) {
+    const body = await this.json(`/v1/sites/${encodeURIComponent(site)}/captures`);
+    return body.captures || [];
   }
 
   /** A Blob of an authenticated resource (thumbnails, overlays). */

@@ -21,7 +21,7 @@ const LIST_REFRESH_MS = 500;
 const state = {
   lastSeq: 0, // from /healthz, before the first load
   sites: [], // the /sites/* documents
-  captureDocs: [], // the /captures/* documents
+  captureDocs: [], // the open site's /captures/* documents
   site: null, // the open site's id
   generation: 0, // counts site openings: stale async results are dropped
   abort: null, // aborts the open site's downloads
@@ -113,8 +113,12 @@ const refreshSites = serialized(async () => {
 });
 
 const refreshCaptures = serialized(async () => {
+  const site = state.site;
+  if (!site) return;
   try {
-    state.captureDocs = await api.captures();
+    const docs = await api.captures(site);
+    if (state.site !== site) return; // another site was opened meanwhile
+    state.captureDocs = docs;
     status.clear(LOAD_CAPTURES);
     renderCaptureList();
   } catch (err) {
@@ -170,6 +174,7 @@ function resetSiteState() {
   state.abort = new AbortController();
   state.generation++;
   state.model = null;
+  state.captureDocs = [];
   state.shownKind = null;
   state.framed = false;
   state.frustumDepth = 1;

@@ -3,6 +3,8 @@
 //   GET /v1/captures/{id}/overlay.jpg   the AR overlay (overlay.h);
 //       ?max_side=64..4096, ?cloud=dense|sparse
 //   GET /v1/captures/{id}/thumbnail.jpg the photo, small; ?size=16..1024
+//   GET /v1/sites/{id}/captures         {"captures": [the site's capture
+//       documents]}
 //   GET /v1/sites/{id}/export?format=ply|colmap|geocsv|ecef-ply
 //       (exports.h); ?cloud=dense|sparse for the two PLY formats
 //
