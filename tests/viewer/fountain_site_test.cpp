@@ -188,7 +188,11 @@ TEST_F(FountainSite, GeoCsvIsTheModelsGeoRegistration) {
   std::cout << "geo CSV vs gps_truth.csv: median " << metres << " m over "
             << matched << " cameras" << std::endl;
   EXPECT_EQ(matched, 10);
-  EXPECT_LE(metres, 1.0);
+  // The frame comes from 10 fixes with 1.5 m of noise per axis; the
+  // engine's own 1 m target (11 photos) is the reconstruction tests'. Here
+  // the point is that the file is comparable with the truth at all: a wrong
+  // column, unit or frame would be metres to kilometres off.
+  EXPECT_LE(metres, 1.5);
 }
 
 TEST_F(FountainSite, PlyExportsHoldTheCloudsInTheirFrames) {
