@@ -42,7 +42,8 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
       ->capture_default_str()
       ->check(CLI::Range(100, 10000));
   cmd->add_flag("--deterministic", o->reconstruction.deterministic,
-                "fixed seeds and single-threaded solvers");
+                "fixed seeds, single-threaded solvers and one capture per "
+                "increment: the same feed gives the same models");
 }
 
 void print_worker_progress(engine::WorkerOptions* options) {

@@ -185,8 +185,14 @@ struct EngineWorker::Impl {
       }
       q.running = true;
       q.dense_retry = false;
-      std::vector<Work> work(q.pending.begin(), q.pending.end());
-      q.pending.clear();
+      // Deterministic runs take one capture per increment: folding
+      // whatever arrived meanwhile depends on timing, and so would the
+      // dense phase's choice of views.
+      const auto take = options.reconstruction.deterministic
+                            ? std::min<std::ptrdiff_t>(1, q.pending.size())
+                            : static_cast<std::ptrdiff_t>(q.pending.size());
+      std::vector<Work> work(q.pending.begin(), q.pending.begin() + take);
+      q.pending.erase(q.pending.begin(), q.pending.begin() + take);
       if (!q.job)
         q.job = std::make_unique<service::SiteJob>(site, store, options);
       service::SiteJob& job = *q.job;

@@ -81,42 +81,57 @@ double median_centre_error(const Json& model, const std::string& scene) {
       .median_centre_error;
 }
 
-TEST(ReplayRegression, FountainSessionDrivesTheEngineToTheExpectedModel) {
-  std::string scene;
-  ARSCOUT_SHARED_DATA_OR_SKIP(scene, "strecha/fountain-P11");
+// The session file recorded from the viewer fixture's store, or "" after
+// a skip or failure.
+std::string record_fountain_session(const fs::path& dir) {
   const fs::path recorded(ARSCOUT_VIEWER_SITE);
   if (!fs::exists(recorded / "ready")) {
     const std::string why = "no recorded fountain site at " +
                             recorded.string() +
                             " (the viewer.fountain_site fixture failed?)";
-    if (testing::in_ci()) FAIL() << why;
-    GTEST_SKIP() << why;
+    if (testing::in_ci()) ADD_FAILURE() << why;
+    std::cout << "SKIP: " << why << std::endl;
+    return "";
   }
-  const fs::path dir = testing::make_temp_dir("replay");
   for (const char* name : {"arscout.db", "arscout.db-wal", "arscout.db-shm"})
     if (fs::exists(recorded / name)) fs::copy_file(recorded / name, dir / name);
-
-  // Record: the session file from the store the scout filled.
   const std::string session = (dir / "fountain.session").string();
-  {
-    auto source = db::Store::open("sqlite:" + (dir / "arscout.db").string());
-    std::ofstream out(session);
-    const ingest::SessionSummary s = ingest::export_session(*source, 0, out);
-    EXPECT_EQ(s.inputs, 11);  // 10 photos and their camera
-  }
+  auto source = db::Store::open("sqlite:" + (dir / "arscout.db").string());
+  std::ofstream out(session);
+  const ingest::SessionSummary s = ingest::export_session(*source, 0, out);
+  EXPECT_EQ(s.inputs, 11);  // 10 photos and their camera
+  return session;
+}
+
+// Replays `session` into a new store with an engine following it; the
+// site's model once 10 captures are registered and the cloud is current.
+std::optional<db::Document> replay_with_engine(
+    const std::string& session, engine::WorkerOptions options,
+    ingest::ReplayOptions replay, std::unique_ptr<db::Store>* store,
+    ingest::ReplaySummary* summary) {
+  *store = db::Store::open(testing::fresh_sqlite_url());
+  options.dense_options.long_side = 480;  // as the recording's engine ran
+  engine::EngineWorker worker(**store, options);
+  worker.start();
+  *summary = ingest::replay_session(session, **store, replay);
+  auto model = wait_for_model(**store, 10, std::chrono::seconds(300));
+  worker.stop();
+  return model;
+}
+
+TEST(ReplayRegression, FountainSessionDrivesTheEngineToTheExpectedModel) {
+  std::string scene;
+  ARSCOUT_SHARED_DATA_OR_SKIP(scene, "strecha/fountain-P11");
+  const fs::path dir = testing::make_temp_dir("replay");
+  const std::string session = record_fountain_session(dir);
+  if (session.empty()) GTEST_SKIP() << "no recorded session";
 
   // Replay into an empty store, an engine following it, at 4x speed.
-  auto store = db::Store::open(testing::fresh_sqlite_url());
-  engine::WorkerOptions options;
-  options.dense_options.long_side = 480;  // as the recording's engine ran
-  engine::EngineWorker worker(*store, options);
-  worker.start();
+  std::unique_ptr<db::Store> store;
   ingest::ReplayOptions replay;
   replay.speed = 4;
-  const ingest::ReplaySummary r =
-      ingest::replay_session(session, *store, replay);
-  const auto model = wait_for_model(*store, 10, std::chrono::seconds(300));
-  worker.stop();
+  ingest::ReplaySummary r;
+  const auto model = replay_with_engine(session, {}, replay, &store, &r);
   ASSERT_TRUE(model) << "no model with 10 registered captures within 300 s";
 
   const Json& stats = model->attrs.at("statistics");
@@ -139,6 +154,50 @@ TEST(ReplayRegression, FountainSessionDrivesTheEngineToTheExpectedModel) {
                                   [](const Row& row) { return row.ok(); });
   std::cout << table(rows);
   EXPECT_TRUE(all_ok) << "\n" << table(rows);
+}
+
+TEST(ReplayDeterminism, TwoDeterministicReplaysGiveTheSameModel) {
+  std::string scene;
+  ARSCOUT_SHARED_DATA_OR_SKIP(scene, "strecha/fountain-P11");
+  const fs::path dir = testing::make_temp_dir("replay-deterministic");
+  const std::string session = record_fountain_session(dir);
+  if (session.empty()) GTEST_SKIP() << "no recorded session";
+  engine::WorkerOptions options;
+  options.reconstruction.deterministic = true;
+  ingest::ReplayOptions fast;
+  fast.fast = true;
+  std::unique_ptr<db::Store> a_store, b_store;
+  ingest::ReplaySummary a_summary, b_summary;
+  const auto a =
+      replay_with_engine(session, options, fast, &a_store, &a_summary);
+  // The second at real speed: arrival times must not matter.
+  ingest::ReplayOptions paced;
+  paced.speed = 2;
+  const auto b =
+      replay_with_engine(session, options, paced, &b_store, &b_summary);
+  ASSERT_TRUE(a && b) << "no model with 10 registered captures within 300 s";
+
+  const Json& ai = a->attrs.at("images");
+  const Json& bi = b->attrs.at("images");
+  ASSERT_EQ(ai.size(), bi.size());
+  double worst = 0;
+  for (size_t i = 0; i < ai.size(); ++i) {
+    EXPECT_EQ(ai[i].at("id"), bi[i].at("id"));
+    for (const char* key : {"qvec", "tvec"})
+      for (size_t k = 0; k < ai[i].at(key).size(); ++k) {
+        const double x = ai[i].at(key)[k], y = bi[i].at(key)[k];
+        worst = std::max(worst, std::abs(x - y) / std::max(1.0, std::abs(x)));
+      }
+  }
+  std::cout << "deterministic replays: largest relative pose difference "
+            << worst << std::endl;
+  EXPECT_LE(worst, 1e-9);
+  EXPECT_EQ(a->attrs.at("statistics").at("sparse_points"),
+            b->attrs.at("statistics").at("sparse_points"));
+  EXPECT_EQ(a->attrs.at("statistics").at("dense_points"),
+            b->attrs.at("statistics").at("dense_points"));
+  EXPECT_EQ(a->attrs.at("captures"), b->attrs.at("captures"));
+  EXPECT_EQ(a->version, b->version);
 }
 
 }  // namespace
