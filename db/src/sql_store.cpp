@@ -377,24 +377,24 @@ std::string SqlStore::put_blob(std::istream& in) {
         throw StoreError(ErrorCode::kUnavailable,
                          "upload " + upload_id +
                              " was collected before it completed; retry");
-      bool exists =
-          !s.query(make_sql(dialect_, "SELECT 1 FROM blobs WHERE sha256 = ?",
-                            {blob.sha256}))
-               .empty();
-      if (exists) {
-        s.execute(make_sql(dialect_,
-                           "DELETE FROM blob_chunks WHERE blob_key = ?",
-                           {upload_id}));
-      } else {
-        s.execute(
-            make_sql(dialect_,
-                     "INSERT INTO blobs (sha256, size, chunk_bytes, "
-                     "created_us) VALUES (?, ?, ?, ?)",
-                     {blob.sha256, blob.size,
-                      static_cast<std::int64_t>(kBlobChunkBytes), now_us()}));
+      // The same photo uploaded twice at once (a retry racing an attempt
+      // whose answer was lost) reaches this point twice: the insert must not
+      // fail on the second, which keeps the first's chunks.
+      const bool inserted =
+          s.execute(make_sql(
+              dialect_,
+              "INSERT INTO blobs (sha256, size, chunk_bytes, created_us) "
+              "VALUES (?, ?, ?, ?) ON CONFLICT (sha256) DO NOTHING",
+              {blob.sha256, blob.size,
+               static_cast<std::int64_t>(kBlobChunkBytes), now_us()})) == 1;
+      if (inserted) {
         s.execute(make_sql(
             dialect_, "UPDATE blob_chunks SET blob_key = ? WHERE blob_key = ?",
             {blob.sha256, upload_id}));
+      } else {
+        s.execute(make_sql(dialect_,
+                           "DELETE FROM blob_chunks WHERE blob_key = ?",
+                           {upload_id}));
       }
       s.execute(make_sql(dialect_,
                          "DELETE FROM blob_uploads WHERE upload_id = ?",

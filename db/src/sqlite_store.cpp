@@ -3,6 +3,7 @@
 // lets run beside the writer. Other processes on the same file are found by
 // polling the log (Store::subscribe's poll interval).
 #include <sqlite3.h>
+#include <sys/statvfs.h>
 
 #include <chrono>
 #include <mutex>
@@ -19,16 +20,34 @@ namespace {
 
 constexpr int kBusyTimeoutMs = 15000;
 
+// Conditions of the file or the machine that pass or that an operator can
+// fix (a lock, a full or read-only disk, a damaged file) are "unavailable"
+// (HTTP 503, retry later); anything else is a bug ("internal").
+ErrorCode error_code_of(sqlite3* db) {
+  switch (sqlite3_extended_errcode(db) & 0xff) {
+    case SQLITE_BUSY:
+    case SQLITE_LOCKED:
+    case SQLITE_CANTOPEN:
+    case SQLITE_NOTADB:
+    case SQLITE_READONLY:
+    case SQLITE_FULL:
+    case SQLITE_IOERR:
+    case SQLITE_CORRUPT:
+      return ErrorCode::kUnavailable;
+    default:
+      return ErrorCode::kInternal;
+  }
+}
+
 [[noreturn]] void fail(sqlite3* db, const std::string& what) {
-  int code = sqlite3_extended_errcode(db);
-  int primary = code & 0xff;
-  ErrorCode ec = (primary == SQLITE_BUSY || primary == SQLITE_LOCKED ||
-                  primary == SQLITE_CANTOPEN || primary == SQLITE_NOTADB ||
-                  primary == SQLITE_READONLY || primary == SQLITE_FULL ||
-                  primary == SQLITE_IOERR || primary == SQLITE_CORRUPT)
-                     ? ErrorCode::kUnavailable
-                     : ErrorCode::kInternal;
-  throw StoreError(ec, what + ": " + sqlite3_errmsg(db));
+  throw StoreError(error_code_of(db), what + ": " + sqlite3_errmsg(db));
+}
+
+bool on_read_only_file_system(const std::string& path) {
+  std::string dir = path.substr(0, path.find_last_of('/') + 1);
+  struct statvfs fs {};
+  return statvfs(dir.empty() ? "." : dir.c_str(), &fs) == 0 &&
+         (fs.f_flag & ST_RDONLY) != 0;
 }
 
 class Connection : public SqlSession {
@@ -42,11 +61,16 @@ class Connection : public SqlSession {
       std::string msg = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(rc);
       sqlite3_close(db_);
       throw StoreError(ErrorCode::kUnavailable,
-                       "cannot open SQLite database '" + path + "': " + msg);
+                       "cannot open SQLite database '" + path + "': " + msg +
+                           (on_read_only_file_system(path)
+                                ? " (it is on a read-only file system)"
+                                : ""));
     }
     sqlite3_busy_timeout(db_, kBusyTimeoutMs);
     sqlite3_extended_result_codes(db_, 1);
   }
+  bool read_only() const { return sqlite3_db_readonly(db_, "main") == 1; }
+
   ~Connection() override {
     for (auto& [sql, stmt] : cache_) sqlite3_finalize(stmt);
     sqlite3_close(db_);
@@ -84,14 +108,7 @@ class Connection : public SqlSession {
     if (sqlite3_exec(db_, text.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
       std::string msg = err ? err : "unknown error";
       sqlite3_free(err);
-      int primary = sqlite3_extended_errcode(db_) & 0xff;
-      throw StoreError(primary == SQLITE_BUSY || primary == SQLITE_READONLY ||
-                               primary == SQLITE_FULL ||
-                               primary == SQLITE_IOERR ||
-                               primary == SQLITE_NOTADB
-                           ? ErrorCode::kUnavailable
-                           : ErrorCode::kInternal,
-                       "SQLite: " + msg);
+      throw StoreError(error_code_of(db_), "SQLite: " + msg);
     }
   }
 
@@ -142,6 +159,15 @@ class SqliteStore : public SqlStore {
   SqliteStore(const std::string& path, const OpenOptions& options)
       : SqlStore(Dialect::kSqlite, options), path_(path) {
     writer_ = std::make_unique<Connection>(path_);
+    // SQLite quietly opens a file it may not write read-only; the store
+    // must write (the change log, leases), so say so now, not at the first
+    // write.
+    if (writer_->read_only())
+      throw StoreError(ErrorCode::kUnavailable,
+                       "SQLite database '" + path_ + "' cannot be written: " +
+                           (on_read_only_file_system(path_)
+                                ? "it is on a read-only file system"
+                                : "no write permission"));
     enable_wal();
     // NORMAL syncs at checkpoints, which in WAL mode keeps the file
     // consistent after any crash (a power cut may lose the last commits).

@@ -50,7 +50,12 @@ HttpResponse HttpResponse::error(int status, const std::string& kind,
                                  const Json& extra) {
   Json body{{"error", kind}, {"message", message}};
   for (auto& [k, v] : extra.items()) body[k] = v;
-  return json(status, body);
+  HttpResponse response = json(status, body);
+  // A store that is down (a database restarting, a full disk being cleared)
+  // is usually back within seconds; clients that honour this back off
+  // instead of hammering it.
+  if (status == 503) response.headers.emplace_back("Retry-After", "1");
+  return response;
 }
 
 std::optional<ParsedTarget> parse_target(const std::string& target) {

@@ -412,6 +412,33 @@ TEST_P(ConcurrencyTest, ThreadsWithConflictsKeepTheLogExact) {
   ExpectDelivered(counters, shared, shared.back().seq);
 }
 
+// A retry racing the attempt whose answer was lost stores the same bytes
+// twice at once; both must succeed with the one blob (on PostgreSQL the
+// second insert used to fail on the primary key).
+TEST_P(ConcurrencyTest, TheSameBlobPutAtOnceIsStoredOnce) {
+  constexpr int kRounds = 20, kPutters = 4;
+  for (int round = 0; round < kRounds; ++round) {
+    const std::string bytes(300000 + round, static_cast<char>('a' + round));
+    std::vector<std::string> hashes(kPutters), errors(kPutters);
+    std::vector<std::thread> putters;
+    for (int p = 0; p < kPutters; ++p)
+      putters.emplace_back([&, p] {
+        try {
+          hashes[p] = store_->put_blob(bytes);
+        } catch (const std::exception& e) {
+          errors[p] = e.what();
+        }
+      });
+    for (auto& t : putters) t.join();
+    for (int p = 0; p < kPutters; ++p) {
+      EXPECT_EQ(errors[p], "") << "round " << round;
+      EXPECT_EQ(hashes[p], hashes[0]);
+    }
+    EXPECT_EQ(store_->get_blob(hashes[0]), bytes);
+  }
+  EXPECT_EQ(store_->stats().blobs, kRounds);
+}
+
 INSTANTIATE_TEST_SUITE_P(Backends, ConcurrencyTest,
                          ::testing::Values("sqlite", "postgresql"),
                          [](const auto& info) { return info.param; });

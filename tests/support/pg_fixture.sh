@@ -5,14 +5,18 @@
 #                                   a free port, write the admin URL to
 #                                   STATE_DIR/url
 #   pg_fixture.sh stop STATE_DIR    stop the server and delete its data
+#   pg_fixture.sh down STATE_DIR    stop the server (fast), keeping its data
+#   pg_fixture.sh up STATE_DIR      start it again, on the same port
+#   pg_fixture.sh restart STATE_DIR `pg_ctl restart` (the fault tests)
 #
 # As root the server runs as user 'postgres' (runuser). When PostgreSQL is not
 # installed the start writes no URL and exits 0, so tests skip with a message,
 # except under CI=true, where that is a failure.
 set -euo pipefail
 
-cmd=${1:?usage: pg_fixture.sh start|stop STATE_DIR}
-state=${2:?usage: pg_fixture.sh start|stop STATE_DIR}
+usage="usage: pg_fixture.sh start|stop|down|up|restart STATE_DIR"
+cmd=${1:?$usage}
+state=${2:?$usage}
 bindir=${ARSCOUT_PG_BINDIR:-/usr/lib/postgresql/15/bin}
 
 as_server_user() {
@@ -70,9 +74,10 @@ start_server() {
       cat "$root/initdb.log" >&2; exit 1; }
   for attempt in 1 2 3 4 5; do
     port=$(free_port)
+    echo "-p $port -k $root -c listen_addresses=127.0.0.1 -c max_connections=200" \
+      > "$state/options"
     if as_server_user "$bindir/pg_ctl" -D "$data" -l "$root/server.log" -w -t 60 \
-         -o "-p $port -k $root -c listen_addresses=127.0.0.1 -c max_connections=200" \
-         start >/dev/null 2>&1; then
+         -o "$(cat "$state/options")" start >/dev/null 2>&1; then
       echo "postgresql://postgres@127.0.0.1:$port/postgres" > "$state/url"
       echo "PostgreSQL test server on 127.0.0.1:$port (data in $data)"
       return 0
@@ -83,8 +88,19 @@ start_server() {
   exit 1
 }
 
+# down/up/restart act on a server that start left running.
+pg_ctl_on_data() {
+  local data
+  data=$(cat "$state/datadir")
+  as_server_user "$bindir/pg_ctl" -D "$data" -l "$(dirname "$data")/server.log" \
+    -w -t 60 "$@" >/dev/null
+}
+
 case "$cmd" in
   start) start_server ;;
   stop) stop_server ;;
+  down) pg_ctl_on_data -m fast stop ;;
+  up) pg_ctl_on_data -o "$(cat "$state/options")" start ;;
+  restart) pg_ctl_on_data -m fast -o "$(cat "$state/options")" restart ;;
   *) echo "unknown command $cmd" >&2; exit 2 ;;
 esac

@@ -28,6 +28,7 @@ class ToolProcess {
   int kill_now();
   // Sends a signal (e.g. SIGTERM) if it is still running.
   void signal(int signo);
+  pid_t pid() const { return pid_; }
 
  private:
   pid_t pid_ = -1;
