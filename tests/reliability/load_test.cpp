@@ -170,6 +170,7 @@ TEST_P(LoadTest, ConcurrentScoutsWithAbortedUploadsStoreEachCaptureOnce) {
   const std::size_t expected = static_cast<std::size_t>(scouts_ * captures_);
   db::Query all;
   all.pattern = "/captures/*";
+  all.limit = expected + 1;  // one more, so that a duplicate would show
   const std::size_t stored = store_->query(all).size();
   EXPECT_EQ(stored, expected);
   // One change per capture: every retry and replay was absorbed.
