@@ -231,6 +231,10 @@ ExifInfo read_info(const Exiv2::ExifData& exif) {
   return info;
 }
 
+// Exiv2 0.27's API hands images out as std::auto_ptr, deprecated since
+// C++11; clang says so at every use. Debian 12 has no newer Exiv2.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
 ExifInfo read_image(Exiv2::Image::AutoPtr image) {
   if (!image.get()) return {};
   image->readMetadata();
@@ -261,5 +265,6 @@ ExifInfo read_exif_file(const std::string& path) {
     return {};
   }
 }
+#pragma GCC diagnostic pop
 
 }  // namespace arscout::ingest

@@ -161,12 +161,17 @@ TEST(PostgresRestart, ServerAnswers503WhileDownAndScoutsLoseNothing) {
   // Then a plain `pg_ctl restart` while the scouts are still at it.
   std::this_thread::sleep_for(1s);
   ASSERT_TRUE(pg.run("restart"));
+  int retries = 0;
   for (int s = 0; s < kScouts; ++s) {
     auto status = scouts[s]->wait_for(240s);
     ASSERT_TRUE(status) << "scout " << s << " still running";
-    EXPECT_EQ(testing::describe_status(*status), "exit 0")
-        << testing::slurp(dir + "/s" + std::to_string(s) + ".log");
+    std::string log = testing::slurp(dir + "/s" + std::to_string(s) + ".log");
+    EXPECT_EQ(testing::describe_status(*status), "exit 0") << log;
+    for (std::size_t at = 0; (at = log.find("; retry ", at)) != log.npos; ++at)
+      ++retries;
   }
+  std::cout << "PostgreSQL down 3 s and restarted: " << kScouts << " scouts x "
+            << kPhotos << " photos, " << retries << " retries\n";
   ingest::HttpResult retried = upload(client, "t-during-outage", mine);
   EXPECT_EQ(retried.status, 201) << retried.body;
 
