@@ -6,80 +6,22 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
-#include <iomanip>
-#include <sstream>
-#include <thread>
+#include <iostream>
 
 #include <gtest/gtest.h>
-#include <Eigen/Geometry>
 
 #include "arscout/db/store.h"
-#include "arscout/engine/ply.h"
-#include "arscout/engine/service.h"
 #include "arscout/ingest/session.h"
-#include "model_eval.h"
+#include "replay_support.h"
 #include "test_stores.h"
 
 namespace arscout {
 namespace {
 
 namespace fs = std::filesystem;
-using Json = nlohmann::json;
 
-// One expected statistic: a name, what was measured, the allowed range.
-struct Row {
-  std::string name;
-  double got;
-  double min;
-  double max;
-  bool ok() const { return got >= min && got <= max; }
-};
-
-std::string table(const std::vector<Row>& rows) {
-  std::ostringstream out;
-  out << std::left << std::setw(34) << "statistic" << std::setw(14) << "got"
-      << "expected\n";
-  for (const Row& r : rows)
-    out << std::setw(34) << r.name << std::setw(14) << r.got << "[" << r.min
-        << ", " << r.max << "]" << (r.ok() ? "" : "   <-- FAILS") << "\n";
-  return out.str();
-}
-
-// The model document of the only site, once it has `registered` captures
-// and its dense cloud has caught up; nullopt at the timeout.
-std::optional<db::Document> wait_for_model(db::Store& store, int registered,
-                                           std::chrono::seconds timeout) {
-  const auto end = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < end) {
-    for (const db::Document& site : store.list_children("/sites")) {
-      auto model = store.get(site.path + "/model");
-      if (model &&
-          model->attrs.at("statistics").value("registered", 0) == registered &&
-          model->attrs.value("dense_state", "") == "current")
-        return model;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(250));
-  }
-  return std::nullopt;
-}
-
-double median_centre_error(const Json& model, const std::string& scene) {
-  std::map<std::string, eval::Pose> estimated;
-  for (const Json& image : model.at("images")) {
-    const std::string id = image.at("id");
-    eval::Pose pose;
-    pose.name = id.substr(id.find('-') + 1);  // "alice-0003.jpg"
-    const auto q = image.at("qvec").get<std::array<double, 4>>();
-    const auto t = image.at("tvec").get<std::array<double, 3>>();
-    pose.R = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
-    pose.t = Eigen::Vector3d(t[0], t[1], t[2]);
-    estimated[pose.name] = pose;
-  }
-  return eval::compare_to_ground_truth(
-             estimated,
-             eval::read_strecha_ground_truth(scene + "/gt_dense_cameras"))
-      .median_centre_error;
-}
+// Ten 3072x2048 photos, sparse and dense, on a loaded 2-core machine.
+constexpr std::chrono::seconds kTimeout{300};
 
 // The session file recorded from the viewer fixture's store, or "" after
 // a skip or failure.
@@ -103,22 +45,6 @@ std::string record_fountain_session(const fs::path& dir) {
   return session;
 }
 
-// Replays `session` into a new store with an engine following it; the
-// site's model once 10 captures are registered and the cloud is current.
-std::optional<db::Document> replay_with_engine(
-    const std::string& session, engine::WorkerOptions options,
-    ingest::ReplayOptions replay, std::unique_ptr<db::Store>* store,
-    ingest::ReplaySummary* summary) {
-  *store = db::Store::open(testing::fresh_sqlite_url());
-  options.dense_options.long_side = 480;  // as the recording's engine ran
-  engine::EngineWorker worker(**store, options);
-  worker.start();
-  *summary = ingest::replay_session(session, **store, replay);
-  auto model = wait_for_model(**store, 10, std::chrono::seconds(300));
-  worker.stop();
-  return model;
-}
-
 TEST(ReplayRegression, FountainSessionDrivesTheEngineToTheExpectedModel) {
   std::string scene;
   ARSCOUT_SHARED_DATA_OR_SKIP(scene, "strecha/fountain-P11");
@@ -127,33 +53,32 @@ TEST(ReplayRegression, FountainSessionDrivesTheEngineToTheExpectedModel) {
   if (session.empty()) GTEST_SKIP() << "no recorded session";
 
   // Replay into an empty store, an engine following it, at 4x speed.
-  std::unique_ptr<db::Store> store;
-  ingest::ReplayOptions replay;
-  replay.speed = 4;
-  ingest::ReplaySummary r;
-  const auto model = replay_with_engine(session, {}, replay, &store, &r);
-  ASSERT_TRUE(model) << "no model with 10 registered captures within 300 s";
+  ingest::ReplayOptions options;
+  options.speed = 4;
+  const replay::Replayed r =
+      replay::replay_with_engine(session, {}, options, kTimeout);
+  ASSERT_TRUE(r.model) << "no finished model within " << kTimeout.count()
+                       << " s";
 
-  const Json& stats = model->attrs.at("statistics");
-  const auto dense =
-      engine::decode_ply(store->get_blob(model->blobs.at("dense")));
-  const std::vector<Row> rows = {
-      {"captures replayed", double(r.captures), 10, 10},
-      {"inputs refused", double(r.failed), 0, 0},
-      {"sites", double(store->list_children("/sites").size()), 1, 1},
+  const db::Json& stats = r.model->attrs.at("statistics");
+  const eval::PoseComparison truth = eval::compare_to_ground_truth(
+      replay::model_poses(r.model->attrs),
+      eval::read_strecha_ground_truth(scene + "/gt_dense_cameras"));
+  std::cout << "replay and engine: " << r.seconds << " s" << std::endl;
+  replay::expect_rows_within({
+      {"captures replayed", double(r.summary.captures), 10, 10},
+      {"inputs refused", double(r.summary.failed), 0, 0},
+      {"sites", double(r.sites), 1, 1},
       {"registered", stats.value("registered", 0.0), 10, 10},
       {"rejected", stats.value("rejected", 0.0), 0, 0},
-      {"median centre error vs truth, mm",
-       1000 * median_centre_error(model->attrs, scene), 0, 5},
+      {"median centre error vs truth, mm", 1000 * truth.median_centre_error, 0,
+       5},
       {"sparse points", stats.value("sparse_points", 0.0), 3500, 6500},
       // The recorded engine's cloud had 480 k points; increments fold
       // differently at another speed, so the cloud may differ somewhat.
-      {"dense points", double(dense.size()), 330000, 630000},
-  };
-  const bool all_ok = std::all_of(rows.begin(), rows.end(),
-                                  [](const Row& row) { return row.ok(); });
-  std::cout << table(rows);
-  EXPECT_TRUE(all_ok) << "\n" << table(rows);
+      {"dense points", replay::dense_point_count(*r.store, *r.model), 330000,
+       630000},
+  });
 }
 
 TEST(ReplayDeterminism, TwoDeterministicReplaysGiveTheSameModel) {
@@ -166,19 +91,18 @@ TEST(ReplayDeterminism, TwoDeterministicReplaysGiveTheSameModel) {
   options.reconstruction.deterministic = true;
   ingest::ReplayOptions fast;
   fast.fast = true;
-  std::unique_ptr<db::Store> a_store, b_store;
-  ingest::ReplaySummary a_summary, b_summary;
-  const auto a =
-      replay_with_engine(session, options, fast, &a_store, &a_summary);
+  const replay::Replayed a =
+      replay::replay_with_engine(session, options, fast, kTimeout);
   // The second at real speed: arrival times must not matter.
   ingest::ReplayOptions paced;
   paced.speed = 2;
-  const auto b =
-      replay_with_engine(session, options, paced, &b_store, &b_summary);
-  ASSERT_TRUE(a && b) << "no model with 10 registered captures within 300 s";
+  const replay::Replayed b =
+      replay::replay_with_engine(session, options, paced, kTimeout);
+  ASSERT_TRUE(a.model && b.model)
+      << "no finished model within " << kTimeout.count() << " s";
 
-  const Json& ai = a->attrs.at("images");
-  const Json& bi = b->attrs.at("images");
+  const db::Json& ai = a.model->attrs.at("images");
+  const db::Json& bi = b.model->attrs.at("images");
   ASSERT_EQ(ai.size(), bi.size());
   double worst = 0;
   for (size_t i = 0; i < ai.size(); ++i) {
@@ -192,12 +116,12 @@ TEST(ReplayDeterminism, TwoDeterministicReplaysGiveTheSameModel) {
   std::cout << "deterministic replays: largest relative pose difference "
             << worst << std::endl;
   EXPECT_LE(worst, 1e-9);
-  EXPECT_EQ(a->attrs.at("statistics").at("sparse_points"),
-            b->attrs.at("statistics").at("sparse_points"));
-  EXPECT_EQ(a->attrs.at("statistics").at("dense_points"),
-            b->attrs.at("statistics").at("dense_points"));
-  EXPECT_EQ(a->attrs.at("captures"), b->attrs.at("captures"));
-  EXPECT_EQ(a->version, b->version);
+  const db::Json& as = a.model->attrs.at("statistics");
+  const db::Json& bs = b.model->attrs.at("statistics");
+  EXPECT_EQ(as.at("sparse_points"), bs.at("sparse_points"));
+  EXPECT_EQ(as.at("dense_points"), bs.at("dense_points"));
+  EXPECT_EQ(a.model->attrs.at("captures"), b.model->attrs.at("captures"));
+  EXPECT_EQ(a.model->version, b.model->version);
 }
 
 }  // namespace
