@@ -5,6 +5,7 @@
 #include "bundle_adjuster.h"
 
 #include <cmath>
+#include <iostream>
 #include <random>
 #include <vector>
 
@@ -189,7 +190,10 @@ GpsScene make_gps_scene(std::mt19937& rng) {
   for (size_t i = 0; i < g.scene.images.size(); ++i) {
     SceneImage& image = g.scene.images[i];
     image.gps = GeoFix{47.0, 8.0, 400.0, kHorizontalSigma, kVerticalSigma};
-    const Eigen::Vector3d error(h(rng), h(rng), v(rng));
+    // One draw per statement: the order of function arguments is
+    // unspecified, and compilers differ, which would make the scene too.
+    const double dx = h(rng), dy = h(rng), dz = v(rng);
+    const Eigen::Vector3d error(dx, dy, dz);
     image.gps_enu = g.truth.poses[i].centre() + error;
     sum_h += error.head<2>().squaredNorm();
     sum_v += error.z() * error.z();
@@ -255,7 +259,14 @@ TEST(BundleAdjusterTest, GpsPriorsPutTheModelInPlace) {
   // 24 fixes average out: the model lands much closer to the truth than
   // the fixes are, a fraction of their claimed accuracy.
   const auto [rms_h, rms_v] = centre_rms(g.scene, g.truth);
-  EXPECT_LT(rms_h, 0.5 * kHorizontalSigma);
+  std::cout << "centre rms " << rms_h << " m horizontal, " << rms_v
+            << " m vertical; fixes " << g.fix_rms_h << " / " << g.fix_rms_v
+            << " m\n";
+  // rms_h is a distance in the plane: the claimed accuracy there is
+  // sqrt(2) times the per-axis sigma. A 7-parameter fit to 24 such fixes
+  // leaves about a third of it, depending on the draw (0.38 with this
+  // seed); 0.5 is the bound.
+  EXPECT_LT(rms_h, 0.5 * std::sqrt(2.0) * kHorizontalSigma);
   EXPECT_LT(rms_v, 0.5 * kVerticalSigma);
   EXPECT_LT(rms_h, 0.5 * g.fix_rms_h);
   EXPECT_LT(rms_v, 0.5 * g.fix_rms_v);

@@ -368,7 +368,9 @@ TEST_F(DensePersistence, RestoreSweepsNothing) {
   std::cout << "original update " << update_wall_s_ << " s (sweep "
             << update_.sweep_s << " s), restore " << wall_s << " s (filter "
             << u.filter_s << " s, fusion and loading " << u.fusion_s << " s)\n";
-  EXPECT_LT(wall_s, 0.5 * update_.sweep_s);
+  // How much faster the restore is, is bench/'s to measure (a sanitizer
+  // build or a busy machine would make a bound here flaky); that it sweeps
+  // nothing is what the checks above hold.
   // And update() on the restored state has nothing to sweep either.
   photos = 0;
   const DenseUpdate again = dense.update(*model_, street_images(&photos));

@@ -219,12 +219,20 @@ TEST_F(DenseStagesSweepDirections, ParallelPlanesShareOneDirection) {
   key_view.sparse_points.clear();
   std::mt19937 rng(9);
   std::uniform_real_distribution<double> along(4, 14), up(-1.5, 1.5);
-  for (int i = 0; i < 240; ++i)
-    key_view.sparse_points.emplace_back(2, up(rng), along(rng));
-  for (int i = 0; i < 180; ++i)
-    key_view.sparse_points.emplace_back(3, up(rng), along(rng));
-  for (int i = 0; i < 120; ++i)
-    key_view.sparse_points.emplace_back(up(rng), 1.6, along(rng));
+  // One draw per statement (argument order is unspecified; compilers
+  // differ, and so would the scene).
+  for (int i = 0; i < 240; ++i) {
+    const double y = up(rng), z = along(rng);
+    key_view.sparse_points.emplace_back(2, y, z);
+  }
+  for (int i = 0; i < 180; ++i) {
+    const double y = up(rng), z = along(rng);
+    key_view.sparse_points.emplace_back(3, y, z);
+  }
+  for (int i = 0; i < 120; ++i) {
+    const double x = up(rng), z = along(rng);
+    key_view.sparse_points.emplace_back(x, 1.6, z);
+  }
   DenseView left = key_view, right = key_view;
   left.t = Eigen::Vector3d(0.5, 0, 0);
   right.t = Eigen::Vector3d(-0.5, 0, 0);
@@ -380,7 +388,7 @@ TEST(DenseStagesCompare, NothingToCompareGivesZero) {
 TEST(DenseStagesVoxelCloud, RejectsNonPositiveSizes) {
   EXPECT_THROW(VoxelCloud(0), std::invalid_argument);
   EXPECT_THROW(VoxelCloud(-0.1), std::invalid_argument);
-  EXPECT_THROW(VoxelCloud(std::numeric_limits<double>::quiet_NaN()),
+  EXPECT_THROW(VoxelCloud{std::numeric_limits<double>::quiet_NaN()},
                std::invalid_argument);
   EXPECT_NO_THROW(VoxelCloud(1e-3));
   EXPECT_EQ(VoxelCloud(0.25).voxel_size(), 0.25);
@@ -440,8 +448,10 @@ TEST(DenseStagesVoxelCloud, FirstSeenOrderIsDeterministic) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> coord(-3, 3);
   std::vector<Eigen::Vector3d> points;
-  for (int i = 0; i < 2000; ++i)
-    points.emplace_back(coord(rng), coord(rng), coord(rng));
+  for (int i = 0; i < 2000; ++i) {
+    const double x = coord(rng), y = coord(rng), z = coord(rng);
+    points.emplace_back(x, y, z);
+  }
   VoxelCloud a(0.5), b(0.5);
   for (const auto& p : points) a.add(p, {7, 8, 9});
   for (const auto& p : points) b.add(p, {7, 8, 9});

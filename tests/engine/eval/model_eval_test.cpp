@@ -35,13 +35,16 @@ namespace {
 
 Matrix3d random_rotation(std::mt19937& rng) {
   std::normal_distribution<double> n;
-  Eigen::Quaterniond q(n(rng), n(rng), n(rng), n(rng));
+  // One draw per statement: argument order is unspecified.
+  const double w = n(rng), x = n(rng), y = n(rng), z = n(rng);
+  Eigen::Quaterniond q(w, x, y, z);
   return q.normalized().toRotationMatrix();
 }
 
 Vector3d random_vector(std::mt19937& rng, double sigma) {
   std::normal_distribution<double> n(0, sigma);
-  return Vector3d(n(rng), n(rng), n(rng));
+  const double x = n(rng), y = n(rng), z = n(rng);
+  return Vector3d(x, y, z);
 }
 
 Matrix3d rotation_about(const Vector3d& axis, double degrees) {
@@ -476,8 +479,9 @@ class FitObservations : public TempDirTest {
     poses_ = ring_of_cameras(8, 10.0, rng_);
     std::uniform_real_distribution<double> coordinate(-1.5, 1.5);
     for (int i = 0; i < 200; ++i) {
-      points_.emplace_back(coordinate(rng_), coordinate(rng_),
-                           coordinate(rng_));
+      const double x = coordinate(rng_), y = coordinate(rng_),
+                   z = coordinate(rng_);
+      points_.emplace_back(x, y, z);
     }
   }
 
