@@ -7,6 +7,8 @@ set -euo pipefail
 packages=(
   # toolchain
   build-essential cmake ninja-build pkg-config git clang-format
+  # clang and its libFuzzer runtime, for the fuzz build (tests/fuzz)
+  clang libclang-rt-14-dev
   # libraries
   libopencv-dev libeigen3-dev libceres-dev
   libsqlite3-dev sqlite3 libpqxx-dev libpq-dev

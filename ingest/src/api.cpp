@@ -109,13 +109,28 @@ std::optional<std::int64_t> int_param(const HttpRequest& req,
 
 std::optional<Json> parse_json_body(const std::string& text,
                                     std::string* error) {
+  // Copying and serialising a JSON value recurse once per level of nesting,
+  // so some ten thousand '[' would overflow a handler thread's stack:
+  // deeper bodies are refused while they are parsed.
+  constexpr int kMaxDepth = 512;
+  struct TooDeep {};
+  auto limit_depth = [](int depth, Json::parse_event_t event, Json&) {
+    if (depth >= kMaxDepth && (event == Json::parse_event_t::object_start ||
+                               event == Json::parse_event_t::array_start))
+      throw TooDeep{};
+    return true;
+  };
   try {
-    return Json::parse(text);
+    return Json::parse(text, limit_depth);
+  } catch (const TooDeep&) {
+    *error = "JSON nested deeper than " + std::to_string(kMaxDepth) + " levels";
   } catch (const Json::parse_error& e) {
     *error =
         "malformed JSON at byte " + std::to_string(e.byte) + ": " + e.what();
-    return std::nullopt;
+  } catch (const Json::out_of_range& e) {  // a number beyond a double's range
+    *error = std::string("unreadable JSON: ") + e.what();
   }
+  return std::nullopt;
 }
 
 HttpResponse Api::handle(const HttpRequest& request) {

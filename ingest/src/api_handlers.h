@@ -40,7 +40,9 @@ std::optional<std::int64_t> int_param(const HttpRequest& req,
                                       const std::string& name,
                                       std::int64_t fallback, std::int64_t min,
                                       std::int64_t max, std::string* error);
-// Parses a JSON body; nullopt and *error (naming the byte) when malformed.
+// Parses a JSON body; nullopt and *error (naming the byte) when malformed,
+// nested more than 512 levels deep or holding a number beyond a double's
+// range.
 std::optional<Json> parse_json_body(const std::string& text,
                                     std::string* error);
 bool can_read(const Principal& who, const std::string& doc_path);

@@ -12,10 +12,13 @@
 #include <boost/beast/websocket.hpp>
 #include <boost/beast/websocket/ssl.hpp>
 #include <deque>
+#include <mutex>
+#include <optional>
 #include <thread>
 
 #include "api.h"
 #include "arscout/ingest/server.h"
+#include "beast_request.h"
 
 namespace arscout::ingest {
 namespace {
@@ -27,24 +30,49 @@ namespace websocket = beast::websocket;
 namespace ssl = asio::ssl;
 using tcp = asio::ip::tcp;
 
+// Where a WebSocket session's subscription posts changes: the session's
+// strand, until the server stops. The subscription (its thread and its
+// callback) can outlive the io_context: sessions hand it to the worker pool
+// to stop, and the pool goes last. A strand executor must not outlive its
+// io_context, so the server drops these copies while the context exists.
+struct FeedTarget {
+  std::mutex mu;
+  std::optional<asio::any_io_executor> executor;  // reset when stopping
+};
+
+class FeedTargets {
+ public:
+  std::shared_ptr<FeedTarget> add(asio::any_io_executor executor) {
+    auto target = std::make_shared<FeedTarget>();
+    target->executor = std::move(executor);
+    std::lock_guard lock(mu_);
+    std::erase_if(targets_, [](const auto& t) { return t.expired(); });
+    targets_.push_back(target);
+    return target;
+  }
+  // After this no change is posted any more, and no copy of an executor of
+  // the io_context is left with the subscriptions.
+  void close_all() {
+    std::lock_guard lock(mu_);
+    for (const auto& weak : targets_)
+      if (auto target = weak.lock()) {
+        std::lock_guard target_lock(target->mu);
+        target->executor.reset();
+      }
+    targets_.clear();
+  }
+
+ private:
+  std::mutex mu_;
+  std::vector<std::weak_ptr<FeedTarget>> targets_;
+};
+
 struct Shared {
   Api& api;
   const ServerOptions& options;
   asio::thread_pool& workers;
+  FeedTargets& feeds;
 };
-
-HttpRequest to_request(http::request<http::string_body>&& in) {
-  HttpRequest out;
-  out.method = std::string(in.method_string());
-  out.target = std::string(in.target());
-  for (const auto& field : in) {
-    std::string name(field.name_string());
-    for (char& c : name) c = static_cast<char>(std::tolower(c));
-    out.headers[name] = std::string(field.value());
-  }
-  out.body = std::move(in.body());
-  return out;
-}
 
 http::response<http::string_body> to_beast(HttpResponse&& r, unsigned version,
                                            bool keep_alive) {
@@ -105,13 +133,17 @@ class SubscribeSession
 
   void start_feed(const Api::Subscribe& where) {
     std::weak_ptr<SubscribeSession> weak = this->shared_from_this();
-    auto executor = ws_.get_executor();
+    auto target = shared_.feeds.add(ws_.get_executor());
     subscription_ = shared_.api.store().subscribe(
-        where.pattern, where.since, [weak, executor](const db::Change& c) {
+        where.pattern, where.since, [weak, target](const db::Change& c) {
           std::string text = to_json(c).dump();
-          asio::post(executor, [weak, text = std::move(text)]() mutable {
-            if (auto self = weak.lock()) self->enqueue(std::move(text));
-          });
+          std::lock_guard lock(target->mu);
+          if (!target->executor) return;  // the server is stopping
+          asio::post(*target->executor,
+                     [weak, text = std::move(text)]() mutable {
+                       if (auto self = weak.lock())
+                         self->enqueue(std::move(text));
+                     });
         });
   }
 
@@ -189,9 +221,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
 
   void read_header(std::chrono::seconds timeout) {
     parser_.emplace();
-    parser_->header_limit(
-        static_cast<std::uint32_t>(shared_.options.max_header_bytes));
-    parser_->body_limit(shared_.options.max_body_bytes);
+    limit_request_parser(*parser_, shared_.options);
     tcp_of(stream_).expires_after(timeout);
     http::async_read_header(
         stream_, buffer_, *parser_,
@@ -321,7 +351,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
   Stream stream_;
   Shared shared_;
   beast::flat_buffer buffer_;
-  std::optional<http::request_parser<http::string_body>> parser_;
+  std::optional<BeastRequestParser> parser_;
 };
 
 }  // namespace
@@ -374,7 +404,7 @@ struct Server::Impl {
                                                          tcp::socket socket) {
       if (ec == asio::error::operation_aborted) return;
       if (!ec) {
-        Shared shared{api, options, workers};
+        Shared shared{api, options, workers, feeds};
         if (use_tls) {
           std::make_shared<HttpSession<beast::ssl_stream<beast::tcp_stream>>>(
               beast::ssl_stream<beast::tcp_stream>(
@@ -399,6 +429,7 @@ struct Server::Impl {
   // to the workers as they go, and the pool must still exist to take it
   // (dropping the task then stops the subscription before the store can go).
   asio::thread_pool workers;
+  FeedTargets feeds;
   asio::io_context ioc;
   tcp::acceptor acceptor;
   ssl::context tls_context;
@@ -432,6 +463,7 @@ void Server::stop() {
   for (auto& t : impl_->threads) t.join();
   impl_->threads.clear();
   impl_->workers.join();
+  impl_->feeds.close_all();
 }
 
 std::uint16_t Server::port() const { return impl_->bound_port; }

@@ -13,6 +13,7 @@
 #include <exiv2/exiv2.hpp>
 
 #include "arscout/ingest/gps.h"
+#include "image_probe.h"
 
 namespace arscout::ingest {
 namespace {
@@ -128,6 +129,8 @@ std::string gps_time(const Exiv2::ExifData& exif) {
   std::snprintf(buf, sizeof buf, "%04d-%02d-%02dT%02d:%02d:%02dZ", y, mo, d,
                 static_cast<int>(*h), static_cast<int>(*mi),
                 static_cast<int>(*s));
+  // The checks above let a 31st of February or a negative year through.
+  if (!parse_time_utc(buf)) return "";
   return buf;
 }
 
@@ -187,6 +190,7 @@ std::string taken_time(const Exiv2::ExifData& exif) {
   char buf[40];
   std::snprintf(buf, sizeof buf, "%04d-%02d-%02dT%02d:%02d:%02d", y, mo, d, h,
                 mi, sec);
+  if (!parse_time_utc(buf)) return "";  // a 31st of February, say
   return buf;
 }
 
@@ -251,6 +255,22 @@ ExifInfo read_exif(std::string_view image_bytes) {
         static_cast<long>(image_bytes.size())));
   } catch (const std::exception&) {  // Exiv2::Error, or bad_alloc on a bogus
     return {};                       // length field
+  }
+}
+
+std::optional<DeclaredSize> read_declared_size(std::string_view image_bytes) {
+  init_exiv2_once();
+  try {
+    auto image = Exiv2::ImageFactory::open(
+        reinterpret_cast<const Exiv2::byte*>(image_bytes.data()),
+        static_cast<long>(image_bytes.size()));
+    if (!image.get()) return std::nullopt;
+    image->readMetadata();  // JPEG: the SOF marker; PNG: IHDR
+    if (image->pixelWidth() <= 0 || image->pixelHeight() <= 0)
+      return std::nullopt;
+    return DeclaredSize{image->pixelWidth(), image->pixelHeight()};
+  } catch (const std::exception&) {
+    return std::nullopt;
   }
 }
 

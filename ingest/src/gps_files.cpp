@@ -472,7 +472,13 @@ std::optional<std::int64_t> parse_time_utc(std::string_view s) {
                            chr::day(static_cast<unsigned>(d))};
   if (!offset || !date.ok()) return std::nullopt;
   std::int64_t days = chr::sys_days(date).time_since_epoch().count();
-  return days * 86400 + h * 3600 + mi * 60 + sec - *offset;
+  std::int64_t time_s = days * 86400 + h * 3600 + mi * 60 + sec - *offset;
+  // An offset or a leap second can carry a time out of the years 0000 to
+  // 9999, which format_time_utc cannot write as RFC 3339 again.
+  constexpr std::int64_t kFirst = -62167219200;  // 0000-01-01T00:00:00Z
+  constexpr std::int64_t kLast = 253402300799;   // 9999-12-31T23:59:59Z
+  if (time_s < kFirst || time_s > kLast) return std::nullopt;
+  return time_s;
 }
 
 std::string format_time_utc(std::int64_t time_s) {

@@ -41,7 +41,11 @@ std::string HttpRequest::header(const std::string& lower_name) const {
 HttpResponse HttpResponse::json(int status, const Json& body) {
   HttpResponse r;
   r.status = status;
-  r.body = body.dump();
+  // Error messages quote what the client sent (a path, the JSON parser's
+  // view of a body), which need not be UTF-8: such bytes become U+FFFD.
+  // The strict default threw here, and thrown while Api::handle answered a
+  // store error, that ended the server.
+  r.body = body.dump(-1, ' ', false, Json::error_handler_t::replace);
   return r;
 }
 

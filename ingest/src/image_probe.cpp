@@ -76,6 +76,12 @@ ImageProbe probe_image(std::string_view bytes) {
   } else {
     return fail("not a JPEG or PNG image (unrecognised file signature)");
   }
+  auto declared = read_declared_size(bytes);
+  if (declared && declared->width * declared->height > kMaxImagePixels)
+    return fail(p.format + " of " + std::to_string(declared->width) + " x " +
+                std::to_string(declared->height) + " pixels: more than the " +
+                std::to_string(kMaxImagePixels / 1'000'000) +
+                " megapixels accepted");
   cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8UC1,
               const_cast<char*>(bytes.data()));
   cv::Mat image;

@@ -237,6 +237,20 @@ TEST(ExifSynthetic, BrokenValuesLeaveFieldsEmpty) {
   EXPECT_FALSE(info.focal_mm);
 }
 
+// Found by tests/fuzz (fuzz_exif_gps): a 31st of February passed the
+// field-by-field checks and came out as a time that is none.
+TEST(ExifSynthetic, ImpossibleDatesAreNoTime) {
+  auto info = read_exif(jpeg_with_exif(
+      {}, {ascii(0x9003, "2025:02:31 12:00:00")},
+      {ascii(0x0001, "N"), rationals(0x0002, {{10, 1}, {0, 1}, {0, 1}}),
+       ascii(0x0003, "E"), rationals(0x0004, {{20, 1}, {0, 1}, {0, 1}}),
+       rationals(0x0007, {{14, 1}, {7, 1}, {30, 1}}),
+       ascii(0x001D, "2025:02:31")}));
+  ASSERT_TRUE(info.gps);
+  EXPECT_TRUE(info.gps->time.empty());
+  EXPECT_TRUE(info.taken.empty());
+}
+
 TEST(ExifGarbage, ReturnsEmptyInfo) {
   for (std::string bytes :
        {std::string(), std::string("definitely not an image"),
@@ -532,6 +546,21 @@ TEST(GpsTime, ParsesRfc3339) {
   EXPECT_EQ(format_time_utc(-1), "1969-12-31T23:59:59Z");
   auto t = parse_time_utc("2026-11-21T13:05:07Z").value();
   EXPECT_EQ(format_time_utc(t), "2026-11-21T13:05:07Z");
+}
+
+// Found by tests/fuzz (fuzz_gps_csv): times whose offset carried them out
+// of the years 0000-9999 were formatted as "-001-12-31T23:30:00Z", which
+// is not RFC 3339 and did not parse again.
+TEST(GpsTime, RefusesTimesOutsideTheFourDigitYears) {
+  const auto first = parse_time_utc("0000-01-01T00:00:00Z");
+  ASSERT_TRUE(first);
+  EXPECT_EQ(format_time_utc(*first), "0000-01-01T00:00:00Z");
+  const auto last = parse_time_utc("9999-12-31T23:59:59Z");
+  ASSERT_TRUE(last);
+  EXPECT_EQ(format_time_utc(*last), "9999-12-31T23:59:59Z");
+  EXPECT_FALSE(parse_time_utc("0000-01-01T00:30:00+01:00"));
+  EXPECT_FALSE(parse_time_utc("9999-12-31T23:59:60Z"));
+  EXPECT_FALSE(parse_time_utc("9999-12-31T23:30:00-01:00"));
 }
 
 // ---- JSON validation

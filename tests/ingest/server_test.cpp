@@ -35,6 +35,19 @@ std::string jpeg_bytes(int seed) {
   return std::string(out.begin(), out.end());
 }
 
+// A valid small JPEG whose frame header (SOF0) declares width x height: a
+// decompression bomb, 2 KB that would decode to gigabytes.
+std::string jpeg_declaring(int width, int height) {
+  std::string bytes = jpeg_bytes(7);
+  std::size_t sof = bytes.find("\xFF\xC0");
+  if (sof == std::string::npos) return bytes;
+  bytes[sof + 5] = static_cast<char>(height >> 8);
+  bytes[sof + 6] = static_cast<char>(height & 0xFF);
+  bytes[sof + 7] = static_cast<char>(width >> 8);
+  bytes[sof + 8] = static_cast<char>(width & 0xFF);
+  return bytes;
+}
+
 std::string metadata(const std::string& id, double lat = 47.07,
                      double lon = 15.44) {
   return Json{{"capture_id", id},
@@ -200,6 +213,14 @@ TEST_P(ServerTest, BadInputGetsItsOwnStatusAndChangesNothing) {
        {},
        422,
        "truncated"},
+      {"a JPEG declaring 30000 x 30000 pixels (900 MP)",
+       "POST",
+       "/v1/captures",
+       "alice",
+       jpeg_declaring(30000, 30000),
+       {},
+       422,
+       "megapixels accepted"},
       {"a PDF",
        "POST",
        "/v1/captures",
@@ -348,6 +369,46 @@ TEST_P(ServerTest, BadInputGetsItsOwnStatusAndChangesNothing) {
        {},
        400,
        "at byte"},
+      // Found with tests/fuzz: the first was answered 500 (the parser's
+      // out_of_range escaped), the second crashed the server (copying the
+      // attributes recursed until a worker's stack overflowed).
+      {"a number beyond a double's range",
+       "PUT",
+       "/v1/docs/sites/s2",
+       "admin",
+       R"({"kind":"site","attrs":{"x":1e400}})",
+       {},
+       400,
+       "number overflow"},
+      {"JSON nested 100000 deep",
+       "PUT",
+       "/v1/docs/sites/s2",
+       "admin",
+       R"({"kind":"site","attrs":{"x":)" + std::string(100000, '[') +
+           std::string(100000, ']') + "}}",
+       {},
+       400,
+       "nested deeper than 512"},
+      // Also found with tests/fuzz: error messages quote what the client
+      // sent, and a byte that is not UTF-8 made the error response throw:
+      // answered 500, or from a store error it escaped the API and ended
+      // the server.
+      {"malformed JSON with a byte that is not UTF-8",
+       "PUT",
+       "/v1/cameras/cam2",
+       "alice",
+       "{\"\x9a\":1}",
+       {},
+       400,
+       "at byte"},
+      {"a path with a byte that is not UTF-8",
+       "GET",
+       "/v1/docs/sites/%A4",
+       "alice",
+       "",
+       {},
+       400,
+       "byte 164"},
       {"tokens are admin-only",
        "GET",
        "/v1/docs/auth/tokens",

@@ -1,0 +1,47 @@
+// How the server reads an HTTP request with Boost.Beast: the parser's limits
+// and the conversion to the API's HttpRequest. Header-only, so that Beast
+// stays in the translation units that compile it already (beast_server.cpp)
+// and the HTTP fuzz target (tests/fuzz), which must parse exactly as the
+// server does.
+#pragma once
+
+#include <utility>  // before Asio, for C++20
+
+#include <boost/beast/http.hpp>
+#include <cctype>
+#include <cstdint>
+#include <string>
+
+#include "arscout/ingest/http_types.h"
+#include "arscout/ingest/server.h"
+
+namespace arscout::ingest {
+
+using BeastRequest =
+    boost::beast::http::request<boost::beast::http::string_body>;
+using BeastRequestParser =
+    boost::beast::http::request_parser<boost::beast::http::string_body>;
+
+// A fresh parser for each request: Beast's parsers read one message only.
+inline void limit_request_parser(BeastRequestParser& parser,
+                                 const ServerOptions& options) {
+  parser.header_limit(static_cast<std::uint32_t>(options.max_header_bytes));
+  parser.body_limit(options.max_body_bytes);
+}
+
+// Method, target, headers and body; path and query are left to
+// parse_target, whose failure the caller answers.
+inline HttpRequest to_request(BeastRequest&& in) {
+  HttpRequest out;
+  out.method = std::string(in.method_string());
+  out.target = std::string(in.target());
+  for (const auto& field : in) {
+    std::string name(field.name_string());
+    for (char& c : name) c = static_cast<char>(std::tolower(c));
+    out.headers[name] = std::string(field.value());
+  }
+  out.body = std::move(in.body());
+  return out;
+}
+
+}  // namespace arscout::ingest

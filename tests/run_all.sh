@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# The whole test suite, as CI runs it (.ci/run, the README's test command),
+# from the repository root, after deploy/install-deps.sh:
+#
+#  1. the default build (build/, RelWithDebInfo, the system compiler) and
+#     every test but the `long` ones;
+#  2. an AddressSanitizer + UndefinedBehaviorSanitizer build (build-san/,
+#     clang, with the libFuzzer targets of tests/fuzz) and the same tests
+#     but the `engine-data` ones, plus a short run of each fuzz target
+#     (label `fuzz`). The engine-data tests reconstruct real photo sets end
+#     to end; under ASan they take about 40 minutes more on 2 cores, past
+#     CI's limit, and they exercise the code the synthetic engine tests do
+#     (docs/RELIABILITY.md says when they last ran under ASan).
+#
+# Either half alone: `tests/run_all.sh default` or `tests/run_all.sh san`.
+# The long runs (`ctest -L long`, docs/RELIABILITY.md) are left to people.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+which=${1:-all}
+case "$which" in all | default | san) ;; *)
+  echo "usage: tests/run_all.sh [all|default|san]" >&2
+  exit 2
+  ;;
+esac
+
+if [ "$which" != san ]; then
+  echo "== default build: build/"
+  cmake -S . -B build -G Ninja
+  cmake --build build
+  ctest --test-dir build --output-on-failure -j2 -LE long
+fi
+
+if [ "$which" != default ]; then
+  echo "== AddressSanitizer + UndefinedBehaviorSanitizer build: build-san/"
+  cmake -S . -B build-san -G Ninja -DCMAKE_CXX_COMPILER=clang++ \
+    -DARSCOUT_SANITIZE=ON -DARSCOUT_FUZZ=ON
+  cmake --build build-san
+  # Any report (leaks included) fails the test that triggered it: the
+  # build stops at the first UBSan finding, and ASan exits non-zero.
+  UBSAN_OPTIONS=print_stacktrace=1 \
+    ctest --test-dir build-san --output-on-failure -j2 -LE 'long|engine-data'
+fi
