@@ -85,6 +85,17 @@ Replayed replay_with_engine(const std::string& session,
   return out;
 }
 
+Replayed replay_deterministically(const std::string& session,
+                                  std::chrono::seconds timeout) {
+  engine::WorkerOptions options;
+  options.reconstruction.deterministic = true;
+  ingest::ReplayOptions fast;
+  fast.fast = true;
+  Replayed r = replay_with_engine(session, options, fast, timeout);
+  std::cout << "replay and engine: " << r.seconds << " s" << std::endl;
+  return r;
+}
+
 namespace {
 
 std::string photo_name(const std::string& capture_id) {

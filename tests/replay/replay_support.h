@@ -57,6 +57,13 @@ Replayed replay_with_engine(const std::string& session,
                             const ingest::ReplayOptions& replay,
                             std::chrono::seconds timeout);
 
+// The regression tests' replay: the whole session at once (`--fast`) into an
+// engine run `--deterministic`, so that the model, dense cloud included,
+// does not depend on how this machine's timing folds captures into
+// increments (docs/sessions.md). Prints how long it took.
+Replayed replay_deterministically(const std::string& session,
+                                  std::chrono::seconds timeout);
+
 // A model document's cameras keyed by photo file name: capture ids are
 // "SCOUT-FILE" (`arscout scout`), the ground truth is keyed by FILE.
 std::map<std::string, eval::Pose> model_poses(const db::Json& model);
