@@ -2,9 +2,12 @@
 // serialised by SQLite anyway) and a pool of reader connections, which WAL
 // lets run beside the writer. Other processes on the same file are found by
 // polling the log (Store::subscribe's poll interval).
+#include <fcntl.h>
 #include <sqlite3.h>
 #include <sys/statvfs.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <mutex>
 #include <thread>
@@ -39,15 +42,42 @@ ErrorCode error_code_of(sqlite3* db) {
   }
 }
 
-[[noreturn]] void fail(sqlite3* db, const std::string& what) {
-  throw StoreError(error_code_of(db), what + ": " + sqlite3_errmsg(db));
-}
-
+// Whether the file system holding `path` refuses writes. On recent kernels
+// (6.18 here) an ext4 disk that turned read-only after an error
+// (errors=remount-ro) keeps its mount flags, so statvfs() does not tell
+// and a probe file is tried.
 bool on_read_only_file_system(const std::string& path) {
   std::string dir = path.substr(0, path.find_last_of('/') + 1);
+  if (dir.empty()) dir = "./";
   struct statvfs fs {};
-  return statvfs(dir.empty() ? "." : dir.c_str(), &fs) == 0 &&
-         (fs.f_flag & ST_RDONLY) != 0;
+  if (statvfs(dir.c_str(), &fs) == 0 && (fs.f_flag & ST_RDONLY) != 0)
+    return true;
+  const std::string probe =
+      dir + ".arscout-write-probe-" + std::to_string(::getpid());
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0600);
+  if (fd < 0) return errno == EROFS;
+  ::close(fd);
+  ::unlink(probe.c_str());
+  return false;
+}
+
+// The error for the connection's last failure. A disk that turns read-only
+// under a running server reaches SQLite as a bare "disk I/O error" (and
+// sqlite3_system_errno() has lost the errno by then), so the file system
+// is asked.
+StoreError error_of(sqlite3* db, const std::string& what) {
+  std::string message = what + ": " + sqlite3_errmsg(db);
+  const ErrorCode code = error_code_of(db);
+  const char* file = sqlite3_db_filename(db, "main");
+  const int primary = sqlite3_extended_errcode(db) & 0xff;
+  if ((primary == SQLITE_IOERR || primary == SQLITE_READONLY) &&
+      file != nullptr && *file != '\0' && on_read_only_file_system(file))
+    message += " (its file system has turned read-only)";
+  return StoreError(code, message);
+}
+
+[[noreturn]] void fail(sqlite3* db, const std::string& what) {
+  throw error_of(db, what);
 }
 
 class Connection : public SqlSession {
@@ -104,12 +134,8 @@ class Connection : public SqlSession {
 
   void execute_script(std::string_view sql) override {
     std::string text(sql);
-    char* err = nullptr;
-    if (sqlite3_exec(db_, text.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
-      std::string msg = err ? err : "unknown error";
-      sqlite3_free(err);
-      throw StoreError(error_code_of(db_), "SQLite: " + msg);
-    }
+    if (sqlite3_exec(db_, text.c_str(), nullptr, nullptr, nullptr) != SQLITE_OK)
+      fail(db_, "SQLite");
   }
 
  private:
@@ -169,9 +195,12 @@ class SqliteStore : public SqlStore {
                                 ? "it is on a read-only file system"
                                 : "no write permission"));
     enable_wal();
-    // NORMAL syncs at checkpoints, which in WAL mode keeps the file
-    // consistent after any crash (a power cut may lose the last commits).
-    writer_->execute_script("PRAGMA synchronous=NORMAL");
+    // FULL syncs the WAL at every commit, so an acknowledged write survives
+    // a power cut or a disk the kernel turns read-only after an error.
+    // NORMAL (sync at checkpoints only) kept the file consistent but lost
+    // every upload since the last checkpoint when the disk failed
+    // (SqliteDisk.DiskTurningReadOnlyUnderTheServerGives503AndLosesNothing).
+    writer_->execute_script("PRAGMA synchronous=FULL");
     if (options.migrate) migrate("sqlite");
     if (schema_versions().empty())
       throw StoreError(ErrorCode::kUnavailable,

@@ -5,11 +5,12 @@
 // - its SQLite file on a disk that fills up: uploads get a clear 503, reads
 //   go on, nothing acknowledged is lost, the file passes PRAGMA
 //   integrity_check, and uploads succeed again once there is space;
-// - its SQLite file on a disk that has turned read-only: a clear start
-//   error, and the data intact once the disk is writable again.
+// - its SQLite file on a disk that has turned read-only: between two runs
+//   of the server, a clear start error; under the running server (an ext4
+//   disk failing, errors=remount-ro), a 503 that says so; either way the
+//   data intact once the disk is writable again.
 // The engine killed mid-increment is tests/service/kill_test.cpp.
 #include <sqlite3.h>
-#include <sys/mount.h>
 
 #include <cerrno>
 #include <csignal>
@@ -24,6 +25,7 @@
 #include "arscout/db/store.h"
 #include "arscout/ingest/auth.h"
 #include "arscout/ingest/client.h"
+#include "scratch_disks.h"
 #include "serve_process.h"
 #include "test_stores.h"
 
@@ -195,35 +197,8 @@ TEST(PostgresRestart, ServerAnswers503WhileDownAndScoutsLoseNothing) {
 
 // ---- SQLite on a disk that fills up or turns read-only ----
 
-// A small tmpfs of its own (needs CAP_SYS_ADMIN, as root in CI has).
-class Tmpfs {
- public:
-  explicit Tmpfs(const std::string& size)
-      : dir_(testing::make_temp_dir("tmpfs")) {
-    mounted_ = ::mount("tmpfs", dir_.c_str(), "tmpfs", 0,
-                       ("size=" + size).c_str()) == 0;
-  }
-  ~Tmpfs() {
-    if (mounted_) ::umount2(dir_.c_str(), MNT_DETACH);
-  }
-  bool mounted() const { return mounted_; }
-  const std::string& dir() const { return dir_; }
-  bool remount(const std::string& size, bool read_only) {
-    return ::mount("tmpfs", dir_.c_str(), "tmpfs",
-                   MS_REMOUNT | (read_only ? MS_RDONLY : 0),
-                   ("size=" + size).c_str()) == 0;
-  }
-
- private:
-  std::string dir_;
-  bool mounted_ = false;
-};
-
-#define ARSCOUT_TMPFS_OR_SKIP(fs)                               \
-  if (!(fs).mounted())                                          \
-  GTEST_SKIP() << "cannot mount a tmpfs here (needs root with " \
-                  "CAP_SYS_ADMIN): "                            \
-               << std::strerror(errno)
+#define ARSCOUT_DISK_OR_SKIP(disk) \
+  if (!(disk).mounted()) GTEST_SKIP() << (disk).error()
 
 std::string integrity_check(const std::string& file) {
   sqlite3* db = nullptr;
@@ -243,9 +218,9 @@ std::string integrity_check(const std::string& file) {
 
 class SqliteDisk : public ::testing::Test {
  protected:
-  // A store on `disk` with a scout token, served by `arscout serve`.
-  void serve_on(const Tmpfs& disk) {
-    file_ = disk.dir() + "/arscout.db";
+  // A store in `dir` with a scout token, served by `arscout serve`.
+  void serve_on(const std::string& dir) {
+    file_ = dir + "/arscout.db";
     token_ = ingest::create_token(*db::Store::open("sqlite:" + file_),
                                   ingest::Role::kScout, "alice");
     log_ = testing::make_temp_dir("sqlitedisk") + "/serve.log";
@@ -256,11 +231,13 @@ class SqliteDisk : public ::testing::Test {
   std::string photo(int i) { return testing::noise_jpeg(i, 480, 360); }
   std::string id(int i) { return "alice-" + std::to_string(i); }
 
-  // After the server stops: the file is sound and holds exactly `stored`.
-  void expect_intact(const std::vector<int>& stored) {
+  void stop_server() {
     server_->process().signal(SIGTERM);
-    auto status = server_->process().wait_for(30s);
-    ASSERT_TRUE(status) << "serve did not stop";
+    ASSERT_TRUE(server_->process().wait_for(30s)) << "serve did not stop";
+  }
+
+  // With the server stopped: the file is sound and holds exactly `stored`.
+  void expect_intact(const std::vector<int>& stored) {
     EXPECT_EQ(integrity_check(file_), "ok");
     auto store = db::Store::open("sqlite:" + file_);
     db::Query all;
@@ -278,9 +255,9 @@ class SqliteDisk : public ::testing::Test {
 };
 
 TEST_F(SqliteDisk, FullDiskGivesA503AndLosesNothing) {
-  Tmpfs disk("3m");
-  ARSCOUT_TMPFS_OR_SKIP(disk);
-  serve_on(disk);
+  testing::Tmpfs disk("3m");
+  ARSCOUT_DISK_OR_SKIP(disk);
+  serve_on(disk.dir());
   auto client = client_for(*server_, token_);
   std::vector<int> stored;
   ingest::HttpResult refused;
@@ -305,6 +282,7 @@ TEST_F(SqliteDisk, FullDiskGivesA503AndLosesNothing) {
   ingest::HttpResult retried = upload(client, id(next), photo(next));
   EXPECT_EQ(retried.status, 201) << retried.body;
   if (retried.status == 201) stored.push_back(next);
+  stop_server();
   expect_intact(stored);
 }
 
@@ -312,9 +290,9 @@ TEST_F(SqliteDisk, FullDiskGivesA503AndLosesNothing) {
 // on it open for writing, so the disk turns read-only between two runs of
 // the server: the second refuses to start, clearly, and the data survives.
 TEST_F(SqliteDisk, ReadOnlyDiskIsAClearStartErrorAndLosesNothing) {
-  Tmpfs disk("64m");
-  ARSCOUT_TMPFS_OR_SKIP(disk);
-  serve_on(disk);
+  testing::Tmpfs disk("64m");
+  ARSCOUT_DISK_OR_SKIP(disk);
+  serve_on(disk.dir());
   std::vector<int> stored;
   {
     auto client = client_for(*server_, token_);
@@ -323,8 +301,7 @@ TEST_F(SqliteDisk, ReadOnlyDiskIsAClearStartErrorAndLosesNothing) {
       stored.push_back(i);
     }
   }
-  server_->process().signal(SIGTERM);
-  ASSERT_TRUE(server_->process().wait_for(30s)) << "serve did not stop";
+  stop_server();
   ASSERT_TRUE(disk.remount("64m", true)) << std::strerror(errno);
 
   const std::string log = testing::make_temp_dir("rostart") + "/serve.log";
@@ -347,6 +324,43 @@ TEST_F(SqliteDisk, ReadOnlyDiskIsAClearStartErrorAndLosesNothing) {
   auto client = client_for(*server_, token_);
   ASSERT_EQ(upload(client, id(4), photo(4)).status, 201);
   stored.push_back(4);
+  stop_server();
+  expect_intact(stored);
+}
+
+// The disk fails under the running server and the kernel turns it
+// read-only (ext4, errors=remount-ro), as happens in the field: uploads get
+// a 503 that says so, reads go on, and after the operator's e2fsck and
+// remount nothing acknowledged is lost.
+TEST_F(SqliteDisk, DiskTurningReadOnlyUnderTheServerGives503AndLosesNothing) {
+  testing::Ext4Disk disk("64M");
+  ARSCOUT_DISK_OR_SKIP(disk);
+  serve_on(disk.dir());
+  std::vector<int> stored;
+  auto client = client_for(*server_, token_);
+  for (int i = 0; i < 6; ++i) {
+    ASSERT_EQ(upload(client, id(i), photo(i)).status, 201);
+    stored.push_back(i);
+  }
+  ASSERT_TRUE(disk.fail()) << disk.error();
+
+  const ingest::HttpResult refused = upload(client, id(6), photo(6));
+  std::cout << "disk turned read-only: " << refused.body << "\n";
+  EXPECT_EQ(refused.status, 503) << refused.body;
+  EXPECT_EQ(refused.json().value("error", ""), "unavailable");
+  EXPECT_NE(refused.body.find("read-only"), std::string::npos) << refused.body;
+  EXPECT_EQ(client.get("/v1/docs/captures/" + id(0)).status, 200);
+  EXPECT_EQ(client.get("/healthz").status, 200);
+  stop_server();
+
+  ASSERT_TRUE(disk.repair()) << disk.error();
+  expect_intact(stored);
+  server_ = std::make_unique<testing::ServeProcess>(
+      ARSCOUT_CLI, "sqlite:" + file_, log_ + ".2");
+  auto again = client_for(*server_, token_);
+  ASSERT_EQ(upload(again, id(6), photo(6)).status, 201);
+  stored.push_back(6);
+  stop_server();
   expect_intact(stored);
 }
 
