@@ -236,6 +236,25 @@ class SqliteDisk : public ::testing::Test {
     ASSERT_TRUE(server_->process().wait_for(30s)) << "serve did not stop";
   }
 
+  // Uploads photos first..first+count-1, each acknowledged, into stored_.
+  void upload_acknowledged(int first, int count) {
+    auto client = client_for(*server_, token_);
+    for (int i = first; i < first + count; ++i) {
+      ASSERT_EQ(upload(client, id(i), photo(i)).status, 201);
+      stored_.push_back(i);
+    }
+  }
+
+  // Once the disk is writable again: a new server accepts upload `next`,
+  // and after it stops, nothing is missing.
+  void serve_again_and_expect_intact(int next) {
+    server_ = std::make_unique<testing::ServeProcess>(
+        ARSCOUT_CLI, "sqlite:" + file_, log_ + ".2");
+    upload_acknowledged(next, 1);
+    stop_server();
+    expect_intact(stored_);
+  }
+
   // With the server stopped: the file is sound and holds exactly `stored`.
   void expect_intact(const std::vector<int>& stored) {
     EXPECT_EQ(integrity_check(file_), "ok");
@@ -252,6 +271,7 @@ class SqliteDisk : public ::testing::Test {
 
   std::string file_, token_, log_;
   std::unique_ptr<testing::ServeProcess> server_;
+  std::vector<int> stored_;
 };
 
 TEST_F(SqliteDisk, FullDiskGivesA503AndLosesNothing) {
@@ -259,31 +279,30 @@ TEST_F(SqliteDisk, FullDiskGivesA503AndLosesNothing) {
   ARSCOUT_DISK_OR_SKIP(disk);
   serve_on(disk.dir());
   auto client = client_for(*server_, token_);
-  std::vector<int> stored;
   ingest::HttpResult refused;
   int next = 0;
   for (; next < 200; ++next) {
     refused = upload(client, id(next), photo(next));
     if (refused.status != 201) break;
-    stored.push_back(next);
+    stored_.push_back(next);
   }
-  ASSERT_GT(stored.size(), 2u) << "the disk filled before any upload";
+  ASSERT_GT(stored_.size(), 2u) << "the disk filled before any upload";
   ASSERT_EQ(refused.status, 503) << refused.body;
   EXPECT_EQ(refused.json().value("error", ""), "unavailable");
   EXPECT_NE(refused.body.find("full"), std::string::npos) << refused.body;
-  std::cout << "full disk, after " << stored.size()
+  std::cout << "full disk, after " << stored_.size()
             << " uploads: " << refused.body << "\n";
   // Reads go on from a full disk.
-  EXPECT_EQ(client.get("/v1/docs/captures/" + id(stored.front())).status, 200);
+  EXPECT_EQ(client.get("/v1/docs/captures/" + id(stored_.front())).status, 200);
   EXPECT_EQ(client.get("/healthz").status, 200);
   EXPECT_EQ(upload(client, id(next), photo(next)).status, 503);
 
   ASSERT_TRUE(disk.remount("64m", false));  // space freed
   ingest::HttpResult retried = upload(client, id(next), photo(next));
   EXPECT_EQ(retried.status, 201) << retried.body;
-  if (retried.status == 201) stored.push_back(next);
+  if (retried.status == 201) stored_.push_back(next);
   stop_server();
-  expect_intact(stored);
+  expect_intact(stored_);
 }
 
 // Linux refuses to make a file system read-only while a process has files
@@ -293,14 +312,7 @@ TEST_F(SqliteDisk, ReadOnlyDiskIsAClearStartErrorAndLosesNothing) {
   testing::Tmpfs disk("64m");
   ARSCOUT_DISK_OR_SKIP(disk);
   serve_on(disk.dir());
-  std::vector<int> stored;
-  {
-    auto client = client_for(*server_, token_);
-    for (int i = 0; i < 4; ++i) {
-      ASSERT_EQ(upload(client, id(i), photo(i)).status, 201);
-      stored.push_back(i);
-    }
-  }
+  upload_acknowledged(0, 4);
   stop_server();
   ASSERT_TRUE(disk.remount("64m", true)) << std::strerror(errno);
 
@@ -319,13 +331,7 @@ TEST_F(SqliteDisk, ReadOnlyDiskIsAClearStartErrorAndLosesNothing) {
   std::cout << "read-only start: " << testing::slurp(log);
 
   ASSERT_TRUE(disk.remount("64m", false));
-  server_ = std::make_unique<testing::ServeProcess>(
-      ARSCOUT_CLI, "sqlite:" + file_, log_ + ".2");
-  auto client = client_for(*server_, token_);
-  ASSERT_EQ(upload(client, id(4), photo(4)).status, 201);
-  stored.push_back(4);
-  stop_server();
-  expect_intact(stored);
+  serve_again_and_expect_intact(4);
 }
 
 // The disk fails under the running server and the kernel turns it
@@ -336,14 +342,10 @@ TEST_F(SqliteDisk, DiskTurningReadOnlyUnderTheServerGives503AndLosesNothing) {
   testing::Ext4Disk disk("64M");
   ARSCOUT_DISK_OR_SKIP(disk);
   serve_on(disk.dir());
-  std::vector<int> stored;
-  auto client = client_for(*server_, token_);
-  for (int i = 0; i < 6; ++i) {
-    ASSERT_EQ(upload(client, id(i), photo(i)).status, 201);
-    stored.push_back(i);
-  }
+  upload_acknowledged(0, 6);
   ASSERT_TRUE(disk.fail()) << disk.error();
 
+  auto client = client_for(*server_, token_);
   const ingest::HttpResult refused = upload(client, id(6), photo(6));
   std::cout << "disk turned read-only: " << refused.body << "\n";
   EXPECT_EQ(refused.status, 503) << refused.body;
@@ -354,14 +356,8 @@ TEST_F(SqliteDisk, DiskTurningReadOnlyUnderTheServerGives503AndLosesNothing) {
   stop_server();
 
   ASSERT_TRUE(disk.repair()) << disk.error();
-  expect_intact(stored);
-  server_ = std::make_unique<testing::ServeProcess>(
-      ARSCOUT_CLI, "sqlite:" + file_, log_ + ".2");
-  auto again = client_for(*server_, token_);
-  ASSERT_EQ(upload(again, id(6), photo(6)).status, 201);
-  stored.push_back(6);
-  stop_server();
-  expect_intact(stored);
+  expect_intact(stored_);
+  serve_again_and_expect_intact(6);
 }
 
 }  // namespace
