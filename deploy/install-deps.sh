@@ -17,8 +17,10 @@ packages=(
   libssl-dev openssl
   # PostgreSQL server for the PostgreSQL backend tests and deployments
   postgresql-15 postgresql-client-15
-  # runuser (util-linux) starts the throwaway test server as 'postgres'
-  util-linux procps
+  # runuser (util-linux) starts the throwaway test server as 'postgres';
+  # losetup (mount) and mkfs.ext4/e2fsck (e2fsprogs) give the fault tests
+  # a disk of their own to fail (tests/reliability/scratch_disks.h)
+  util-linux procps mount e2fsprogs
   # PCL's pcl_ply2pcd: the test that our PLY files open in standard tools
   pcl-tools
   # the web viewer: Node.js for npm (three.js, playwright-core) and
