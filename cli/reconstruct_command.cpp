@@ -44,6 +44,7 @@ struct ReconstructArgs {
   engine::ReconstructionOptions options;
   bool dense = false;
   engine::DenseOptions dense_options;
+  double refine_budget_s = 2.0;
 };
 
 std::string read_file(const std::string& path) {
@@ -148,9 +149,10 @@ void print_progress(int n, int total, const engine::AddResult& r) {
             << "  inliers " << r.pose_inliers << "  reproj "
             << std::setprecision(3) << r.mean_reprojection_px << " px"
             << std::setprecision(2) << (r.geo_registered ? "  geo" : "")
-            << "  | decode " << t.decode_s << " undistort " << t.undistort_s
-            << " features " << t.features_s << " match " << t.matching_s
-            << " pose " << t.pose_s << " triang " << t.triangulation_s << " ba "
+            << (r.loops_closed ? "  loop closed" : "") << "  | decode "
+            << t.decode_s << " undistort " << t.undistort_s << " features "
+            << t.features_s << " match " << t.matching_s << " pose " << t.pose_s
+            << " triang " << t.triangulation_s << " ba "
             << t.bundle_adjustment_s << " total " << t.total_s << " s";
   if (!r.also_registered.empty()) {
     std::cout << "  (also registered:";
@@ -171,6 +173,33 @@ void print_dense_progress(const engine::DenseUpdate& u) {
   std::cout << "  points " << u.points << (u.refused ? " (re-fused)" : "")
             << "  | sweep " << u.sweep_s << " filter " << u.filter_s
             << " fusion " << u.fusion_s << " s" << std::endl;
+}
+
+void print_refine(const engine::RefineResult& r) {
+  if (!r.ran) return;
+  std::cout << std::fixed << std::setprecision(2)
+            << "      refine: " << r.images << " images, " << r.iterations
+            << " iterations, " << r.seconds << " s"
+            << (r.converged ? "" : " (given way)") << std::endl;
+}
+
+// The global adjustment in the gap before the next photo, as the service
+// runs it while it waits: at most `budget_s` (it gives way after the
+// iteration that passes it), continued after the next photo.
+void refine_between_photos(engine::Reconstruction& site, double budget_s) {
+  if (budget_s <= 0 || !site.refinement_due()) return;
+  const auto start = std::chrono::steady_clock::now();
+  print_refine(site.refine([&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                         start)
+               .count() > budget_s;
+  }));
+}
+
+// Before the outputs: the last photo's refinement, to the end.
+void refine_to_convergence(engine::Reconstruction& site) {
+  for (int round = 0; round < 3 && site.refinement_due(); ++round)
+    print_refine(site.refine());
 }
 
 // Photos by capture id (the file name) for the dense stage, which decodes
@@ -242,6 +271,7 @@ int run_reconstruct(const ReconstructArgs& a) {
     try {
       const engine::AddResult result = site.add_capture(input);
       print_progress(n, static_cast<int>(paths.size()), result);
+      refine_between_photos(site, a.refine_budget_s);
       if (dense && site.registered_count() > 0)
         print_dense_progress(dense->update(site.model(), images));
     } catch (const std::invalid_argument& e) {
@@ -255,6 +285,7 @@ int run_reconstruct(const ReconstructArgs& a) {
           .count();
   std::cout << "added " << added << " images in " << std::setprecision(2)
             << std::fixed << seconds << " s" << std::defaultfloat << std::endl;
+  refine_to_convergence(site);
   if (dense) print_dense_progress(dense->update(site.model(), images));
   write_outputs(site, dense ? &*dense : nullptr, a);
   if (!a.save_state.empty()) {
@@ -299,6 +330,20 @@ void add_reconstruct_command(CLI::App& app) {
                   "Harris corners per image")
       ->capture_default_str()
       ->check(CLI::Range(100, 50000));
+  cmd->add_option("--gps-neighbours", args.options.gps_neighbours,
+                  "match each photo with this many nearest by position")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 100));
+  cmd->add_option("--baseline-neighbours", args.options.baseline_neighbours,
+                  "... and the nearest in this many distance bands (0.5-1 "
+                  "m, 1-2 m, ...), for parallax")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 20));
+  cmd->add_option("--loop-neighbours", args.options.loop_neighbours,
+                  "... and this many old photos of the same place (loops); "
+                  "0 turns loop closing off")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 20));
   cmd->add_option("--refine-intrinsics", args.options.refine_intrinsics,
                   "auto (uncalibrated cameras only), on or off")
       ->capture_default_str()
@@ -319,6 +364,12 @@ void add_reconstruct_command(CLI::App& app) {
   cmd->add_flag("--cuda", args.dense_options.sweep.use_cuda,
                 "sweep on the GPU when this build has the CUDA path and a "
                 "device (else the CPU path runs)");
+  cmd->add_option("--refine-budget", args.refine_budget_s,
+                  "seconds of global adjustment between photos once the "
+                  "model is past the inline size (the gap the service uses "
+                  "while waiting for a photo); 0: only at the end")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 3600.0));
   cmd->add_option("--limit", args.limit, "add at most N new photos, then stop")
       ->check(CLI::PositiveNumber);
   cmd->add_option(

@@ -6,7 +6,9 @@
 #     every test but the `long` ones;
 #  2. an AddressSanitizer + UndefinedBehaviorSanitizer build (build-san/,
 #     clang, with the libFuzzer targets of tests/fuzz) and the same tests
-#     but the `engine-data` ones, plus a short run of each fuzz target
+#     but the `engine-data` and `engine-synthetic` ones (whole
+#     reconstructions of real photos and of the rendered block walk), plus
+#     a short run of each fuzz target
 #     (label `fuzz`). The engine-data tests reconstruct real photo sets end
 #     to end; under ASan they take about 40 minutes more on 2 cores, past
 #     CI's limit, and they exercise the code the synthetic engine tests do
@@ -38,5 +40,5 @@ if [ "$which" != default ]; then
   # Any report (leaks included) fails the test that triggered it: the
   # build stops at the first UBSan finding, and ASan exits non-zero.
   UBSAN_OPTIONS=print_stacktrace=1 \
-    ctest --test-dir build-san --output-on-failure -j2 -LE 'long|engine-data'
+    ctest --test-dir build-san --output-on-failure -j2 -LE 'long|engine-data|engine-synthetic'
 fi

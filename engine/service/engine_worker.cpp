@@ -199,6 +199,9 @@ struct EngineWorker::Impl {
       lock.unlock();
       const bool ok = run_increment(site, job, work, lock);
       // run_increment returns with the lock held.
+      if (ok && held.count(site) &&
+          (q.pending.empty() || options.reconstruction.deterministic))
+        run_refinement(site, job, q, lock);
       q.running = false;
       if (!ok) {
         q.pending.insert(q.pending.begin(), work.begin(), work.end());
@@ -364,6 +367,31 @@ struct EngineWorker::Impl {
       ++stats.failures;
     }
     return true;
+  }
+
+  // The site's global refinement while it has no work waiting: it gives
+  // way (after the solver iteration under way) as soon as work arrives,
+  // and publishes what it reached as a model version. Deterministic runs
+  // let it finish, so that a replay gives the same models however fast it
+  // arrives. Called and returns with the lock held.
+  void run_refinement(const std::string& site, service::SiteJob& job,
+                      SiteQueue& q, std::unique_lock<std::mutex>& lock) {
+    if (!job.refinement_due()) return;
+    const bool give_way = !options.reconstruction.deterministic;
+    lock.unlock();
+    try {
+      service::Increment refined = job.run_refine([&] {
+        std::lock_guard guard(mutex);
+        return stopping || (give_way && !q.pending.empty());
+      });
+      if (!refined.ops.empty()) commit(site, job, refined, std::nullopt);
+      lock.lock();
+      stats.increments += refined.model_written ? 1 : 0;
+    } catch (const std::exception& e) {
+      job.reset();
+      log("site " + site + ": refinement failed, will retry: " + e.what());
+      lock.lock();
+    }
   }
 
   // Calls make() and appends its time to the increment's summary.

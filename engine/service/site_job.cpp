@@ -206,19 +206,7 @@ Increment SiteJob::run(const std::vector<Work>& work) {
     ops.push_back(model_op(model, captures, report));
     increment.model_written = true;
   }
-  // The engine state, so that a restart needs no recomputation.
-  Json statuses = Json::object();
-  for (const auto& [c, s] : statuses_) statuses[c] = s;
-  for (const auto& [c, s] : pending_statuses_) statuses[c] = s;
-  db::WriteOp state =
-      db::WriteOp::put(site_path(id_, "engine"), "engine-state",
-                       Json{{"statuses", statuses},
-                            {"registered", model.images.size()},
-                            {"through_seq", pending_through_seq_},
-                            {"dense_due", dense_due_}},
-                       engine_version_);
-  state.blobs = db::BlobRefs{{"state", store_.put_blob(sparse_->serialize())}};
-  ops.push_back(std::move(state));
+  ops.push_back(state_op(model));
 
   pending_model_version_ = model_version_ + (publish_model ? 1 : 0);
   std::ostringstream summary;
@@ -233,6 +221,53 @@ Increment SiteJob::run(const std::vector<Work>& work) {
   summary << " (" << static_cast<int>(report.total_s * 1000) << " ms)";
   increment.summary = summary.str();
   increment.ops = std::move(ops);
+  return increment;
+}
+
+// The engine state, so that a restart needs no recomputation.
+db::WriteOp SiteJob::state_op(const Model& model) {
+  Json statuses = Json::object();
+  for (const auto& [c, s] : statuses_) statuses[c] = s;
+  for (const auto& [c, s] : pending_statuses_) statuses[c] = s;
+  db::WriteOp state =
+      db::WriteOp::put(site_path(id_, "engine"), "engine-state",
+                       Json{{"statuses", statuses},
+                            {"registered", model.images.size()},
+                            {"through_seq", pending_through_seq_},
+                            {"dense_due", dense_due_}},
+                       engine_version_);
+  state.blobs = db::BlobRefs{{"state", store_.put_blob(sparse_->serialize())}};
+  return state;
+}
+
+bool SiteJob::refinement_due() const {
+  return loaded_ && sparse_ && sparse_->refinement_due();
+}
+
+Increment SiteJob::run_refine(const std::function<bool()>& stop) {
+  Increment increment;
+  if (!refinement_due()) return increment;
+  pending_statuses_.clear();
+  pending_depth_maps_.clear();
+  pending_removed_maps_.clear();
+  pending_through_seq_ = through_seq_;
+  const RefineResult refined = sparse_->refine(stop);
+  if (!refined.ran) return increment;
+  const Model model = sparse_->model();
+  IncrementReport report;
+  report.dense_points = dense_points_;
+  report.total_s = refined.seconds;
+  increment.ops.push_back(model_op(model, sparse_->captures(), report));
+  increment.ops.push_back(state_op(model));
+  increment.model_written = true;
+  pending_model_version_ = model_version_ + 1;
+  std::ostringstream summary;
+  summary << "site " << id_ << ": global refinement of " << refined.images
+          << " key views, " << refined.iterations << " iterations"
+          << (refined.converged ? "" : " (gave way to new work)") << ", model v"
+          << pending_model_version_ << " ("
+          << static_cast<int>(refined.seconds * 1000) << " ms)";
+  increment.summary = summary.str();
   return increment;
 }
 

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -62,7 +63,15 @@ class SiteJob {
   // sparse phase (run) publishes first, so that a photo shows up registered
   // without waiting for its depth map. Throws like run().
   Increment run_dense();
-  // The batch of the last run() or run_dense() committed.
+  // True when the site's global refinement has work (Reconstruction::
+  // refinement_due): the worker runs it while no work is waiting.
+  bool refinement_due() const;
+  // The global refinement between increments: `stop` is asked after every
+  // solver iteration and ends it early (the progress stands). Returns the
+  // writes of a model version with the refined poses and the engine state,
+  // or no writes when nothing was due. Throws like run().
+  Increment run_refine(const std::function<bool()>& stop);
+  // The batch of the last run(), run_dense() or run_refine() committed.
   void committed();
   // Forgets the in-memory state: the next run() restores it from the store.
   void reset();
@@ -72,6 +81,7 @@ class SiteJob {
 
  private:
   void restore();
+  db::WriteOp state_op(const Model& model);
   db::WriteOp model_op(const Model& model,
                        const std::vector<CaptureState>& captures,
                        const IncrementReport& report,

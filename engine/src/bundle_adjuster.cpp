@@ -1,6 +1,8 @@
 #include "bundle_adjuster.h"
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <set>
 
@@ -120,27 +122,36 @@ class ProblemBuilder {
 
   void select(const std::vector<int>& free_images, bool global) {
     global_ = global;
+    const bool subset = !options_.global_images.empty();
     for (size_t i = 0; i < scene_.images.size(); ++i) {
-      if (scene_.images[i].registered && global)
+      if (scene_.images[i].registered && global &&
+          (!subset || options_.global_images.count(static_cast<int>(i))))
         free_.insert(static_cast<int>(i));
     }
     if (!global) {
       for (int i : free_images) free_.insert(i);
     }
-    for (const auto& [id, point] : scene_.points) {
-      for (const Observation& obs : point.track) {
-        if (free_.count(obs.image)) {
-          points_.insert(id);
-          break;
-        }
+    if (global) {
+      for (const auto& [id, point] : scene_.points) points_.insert(id);
+      return;
+    }
+    // The free images' points, found through their keypoints: O(window),
+    // not O(model).
+    for (int i : free_) {
+      for (int64_t id : scene_.images[i].point_of) {
+        if (id >= 0) points_.insert(id);
       }
     }
+    choose_fixed_images();
   }
 
   void build() {
     for (int64_t id : points_) {
       ScenePoint& point = scene_.points.at(id);
-      for (const Observation& obs : point.track) add_observation(point, obs);
+      const std::vector<Observation> kept = kept_observations(point);
+      for (const Observation& obs : kept) add_observation(point, obs);
+      if (options_.points_fixed && !kept.empty())
+        problem_.SetParameterBlockConstant(point.xyz.data());
     }
     if (options_.gps_priors) add_gps_priors();
     if (options_.gps_priors && options_.upright_sigma_deg > 0)
@@ -241,6 +252,68 @@ class ProblemBuilder {
     }
   }
 
+  // The images outside the window that share the most points with it;
+  // only these are held fixed (all of them when there is no limit).
+  void choose_fixed_images() {
+    std::map<int, int> shared;
+    for (int64_t id : points_) {
+      for (const Observation& obs : scene_.points.at(id).track) {
+        if (!free_.count(obs.image)) ++shared[obs.image];
+      }
+    }
+    std::vector<std::pair<int, int>> ranked;
+    for (const auto& [image, count] : shared) ranked.push_back({-count, image});
+    std::sort(ranked.begin(), ranked.end());
+    const size_t limit = options_.max_fixed_images > 0
+                             ? static_cast<size_t>(options_.max_fixed_images)
+                             : ranked.size();
+    for (size_t i = 0; i < ranked.size() && i < limit; ++i)
+      fixed_.insert(ranked[i].second);
+    limit_fixed_ = options_.max_fixed_images > 0;
+  }
+
+  // A point's observations in the problem: all in a global adjustment; in a
+  // local one the free images' and the chosen fixed ones', up to the cap.
+  // A point left with one observation stays out (nothing constrains it).
+  std::vector<Observation> kept_observations(const ScenePoint& point) const {
+    if (global_) return global_observations(point);
+    std::vector<Observation> kept;
+    for (const Observation& obs : point.track) {
+      if (free_.count(obs.image)) kept.push_back(obs);
+    }
+    if (options_.points_fixed) return kept;  // the others add nothing
+    const size_t cap =
+        options_.max_track_observations > 0
+            ? static_cast<size_t>(options_.max_track_observations)
+            : point.track.size();
+    for (const Observation& obs : point.track) {
+      if (kept.size() >= cap) break;
+      if (free_.count(obs.image)) continue;
+      if (limit_fixed_ && !fixed_.count(obs.image)) continue;
+      kept.push_back(obs);
+    }
+    if (kept.size() < 2) kept.clear();
+    return kept;
+  }
+
+  std::vector<Observation> global_observations(const ScenePoint& point) const {
+    if (options_.global_images.empty() && options_.max_track_observations == 0)
+      return point.track;
+    std::vector<Observation> in;
+    for (const Observation& obs : point.track) {
+      if (free_.count(obs.image)) in.push_back(obs);
+    }
+    const size_t cap = static_cast<size_t>(options_.max_track_observations);
+    if (cap >= 2 && in.size() > cap) {
+      std::vector<Observation> spread;
+      for (size_t k = 0; k < cap; ++k)
+        spread.push_back(in[k * (in.size() - 1) / (cap - 1)]);
+      in = std::move(spread);
+    }
+    if (in.size() < 2) in.clear();
+    return in;
+  }
+
   Scene& scene_;
   const BundleOptions& options_;
   // Declared before the problem, which uses but does not own them.
@@ -249,6 +322,8 @@ class ProblemBuilder {
   ceres::Problem problem_;
   bool global_ = false;
   std::set<int> free_;
+  std::set<int> fixed_;  // local: the fixed images allowed in
+  bool limit_fixed_ = false;
   std::set<int> images_;
   std::set<int> cameras_;
   std::map<int, double> aspects_;
@@ -318,6 +393,23 @@ struct SampsonCost {
   }
 
   Eigen::Vector2d x1, x2;
+};
+
+// Ends a solve when the caller asks; the solver then keeps the last
+// accepted iterate.
+class StopCallback : public ceres::IterationCallback {
+ public:
+  explicit StopCallback(const std::function<bool()>& stop) : stop_(stop) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) final {
+    if (!stop_ || !stop_()) return ceres::SOLVER_CONTINUE;
+    stopped_ = true;
+    return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+  }
+  bool stopped() const { return stopped_; }
+
+ private:
+  const std::function<bool()>& stop_;
+  bool stopped_ = false;
 };
 
 }  // namespace
@@ -409,9 +501,12 @@ BundleReport adjust_bundle(Scene& scene, const std::vector<int>& free_images,
   solver.parameter_tolerance = 1e-9;
   solver.logging_type = ceres::SILENT;
   solver.minimizer_progress_to_stdout = false;
+  StopCallback stop(options.stop);
+  if (options.stop) solver.callbacks.push_back(&stop);
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &builder.problem(), &summary);
   builder.normalize_quaternions();
+  report.stopped = stop.stopped();
   report.iterations = static_cast<int>(summary.iterations.size());
   report.initial_rms_px =
       std::sqrt(2 * summary.initial_cost / std::max(1, summary.num_residuals));

@@ -4,7 +4,9 @@
 // section 3.3). The only translation unit that includes Ceres.
 #pragma once
 
+#include <functional>
 #include <optional>
+#include <set>
 #include <vector>
 
 #include "estimators.h"
@@ -18,6 +20,24 @@ struct BundleOptions {
   double loss_scale_px = 1.0;    // Cauchy loss scale
   int max_iterations = 50;
   int threads = 1;
+  // Local adjustments only: of the images that observe the free images'
+  // points without being free, the `max_fixed_images` sharing the most
+  // points are held fixed and the others left out; each point keeps its
+  // free observations and fixed ones up to `max_track_observations` in all
+  // (0: no limit). This bounds the problem whatever the model's size.
+  int max_fixed_images = 0;
+  int max_track_observations = 0;
+  // Global adjustments only: when set, the problem holds these registered
+  // images alone (the others' observations are left out, their poses
+  // untouched), and points with more than `max_track_observations` of them
+  // keep that many, spread evenly along the track.
+  std::set<int> global_images;
+  // Local adjustments only: points held where they are, so only the free
+  // poses move (motion-only adjustment).
+  bool points_fixed = false;
+  // Asked after every iteration; true ends the solve there, keeping the
+  // progress made (the last accepted iterate).
+  std::function<bool()> stop;
 };
 
 struct BundleReport {
@@ -29,6 +49,7 @@ struct BundleReport {
   double final_rms_px = 0;
   int images = 0;
   int points = 0;
+  bool stopped = false;  // ended early by BundleOptions::stop
 };
 
 // Adjusts the poses of `free_images` and every point they observe; other

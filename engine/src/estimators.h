@@ -70,4 +70,14 @@ std::optional<Similarity> estimate_similarity(
     const std::vector<Eigen::Vector3d>& to, double threshold, uint64_t seed,
     std::vector<int>* inliers);
 
+// --- Rotation between two sets of rays (Kabsch in RANSAC) -------------------
+// The rotation R with to[i] ~ R from[i] for unit rays (a camera turning on
+// the spot): samples of 2 drawn with a generator seeded by `seed`, inliers
+// within `threshold_rad` of angle, then a least-squares refit on them.
+// nullopt when fewer than `min_inliers` agree.
+std::optional<Eigen::Matrix3d> estimate_rotation(
+    const std::vector<Eigen::Vector3d>& from,
+    const std::vector<Eigen::Vector3d>& to, double threshold_rad,
+    int min_inliers, uint64_t seed, std::vector<int>* inliers);
+
 }  // namespace arscout::engine

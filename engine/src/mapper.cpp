@@ -7,6 +7,7 @@
 
 #include "bundle_adjuster.h"
 #include "estimators.h"
+#include "loop_closure.h"
 
 #include <Eigen/Eigenvalues>
 
@@ -28,20 +29,20 @@ class StageClock {
   std::chrono::steady_clock::time_point start_;
 };
 
+constexpr int kGlobalIterations = 30;
+
+// Below this baseline, as a fraction of the scene's depth (about 0.6
+// degrees of parallax), a new view refines only its own pose.
+constexpr double kKeyViewBaseline = 0.01;
+constexpr double kKeyViewAngleRad = 5.0 * M_PI / 180;
+// Observations per point in the global refinement (spread along a track):
+// a point seen by a hundred photos of a burst is fixed well by 25.
+constexpr int kGlobalTrack = 25;
+
 Eigen::Matrix<double, 3, 4> pose_matrix(const SceneImage& image) {
   Eigen::Matrix<double, 3, 4> P;
   P << image.q.toRotationMatrix(), image.t;
   return P;
-}
-
-// The matches of a pair oriented so that `.first` is a keypoint of `image`.
-std::vector<std::pair<int, int>> oriented_matches(int image, int other,
-                                                  const ImagePair& pair) {
-  if (image < other) return pair.matches;
-  std::vector<std::pair<int, int>> flipped;
-  flipped.reserve(pair.matches.size());
-  for (const auto& [a, b] : pair.matches) flipped.emplace_back(b, a);
-  return flipped;
 }
 
 bool has_observation_in(const ScenePoint& point, int image) {
@@ -91,14 +92,71 @@ std::vector<int> IncrementalMapper::update() {
     registered.push_back(best);
     failed.clear();
     triangulate_image(best);
+    close_loops(best);
     adjust_local(best);
     geo_register();
-    if (scene_.registered_count() >=
-        options_.global_ba_growth * scene_.registered_at_last_global_ba) {
+    if (global_inline() &&
+        scene_.registered_count() >=
+            options_.global_ba_growth * scene_.registered_at_last_global_ba) {
       adjust_global();
     }
   }
   return registered;
+}
+
+// After a loop closure moved the chain onto the old captures, the new
+// image's matches to them merge the two sets of tracks; the global
+// adjustment then spreads what the closure left.
+void IncrementalMapper::close_loops(int index) {
+  StageClock clock(timings_.pose_s);
+  const LoopClosure loop = close_loop(scene_, index, options_);
+  if (!loop.closed) return;
+  ++loops_closed_;
+  triangulate_image(index);
+  scene_.registered_at_last_global_ba = 0;  // refine() is due
+  if (global_inline()) adjust_global();
+}
+
+// Small models adjust globally inside the increment (cheap, and the early
+// model needs it); larger ones leave it to refine().
+bool IncrementalMapper::global_inline() const {
+  return scene_.registered_count() <= options_.inline_global_ba_images;
+}
+
+bool IncrementalMapper::refinement_due() const {
+  return scene_.initialized &&
+         scene_.registered_count() != scene_.registered_at_last_global_ba;
+}
+
+RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
+  RefineResult result;
+  if (!refinement_due()) return result;
+  const auto start = std::chrono::steady_clock::now();
+  result.ran = true;
+  BundleOptions ba = bundle_options(kGlobalIterations);
+  ba.stop = stop;
+  ba.max_track_observations = kGlobalTrack;
+  const std::vector<int> keys = key_views();
+  ba.global_images.insert(keys.begin(), keys.end());
+  align_to_priors(ba);
+  const BundleReport report = adjust_bundle(scene_, {}, true, ba);
+  result.iterations = report.iterations;
+  result.images = report.images;
+  result.converged = !report.stopped;
+  std::vector<int> all;
+  for (size_t i = 0; i < scene_.images.size(); ++i) {
+    if (!scene_.images[i].registered) continue;
+    all.push_back(static_cast<int>(i));
+    if (!ba.global_images.count(static_cast<int>(i)))
+      adjust_pose(static_cast<int>(i));
+  }
+  filter_points(all);
+  if (result.converged)
+    scene_.registered_at_last_global_ba = scene_.registered_count();
+  result.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
+  return result;
 }
 
 // The unregistered image with the most 2D-3D correspondences (-1 if none
@@ -276,39 +334,32 @@ bool IncrementalMapper::register_from_pair(int index) {
   }
   direction.normalize();
   const Eigen::Vector3d C0 = anchor.centre();
-  const SceneCamera& camera = scene_.cameras[image.camera];
-  // Each 2D-3D match fixes the length l in C = C0 + l * direction.
   const auto corr = correspondences(index);
-  std::vector<double> lengths;
-  for (const auto& [keypoint, point] : corr) {
-    const Eigen::Vector2d x = normalize(camera, image.keypoints[keypoint]);
-    const Eigen::Vector3d ray(x.x(), x.y(), 1.0);
-    const Eigen::Vector3d a = ray.cross(R * (scene_.points.at(point).xyz - C0));
-    const Eigen::Vector3d b = ray.cross(R * direction);
-    if (b.squaredNorm() < 1e-12) continue;
-    const double length = a.dot(b) / b.squaredNorm();
-    if (length > 0) lengths.push_back(length);
-  }
-  if (lengths.size() < 3) return false;
-  std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2,
-                   lengths.end());
-  const Eigen::Vector3d centre = C0 + lengths[lengths.size() / 2] * direction;
-  const Eigen::Quaterniond q(R);
-  SceneImage trial = image;
-  trial.q = q.normalized();
-  trial.t = -(trial.q * centre);
+  const Eigen::Quaterniond q = Eigen::Quaterniond(R).normalized();
+  // Hypotheses: a turn on the spot (a burst; the essential matrix's
+  // baseline and even its rotation are then unreliable, so the turn is
+  // fitted to the rays themselves), or a step along the baseline.
+  std::vector<std::pair<Eigen::Quaterniond, Eigen::Vector3d>> poses;
+  if (auto turn = turn_rotation(index, other, *best))
+    poses.push_back({Eigen::Quaterniond(*turn * R_anchor).normalized(), C0});
+  poses.push_back({q, C0});
+  if (auto length = baseline_length(index, R, C0, direction, corr))
+    poses.push_back({q, C0 + *length * direction});
   std::vector<std::pair<int, int64_t>> agreeing;
-  for (const auto& [keypoint, point] : corr) {
-    Eigen::Vector2d projected;
-    if (project(camera, trial, scene_.points.at(point).xyz, &projected) &&
-        (projected - image.keypoints[keypoint]).norm() <=
-            options_.max_reprojection_px) {
-      agreeing.emplace_back(keypoint, point);
+  Eigen::Quaterniond rotation = q;
+  Eigen::Vector3d centre = C0;
+  for (const auto& [pose_q, pose_c] : poses) {
+    auto explained = agreeing_matches(index, pose_q, pose_c, corr);
+    if (explained.size() > agreeing.size()) {
+      agreeing = std::move(explained);
+      rotation = pose_q;
+      centre = pose_c;
     }
   }
-  if (agreeing.size() < 3) return false;
-  image.q = trial.q;
-  image.t = trial.t;
+  // Few agreeing matches of many mean neither hypothesis holds.
+  if (agreeing.size() < 3 || 3 * agreeing.size() < corr.size()) return false;
+  image.q = rotation;
+  image.t = -(rotation * centre);
   image.registered = true;
   image.status = CaptureStatus::kRegistered;
   image.reason.clear();
@@ -320,6 +371,74 @@ bool IncrementalMapper::register_from_pair(int index) {
     }
   }
   return true;
+}
+
+// The distance along `direction` from C0 that the median 2D-3D match
+// puts the camera at (R its world-to-camera rotation); none when fewer than
+// 3 matches fix it.
+std::optional<double> IncrementalMapper::baseline_length(
+    int index, const Eigen::Matrix3d& R, const Eigen::Vector3d& C0,
+    const Eigen::Vector3d& direction,
+    const std::vector<std::pair<int, int64_t>>& corr) const {
+  const SceneImage& image = scene_.images[index];
+  const SceneCamera& camera = scene_.cameras[image.camera];
+  std::vector<double> lengths;
+  for (const auto& [keypoint, point] : corr) {
+    const Eigen::Vector2d x = normalize(camera, image.keypoints[keypoint]);
+    const Eigen::Vector3d ray(x.x(), x.y(), 1.0);
+    const Eigen::Vector3d a = ray.cross(R * (scene_.points.at(point).xyz - C0));
+    const Eigen::Vector3d b = ray.cross(R * direction);
+    if (b.squaredNorm() < 1e-12) continue;
+    const double length = a.dot(b) / b.squaredNorm();
+    if (length > 0) lengths.push_back(length);
+  }
+  if (lengths.size() < 3) return std::nullopt;
+  std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2,
+                   lengths.end());
+  return lengths[lengths.size() / 2];
+}
+
+// The rotation (camera to camera) that explains most of a pair's matches
+// as a turn on the spot; none when most of them need a baseline.
+std::optional<Eigen::Matrix3d> IncrementalMapper::turn_rotation(
+    int index, int other, const ImagePair& pair) const {
+  const SceneImage& image = scene_.images[index];
+  const SceneImage& anchor = scene_.images[other];
+  const SceneCamera& camera = scene_.cameras[image.camera];
+  const SceneCamera& anchor_camera = scene_.cameras[anchor.camera];
+  std::vector<Eigen::Vector3d> from, to;
+  for (const auto& [mine, theirs] : oriented_matches(index, other, pair)) {
+    from.push_back(normalize(anchor_camera, anchor.keypoints[theirs])
+                       .homogeneous()
+                       .normalized());
+    to.push_back(
+        normalize(camera, image.keypoints[mine]).homogeneous().normalized());
+  }
+  const int most = static_cast<int>(from.size() * 7 / 10);
+  return estimate_rotation(from, to, threshold_normalized(index),
+                           std::max(options_.min_pose_inliers, most),
+                           static_cast<uint64_t>(index), nullptr);
+}
+
+// The 2D-3D matches that a camera at `centre` turned by `q` explains.
+std::vector<std::pair<int, int64_t>> IncrementalMapper::agreeing_matches(
+    int index, const Eigen::Quaterniond& q, const Eigen::Vector3d& centre,
+    const std::vector<std::pair<int, int64_t>>& corr) const {
+  const SceneImage& image = scene_.images[index];
+  const SceneCamera& camera = scene_.cameras[image.camera];
+  SceneImage trial;
+  trial.q = q;
+  trial.t = -(q * centre);
+  std::vector<std::pair<int, int64_t>> agreeing;
+  for (const auto& [keypoint, point] : corr) {
+    Eigen::Vector2d projected;
+    if (project(camera, trial, scene_.points.at(point).xyz, &projected) &&
+        (projected - image.keypoints[keypoint]).norm() <=
+            options_.max_reprojection_px) {
+      agreeing.emplace_back(keypoint, point);
+    }
+  }
+  return agreeing;
 }
 
 // Two points that a match says are one: merged where one position explains
@@ -375,9 +494,11 @@ bool IncrementalMapper::triangulate_pair_match(Observation first,
   const auto X = triangulate({pose_matrix(a), pose_matrix(b)},
                              {normalize(ca, a.keypoints[first.keypoint]),
                               normalize(cb, b.keypoints[second.keypoint])});
-  if (!X) return false;
-  if (triangulation_angle_deg(a.centre(), b.centre(), *X) <
-      options_.min_triangulation_angle_deg) {
+  if (!X || !X->allFinite()) return false;
+  // Written to fail on NaN too: two cameras at one place (a turn on the
+  // spot) give a point with no defined angle.
+  if (!(triangulation_angle_deg(a.centre(), b.centre(), *X) >=
+        options_.min_triangulation_angle_deg)) {
     return false;
   }
   Eigen::Vector2d pa, pb;
@@ -434,19 +555,74 @@ std::vector<int> IncrementalMapper::covisible_images(int index,
   return result;
 }
 
+// A registered image with almost no baseline to a covisible one (a photo
+// of a burst, a scout standing still): it adds observations but no
+// parallax, so adjusting the map around it would buy nothing.
+bool IncrementalMapper::near_duplicate_view(
+    int index, const std::vector<int>& covisible) const {
+  const SceneImage& image = scene_.images[index];
+  std::vector<double> depths;
+  for (int64_t point : image.point_of) {
+    if (point >= 0)
+      depths.push_back((image.q * scene_.points.at(point).xyz + image.t).z());
+  }
+  if (depths.size() < 20) return false;
+  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2,
+                   depths.end());
+  const double depth = depths[depths.size() / 2];
+  for (int other : covisible) {
+    const SceneImage& view = scene_.images[other];
+    if ((view.centre() - image.centre()).norm() < kKeyViewBaseline * depth &&
+        view.q.angularDistance(image.q) < kKeyViewAngleRad)
+      return true;
+  }
+  return false;
+}
+
+// The views that carry the model's geometry: in order of addition, each
+// registered image that is not a near duplicate of an earlier key view
+// (plus the gauge images). The others follow them by their own pose.
+std::vector<int> IncrementalMapper::key_views() const {
+  std::vector<int> keys;
+  for (size_t i = 0; i < scene_.images.size(); ++i) {
+    const int index = static_cast<int>(i);
+    if (!scene_.images[i].registered) continue;
+    const bool gauge =
+        index == scene_.reference_image || index == scene_.scale_image;
+    if (gauge || !near_duplicate_view(index, keys)) keys.push_back(index);
+  }
+  return keys;
+}
+
+// Motion-only adjustment of one registered image against fixed points.
+void IncrementalMapper::adjust_pose(int index) {
+  BundleOptions ba = bundle_options(10);
+  ba.points_fixed = true;
+  adjust_bundle(scene_, {index}, false, ba);
+}
+
 void IncrementalMapper::adjust_local(int index) {
   StageClock clock(timings_.bundle_adjustment_s);
   std::vector<int> free = covisible_images(index, options_.local_ba_images - 1);
+  if (near_duplicate_view(index, free)) {
+    adjust_pose(index);
+    filter_points({index});
+    return;
+  }
   free.push_back(index);
-  const BundleOptions ba = bundle_options(15);
-  align_to_priors(ba);
+  BundleOptions ba = bundle_options(15);
+  ba.max_fixed_images = options_.local_ba_fixed;
+  ba.max_track_observations = options_.local_ba_track;
+  // Aligning to the priors moves every camera: cheap, but O(model), so only
+  // while the model is small; later the global refinement keeps it aligned.
+  if (global_inline()) align_to_priors(ba);
   adjust_bundle(scene_, free, false, ba);
   filter_points(free);
 }
 
 void IncrementalMapper::adjust_global() {
   StageClock clock(timings_.bundle_adjustment_s);
-  const BundleOptions ba = bundle_options(30);
+  const BundleOptions ba = bundle_options(kGlobalIterations);
   align_to_priors(ba);
   adjust_bundle(scene_, {}, true, ba);
   std::vector<int> all;
@@ -498,8 +674,8 @@ void IncrementalMapper::filter_points(const std::vector<int>& images) {
                 scene_.images[point.track[j].image].centre(), point.xyz));
       }
     }
-    if (point.track.size() < 2 ||
-        best_angle < options_.min_triangulation_angle_deg / 3) {
+    if (point.track.size() < 2 || !point.xyz.allFinite() ||
+        !(best_angle >= options_.min_triangulation_angle_deg / 3)) {
       scene_.remove_point(id);
     }
   }
@@ -571,7 +747,11 @@ void IncrementalMapper::geo_register() {
   if (!far) return;
   transform_model(*sim);
   scene_.geo_registered = true;
-  adjust_global();
+  if (global_inline()) {
+    adjust_global();
+  } else {
+    scene_.registered_at_last_global_ba = 0;  // refine() is due
+  }
 }
 
 void IncrementalMapper::transform_model(const Similarity& sim) {
@@ -599,7 +779,13 @@ BundleOptions IncrementalMapper::bundle_options(int max_iterations) const {
 // directions; solving them first lets it converge in a few iterations.
 void IncrementalMapper::align_to_priors(const BundleOptions& ba) {
   if (!scene_.geo_registered) return;
-  if (auto sim = fit_model_to_priors(scene_, ba)) transform_model(*sim);
+  auto sim = fit_model_to_priors(scene_, ba);
+  // Once in ENU the scale is known to a few percent; fixes that would halve
+  // or double it cannot tell (their noise exceeds the model's extent, as on
+  // the first steps of a walk), and following them would collapse it.
+  if (sim && sim->scale > 0.5 && sim->scale < 2 && sim->R.allFinite() &&
+      sim->t.allFinite())
+    transform_model(*sim);
 }
 
 void IncrementalMapper::reset_model() {

@@ -4,6 +4,8 @@
 // global when the model has grown) and geo-registration to ENU.
 #pragma once
 
+#include <functional>
+#include <optional>
 #include <random>
 #include <set>
 #include <vector>
@@ -26,6 +28,12 @@ class IncrementalMapper {
   // After a withdrawal: re-initializes when too little is left, else
   // adjusts the whole model again.
   void repair_after_removal();
+  // The global adjustment left out of update() for large models (see
+  // Reconstruction::refine).
+  RefineResult refine(const std::function<bool()>& stop);
+  bool refinement_due() const;
+  // Loops closed by this mapper's update() calls.
+  int loops_closed() const { return loops_closed_; }
   // Mean reprojection error over all observations, working pixels.
   double mean_reprojection_px() const;
   // 2D-3D correspondences an unregistered image has (keypoint, point).
@@ -37,12 +45,26 @@ class IncrementalMapper {
   bool try_initial_pair(int a, int b, const ImagePair& pair);
   bool register_image(int image);
   bool register_from_pair(int image);
+  std::optional<double> baseline_length(
+      int image, const Eigen::Matrix3d& R, const Eigen::Vector3d& C0,
+      const Eigen::Vector3d& direction,
+      const std::vector<std::pair<int, int64_t>>& corr) const;
+  std::optional<Eigen::Matrix3d> turn_rotation(int image, int other,
+                                               const ImagePair& pair) const;
+  std::vector<std::pair<int, int64_t>> agreeing_matches(
+      int image, const Eigen::Quaterniond& q, const Eigen::Vector3d& centre,
+      const std::vector<std::pair<int, int64_t>>& corr) const;
   void triangulate_image(int image);
   void extend_track(int64_t point, Observation obs);
   void merge_tracks(int64_t a, int64_t b);
   bool triangulate_pair_match(Observation first, Observation second);
+  void close_loops(int image);
+  std::vector<int> key_views() const;
+  void adjust_pose(int image);
   void adjust_local(int image);
+  bool near_duplicate_view(int image, const std::vector<int>& covisible) const;
   void adjust_global();
+  bool global_inline() const;
   void filter_points(const std::vector<int>& images);
   void geo_register();
   void transform_model(const Similarity& sim);
@@ -58,6 +80,7 @@ class IncrementalMapper {
   Scene& scene_;
   const ReconstructionOptions& options_;
   StageTimings& timings_;
+  int loops_closed_ = 0;
 };
 
 }  // namespace arscout::engine

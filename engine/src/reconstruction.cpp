@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <set>
 #include <stdexcept>
 
@@ -31,6 +32,30 @@ constexpr double kEssentialThresholdPx = 1.0;
 constexpr int kScreenSamples = 256;
 constexpr int kScreenMinimum = 12;
 constexpr int kScreenMaxImages = 60;
+// Spatial partners that match fewer sampled descriptors than this are not
+// matched in full (pairs that verify match several times more).
+constexpr int kSpatialScreen = 4;
+// Old captures near a new one screened for a loop.
+constexpr int kLoopScreen = 8;
+
+// Registered captures closer than this fraction of the scene's depth and
+// turned less than this are near duplicates as match partners.
+constexpr double kDuplicateBaseline = 0.01;
+constexpr double kDuplicateAngleRad = 2.0 * M_PI / 180;
+
+// The median depth of the points a registered image observes (0 for none).
+double median_depth(const Scene& scene, int index) {
+  const SceneImage& image = scene.images[index];
+  std::vector<double> depths;
+  for (int64_t point : image.point_of) {
+    if (point < 0) continue;
+    depths.push_back((image.q * scene.points.at(point).xyz + image.t).z());
+  }
+  if (depths.empty()) return 0;
+  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2,
+                   depths.end());
+  return depths[depths.size() / 2];
+}
 
 // An image to match against, and the quarter turns that align the new
 // image's descriptors with its own.
@@ -65,6 +90,13 @@ struct Reconstruction::Impl {
 
   int camera_for(const CaptureInput& capture, const WorkingImage& image);
   const Undistorter& undistorter(int camera, cv::Size size);
+  Eigen::Vector3d position(int image) const;
+  bool near_duplicate(int a, int b) const;
+  std::vector<std::pair<double, int>> by_distance(int image) const;
+  std::set<int> spatial_neighbours(int image, std::set<int> chosen) const;
+  std::vector<int> loop_candidates(
+      int image, const std::vector<std::pair<double, int>>& ranked,
+      const std::set<int>& chosen) const;
   std::vector<Candidate> neighbours(int image) const;
   std::vector<int> covisible_with(const std::set<int>& images) const;
   std::pair<int, int> best_rotation(int image, int other) const;
@@ -129,33 +161,125 @@ void Reconstruction::Impl::set_gps(SceneImage& image,
   image.gps_enu = {enu[0], enu[1], enu[2]};
 }
 
-// GPS neighbours (k nearest within the radius), the captures added just
-// before, registered captures that share points with those, and the best of
-// a cheap visual screen over the rest (which also finds photos turned
-// sideways or upside down): never all pairs.
-std::vector<Candidate> Reconstruction::Impl::neighbours(int index) const {
-  std::set<int> chosen;
+// Where a capture is believed to be: its place in the model once the model
+// is in ENU, else its fix.
+Eigen::Vector3d Reconstruction::Impl::position(int index) const {
   const SceneImage& image = scene.images[index];
-  if (image.gps) {
-    std::vector<std::pair<double, int>> by_distance;
-    for (int i = 0; i < index; ++i) {
-      const SceneImage& other = scene.images[i];
-      if (other.removed || !other.gps) continue;
-      const double d = (other.gps_enu - image.gps_enu).head<2>().norm();
-      if (d <= options.gps_radius_m) by_distance.push_back({d, i});
-    }
-    std::sort(by_distance.begin(), by_distance.end());
-    for (size_t i = 0;
-         i < by_distance.size() && static_cast<int>(i) < options.gps_neighbours;
-         ++i) {
-      chosen.insert(by_distance[i].second);
+  if (image.registered && scene.geo_registered) return image.centre();
+  return image.gps_enu;
+}
+
+// Two registered captures from (almost) the same place looking (almost) the
+// same way: matching a new photo against both adds nothing the first gives.
+bool Reconstruction::Impl::near_duplicate(int a, int b) const {
+  const SceneImage& x = scene.images[a];
+  const SceneImage& y = scene.images[b];
+  if (!x.registered || !y.registered) return false;
+  const double depth = median_depth(scene, a);
+  if (!(depth > 0)) return false;
+  return (x.centre() - y.centre()).norm() < kDuplicateBaseline * depth &&
+         x.q.angularDistance(y.q) < kDuplicateAngleRad;
+}
+
+// Earlier captures with a fix by distance from `index`'s fix (within the
+// radius), nearest first.
+std::vector<std::pair<double, int>> Reconstruction::Impl::by_distance(
+    int index) const {
+  std::vector<std::pair<double, int>> result;
+  const SceneImage& image = scene.images[index];
+  for (int i = 0; i < index; ++i) {
+    const SceneImage& other = scene.images[i];
+    if (other.removed || !other.gps) continue;
+    const double d = (position(i) - image.gps_enu).head<2>().norm();
+    if (d <= options.gps_radius_m) result.push_back({d, i});
+  }
+  std::sort(result.begin(), result.end());
+  return result;
+}
+
+// Adds to `chosen` the spatial partners of a capture with a fix: the
+// nearest (none a near duplicate of one chosen), the nearest in each
+// baseline band (parallax), and the nearest old ones (loops). At most gps +
+// baseline + loop neighbours more.
+std::set<int> Reconstruction::Impl::spatial_neighbours(
+    int index, std::set<int> chosen) const {
+  const auto ranked = by_distance(index);
+  int nearest = 0;
+  for (const auto& [d, i] : ranked) {
+    if (nearest >= options.gps_neighbours) break;
+    if (chosen.count(i)) continue;
+    const bool duplicate =
+        std::any_of(chosen.begin(), chosen.end(),
+                    [&](int other) { return near_duplicate(i, other); });
+    if (duplicate) continue;
+    chosen.insert(i);
+    ++nearest;
+  }
+  double band = options.baseline_min_m;
+  for (int b = 0; b < options.baseline_neighbours; ++b, band *= 2) {
+    for (const auto& [d, i] : ranked) {
+      if (d < band || d >= 2 * band || chosen.count(i)) continue;
+      chosen.insert(i);
+      break;
     }
   }
+  for (int i : loop_candidates(index, ranked, chosen)) chosen.insert(i);
+  return chosen;
+}
+
+// Old captures near `index` (a walk that came back to where it was): the
+// nearest few by position, no two near duplicates, screened by appearance;
+// the `loop_neighbours` best that pass the screen.
+std::vector<int> Reconstruction::Impl::loop_candidates(
+    int index, const std::vector<std::pair<double, int>>& ranked,
+    const std::set<int>& chosen) const {
+  std::vector<int> screened;
+  std::vector<std::pair<int, int>> scored;  // (-score, image)
+  for (const auto& [d, i] : ranked) {
+    if (static_cast<int>(screened.size()) >= kLoopScreen) break;
+    if (index - i <= options.loop_min_age || chosen.count(i)) continue;
+    if (std::any_of(screened.begin(), screened.end(),
+                    [&](int other) { return near_duplicate(i, other); }))
+      continue;
+    screened.push_back(i);
+    const int score = overlap_score(scene.images[index].descriptors,
+                                    scene.images[i].descriptors, options.ratio,
+                                    kScreenSamples);
+    if (score >= kScreenMinimum) scored.push_back({-score, i});
+  }
+  std::sort(scored.begin(), scored.end());
+  std::vector<int> result;
+  for (size_t k = 0;
+       k < scored.size() && static_cast<int>(k) < options.loop_neighbours;
+       ++k) {
+    result.push_back(scored[k].second);
+  }
+  return result;
+}
+
+// The spatial partners, the captures added just before, registered
+// captures that share points with those, and the best of a cheap visual
+// screen over the rest (which also finds photos turned sideways or upside
+// down): never all pairs.
+std::vector<Candidate> Reconstruction::Impl::neighbours(int index) const {
+  const SceneImage& image = scene.images[index];
+  std::set<int> chosen;
   int recent = 0;
   for (int i = index - 1; i >= 0 && recent < options.recent_neighbours; --i) {
     if (scene.images[i].removed) continue;
     chosen.insert(i);
     ++recent;
+  }
+  if (image.gps) {
+    const std::set<int> recent_ones = chosen;
+    chosen = spatial_neighbours(index, std::move(chosen));
+    // Nearby by a noisy fix is not overlapping: a photo of the other side
+    // of the street costs a full match and gives nothing.
+    std::erase_if(chosen, [&](int other) {
+      return !recent_ones.count(other) &&
+             overlap_score(image.descriptors, scene.images[other].descriptors,
+                           options.ratio, kScreenSamples) < kSpatialScreen;
+    });
   }
   for (int other : covisible_with(chosen)) chosen.insert(other);
   // A photo with a fix is matched upright against its neighbours; one
@@ -345,10 +469,14 @@ AddResult Reconstruction::add_capture(const CaptureInput& capture) {
   if (!added.registered && result.matched_pairs == 0) {
     result.reason = "no verified matches with any nearby capture";
     scene.images[index].reason = result.reason;
+  } else if (!added.registered && result.reason.empty()) {
+    result.reason = "its matches reach no point of the model yet";
+    scene.images[index].reason = result.reason;
   }
   result.pose_inliers = added.registered ? added.pose_inliers : 0;
   result.mean_reprojection_px = mapper.mean_reprojection_px();
   result.geo_registered = scene.geo_registered;
+  result.loops_closed = mapper.loops_closed();
   timings.total_s = seconds_since(start);
   return result;
 }
@@ -380,6 +508,18 @@ bool Reconstruction::remove_capture(const std::string& id) {
   mapper.repair_after_removal();
   mapper.update();
   return true;
+}
+
+RefineResult Reconstruction::refine(const std::function<bool()>& stop) {
+  StageTimings timings;
+  IncrementalMapper mapper(impl_->scene, impl_->options, timings);
+  return mapper.refine(stop);
+}
+
+bool Reconstruction::refinement_due() const {
+  StageTimings timings;
+  IncrementalMapper mapper(impl_->scene, impl_->options, timings);
+  return mapper.refinement_due();
 }
 
 std::vector<CaptureState> Reconstruction::captures() const {

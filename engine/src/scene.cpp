@@ -31,6 +31,15 @@ std::vector<std::pair<int, const ImagePair*>> Scene::pairs_of(int image) const {
   return result;
 }
 
+std::vector<std::pair<int, int>> oriented_matches(int image, int other,
+                                                  const ImagePair& pair) {
+  if (image < other) return pair.matches;
+  std::vector<std::pair<int, int>> flipped;
+  flipped.reserve(pair.matches.size());
+  for (const auto& [a, b] : pair.matches) flipped.emplace_back(b, a);
+  return flipped;
+}
+
 void Scene::remove_point(int64_t id) {
   auto it = points.find(id);
   if (it == points.end()) return;

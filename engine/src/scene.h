@@ -107,6 +107,11 @@ struct Scene {
                     const std::vector<Observation>& track);
 };
 
+// The matches of a pair oriented so that `.first` is a keypoint of `image`
+// (the pair's `other` image gives `.second`).
+std::vector<std::pair<int, int>> oriented_matches(int image, int other,
+                                                  const ImagePair& pair);
+
 // Projects a world point with the working-resolution camera; false when it
 // is behind the camera.
 bool project(const SceneCamera& camera, const SceneImage& image,

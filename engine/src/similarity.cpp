@@ -1,7 +1,9 @@
 #include <algorithm>
+#include <cmath>
 #include <random>
 
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 
 #include "estimators.h"
 
@@ -96,6 +98,67 @@ std::optional<Similarity> estimate_similarity(
     }
   }
   if (inliers_out) *inliers_out = best;
+  return refined;
+}
+
+namespace {
+
+// Least-squares rotation taking from[i] to to[i] over `subset` (Kabsch).
+std::optional<Eigen::Matrix3d> fit_rotation(
+    const std::vector<Eigen::Vector3d>& from,
+    const std::vector<Eigen::Vector3d>& to, const std::vector<int>& subset) {
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  for (int i : subset) H += from[i] * to[i].transpose();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(
+      H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  if (!(svd.singularValues()(1) > 1e-12)) return std::nullopt;
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) =
+      (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
+  const Eigen::Matrix3d R = svd.matrixV() * D * svd.matrixU().transpose();
+  if (!R.allFinite()) return std::nullopt;
+  return R;
+}
+
+std::vector<int> rotation_inliers(const Eigen::Matrix3d& R,
+                                  const std::vector<Eigen::Vector3d>& from,
+                                  const std::vector<Eigen::Vector3d>& to,
+                                  double threshold_rad) {
+  const double min_cos = std::cos(threshold_rad);
+  std::vector<int> inliers;
+  for (size_t i = 0; i < from.size(); ++i) {
+    if ((R * from[i]).dot(to[i]) >= min_cos)
+      inliers.push_back(static_cast<int>(i));
+  }
+  return inliers;
+}
+
+}  // namespace
+
+std::optional<Eigen::Matrix3d> estimate_rotation(
+    const std::vector<Eigen::Vector3d>& from,
+    const std::vector<Eigen::Vector3d>& to, double threshold_rad,
+    int min_inliers, uint64_t seed, std::vector<int>* inliers_out) {
+  const size_t n = from.size();
+  if (n < 2 || n != to.size()) return std::nullopt;
+  std::mt19937_64 rng(seed);
+  std::uniform_int_distribution<size_t> pick(0, n - 1);
+  std::vector<int> best;
+  for (int iteration = 0; iteration < 100; ++iteration) {
+    const int a = static_cast<int>(pick(rng));
+    const int b = static_cast<int>(pick(rng));
+    if (a == b) continue;
+    const auto R = fit_rotation(from, to, {a, b});
+    if (!R) continue;
+    std::vector<int> inliers = rotation_inliers(*R, from, to, threshold_rad);
+    if (inliers.size() > best.size()) best = std::move(inliers);
+  }
+  if (static_cast<int>(best.size()) < std::max(2, min_inliers))
+    return std::nullopt;
+  const auto refined = fit_rotation(from, to, best);
+  if (!refined) return std::nullopt;
+  if (inliers_out)
+    *inliers_out = rotation_inliers(*refined, from, to, threshold_rad);
   return refined;
 }
 

@@ -1,5 +1,12 @@
-// Ray casting of the synthetic site: every sub-pixel ray is tested against
-// every quad (a site has a handful, so no acceleration structure pays off).
+// Ray casting of the synthetic site. A block scene has hundreds of quads, of
+// which a pixel can see a handful: each view splits the image into tiles and
+// gives every tile the quads that overlap its pyramid of rays, and each ray
+// is tested against its tile's quads alone. Culling only drops quads no ray
+// of the tile can hit and keeps the site's order, so the nearest hit (ties
+// go to the earlier quad) and hence every pixel are what testing all quads
+// would give.
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -37,7 +44,12 @@ float brightness_of(const Eigen::Vector3d& unit_normal) {
   return static_cast<float>(0.55 + 0.45 * std::abs(unit_normal.dot(light)));
 }
 
-std::vector<Target> prepare(const Site& site, const Eigen::Vector3d& eye) {
+// A target's four corners, in camera coordinates.
+using Corners = std::array<Eigen::Vector3d, 4>;
+
+std::vector<Target> prepare(const Site& site, const PinholeView& view,
+                            std::vector<Corners>* corners) {
+  const Eigen::Vector3d eye = view.centre();
   std::vector<Target> targets;
   for (const Quad& quad : site.quads) {
     const Eigen::Vector3d normal = quad.edge_u.cross(quad.edge_v);
@@ -55,9 +67,44 @@ std::vector<Target> prepare(const Site& site, const Eigen::Vector3d& eye) {
     target.seed = quad.seed;
     target.brightness = brightness_of(normal / std::sqrt(area2));
     targets.push_back(target);
+    const Eigen::Vector3d far = quad.corner + quad.edge_u + quad.edge_v;
+    corners->push_back({view.R * quad.corner + view.t,
+                        view.R * (quad.corner + quad.edge_u) + view.t,
+                        view.R * (quad.corner + quad.edge_v) + view.t,
+                        view.R * far + view.t});
   }
   return targets;
 }
+
+// The rays through pixel positions [u0, u1] x [v0, v1] fill the cone of
+// camera points X with Z > 0 and u0 <= k0.X / Z <= u1, v0 <= k1.X / Z <= v1
+// (k0, k1 the rows of K, whose last row is (0, 0, 1)): the intersection of
+// five half-spaces through the centre. A convex quad whose four corners all
+// lie outside one of them cannot meet the cone.
+class RayPyramid {
+ public:
+  RayPyramid(const Eigen::Matrix3d& K, double u0, double u1, double v0,
+             double v1) {
+    const Eigen::Vector3d k0 = K.row(0).transpose();
+    const Eigen::Vector3d k1 = K.row(1).transpose();
+    const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+    planes_ = {z, k0 - u0 * z, u1 * z - k0, k1 - v0 * z, v1 * z - k1};
+  }
+
+  bool may_meet(const Corners& corners) const {
+    for (const Eigen::Vector3d& plane : planes_) {
+      bool outside = true;
+      for (const Eigen::Vector3d& corner : corners) {
+        outside = outside && plane.dot(corner) <= 0;
+      }
+      if (outside) return false;
+    }
+    return true;
+  }
+
+ private:
+  std::array<Eigen::Vector3d, 5> planes_;
+};
 
 struct Hit {
   double depth = std::numeric_limits<double>::infinity();
@@ -98,23 +145,55 @@ cv::Vec3f shade(const Hit& hit) {
          target.brightness;
 }
 
+// Square blocks of pixels that share one list of candidate quads: small
+// enough that a tile sees few quads, large enough that building the lists
+// costs little next to casting.
+constexpr int kTile = 32;
+
 // Everything one view needs per ray, fixed at construction: read-only
 // afterwards, so rows can be cast concurrently.
 class Caster {
  public:
   Caster(const Site& site, const PinholeView& view, int supersampling)
       : eye_(view.centre()),
-        targets_(prepare(site, eye_)),
         camera_to_world_(view.R.transpose()),
         k_inverse_(view.K.inverse()),
         width_(view.size.width),
-        supersampling_(supersampling) {}
+        columns_((view.size.width + kTile - 1) / kTile),
+        supersampling_(supersampling) {
+    std::vector<Corners> corners;
+    const std::vector<Target> targets = prepare(site, view, &corners);
+    const int rows = (view.size.height + kTile - 1) / kTile;
+    tiles_.resize(static_cast<size_t>(rows) * columns_);
+    // Without the last row (0, 0, 1) of the contract, K's rows do not bound
+    // the rays: every tile keeps every quad.
+    if (view.K.row(2) != Eigen::RowVector3d(0, 0, 1)) {
+      for (auto& tile : tiles_) tile = targets;
+      return;
+    }
+    for (int row = 0; row < rows; ++row) {
+      for (int column = 0; column < columns_; ++column) {
+        // Sub-pixel rays stay within half a pixel of the tile's pixel
+        // centres; another half pixel keeps rounding from mattering.
+        const RayPyramid pyramid(
+            view.K, column * kTile - 1.0,
+            std::min((column + 1) * kTile, view.size.width), row * kTile - 1.0,
+            std::min((row + 1) * kTile, view.size.height));
+        auto& tile = tiles_[static_cast<size_t>(row) * columns_ + column];
+        for (size_t i = 0; i < targets.size(); ++i) {
+          if (pyramid.may_meet(corners[i])) tile.push_back(targets[i]);
+        }
+      }
+    }
+  }
 
   void row(int y, cv::Vec3b* colour, float* depth) const {
+    const size_t first_tile = static_cast<size_t>(y / kTile) * columns_;
     for (int x = 0; x < width_; ++x) {
-      const Hit centre = cast(targets_, eye_, direction(x, y));
+      const std::vector<Target>& targets = tiles_[first_tile + x / kTile];
+      const Hit centre = cast(targets, eye_, direction(x, y));
       depth[x] = centre.target ? static_cast<float>(centre.depth) : 0.f;
-      colour[x] = pixel_colour(x, y);
+      colour[x] = pixel_colour(targets, x, y);
     }
   }
 
@@ -125,7 +204,8 @@ class Caster {
   }
 
   // Sub-pixel rays on a regular grid centred in the pixel.
-  cv::Vec3b pixel_colour(int x, int y) const {
+  cv::Vec3b pixel_colour(const std::vector<Target>& targets, int x,
+                         int y) const {
     const double step = 1.0 / supersampling_;
     const double first = 0.5 * step - 0.5;
     cv::Vec3f sum(0, 0, 0);
@@ -133,7 +213,7 @@ class Caster {
       for (int i = 0; i < supersampling_; ++i) {
         const Eigen::Vector3d ray =
             direction(x + first + i * step, y + first + j * step);
-        sum += shade(cast(targets_, eye_, ray));
+        sum += shade(cast(targets, eye_, ray));
       }
     }
     const float scale = 255.f / (supersampling_ * supersampling_);
@@ -143,11 +223,14 @@ class Caster {
   }
 
   Eigen::Vector3d eye_;
-  std::vector<Target> targets_;
   Eigen::Matrix3d camera_to_world_;
   Eigen::Matrix3d k_inverse_;
   int width_;
+  int columns_;
   int supersampling_;
+  // Row-major, columns_ per row: the quads each tile's rays may hit, in the
+  // site's order.
+  std::vector<std::vector<Target>> tiles_;
 };
 
 }  // namespace

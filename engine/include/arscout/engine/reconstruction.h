@@ -23,6 +23,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -41,7 +42,17 @@ struct ReconstructionOptions {
   double gps_radius_m = 150;  // ... within this distance
   int recent_neighbours = 3;  // and the captures added just before
   int visual_neighbours = 4;  // plus registered captures sharing points
-  double ratio = 0.8;         // Lowe's ratio test
+  // Partners for parallax: the nearest capture in each distance band
+  // [b, 2b) for b = baseline_min_m, 2 baseline_min_m, ... (this many bands),
+  // so that a burst from one spot still has a pair to triangulate with.
+  int baseline_neighbours = 4;
+  double baseline_min_m = 0.5;
+  // Partners for loops: of the 8 captures nearest by position among those
+  // added before the last `loop_min_age`, the ones a cheap visual screen
+  // ranks best.
+  int loop_neighbours = 2;
+  int loop_min_age = 30;
+  double ratio = 0.8;                // Lowe's ratio test
   double max_reprojection_px = 4.0;  // at the working resolution
   int min_pair_inliers = 20;
   int min_pose_inliers = 15;
@@ -54,9 +65,18 @@ struct ReconstructionOptions {
   // which keeps the vertical GPS noise from tilting the model. Portrait
   // photos are outliers to a robust loss. 0 turns the prior off.
   double upright_sigma_deg = 2.0;
+  // Local adjustment after each registration: the new capture and its most
+  // covisible registered captures are free; of the others observing the
+  // same points, the most covisible are held fixed, and each point keeps at
+  // most `local_ba_track` observations. Bounded whatever the site's size.
   int local_ba_images = 6;
-  // A global adjustment runs when the model has grown by this factor since
-  // the last one (COLMAP's rule), and always for small models.
+  int local_ba_fixed = 20;
+  int local_ba_track = 10;
+  // While the model has at most this many registered captures, a global
+  // adjustment runs inside add_capture whenever the model has grown by
+  // `global_ba_growth` since the last one (COLMAP's rule). Beyond it the
+  // global adjustment is left to refine(), off the latency path.
+  int inline_global_ba_images = 30;
   double global_ba_growth = 1.1;
   int threads = 2;
   // Fixed seeds and single-threaded solvers: the same inputs give
@@ -101,6 +121,9 @@ struct AddResult {
   // first two when the model is initialised).
   std::vector<std::string> also_registered;
   bool geo_registered = false;
+  // Loops this capture closed: it matched old captures of the same place
+  // whose points had drifted from its own (docs/engine.md).
+  int loops_closed = 0;
   StageTimings timings;
 };
 
@@ -144,6 +167,15 @@ struct Model {
   double mean_reprojection_px = 0;  // original-photo pixels
 };
 
+// What one call of Reconstruction::refine did.
+struct RefineResult {
+  bool ran = false;        // false: nothing to refine
+  bool converged = false;  // false: stopped early (progress is kept)
+  int iterations = 0;
+  int images = 0;
+  double seconds = 0;
+};
+
 struct CaptureState {
   std::string id;
   CaptureStatus status = CaptureStatus::kPending;
@@ -165,6 +197,17 @@ class Reconstruction {
   // Withdraws a capture: its observations go, and so do the points that
   // only it supported; the model is adjusted again. False if unknown.
   bool remove_capture(const std::string& id);
+
+  // The global adjustment that add_capture leaves out once the model has
+  // grown past `inline_global_ba_images`: all poses, points and refinable
+  // intrinsics, with the GPS priors. `stop` is asked after every solver
+  // iteration; when it says true the adjustment ends there and keeps the
+  // progress made so far (each accepted iteration lowers the cost), so a
+  // caller can run it between captures and give way to a new one. Does
+  // nothing when nothing was registered since the last complete run.
+  RefineResult refine(const std::function<bool()>& stop = {});
+  // True when refine() has work to do.
+  bool refinement_due() const;
 
   Model model() const;
   std::vector<CaptureState> captures() const;

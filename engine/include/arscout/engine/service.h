@@ -76,10 +76,10 @@ struct WorkerOptions {
 struct WorkerStats {
   std::int64_t changes_seen = 0;
   std::int64_t captures_placed = 0;
-  std::int64_t increments = 0;  // committed model versions, all sites
-  std::int64_t checkpoint = 0;  // last feed position saved
-  std::int64_t failures = 0;    // increments that failed (retried later)
-  std::int64_t sites_held = 0;  // site leases held now
+  std::int64_t increments = 0;   // committed model versions, all sites
+  std::int64_t checkpoint = 0;   // last feed position saved
+  std::int64_t failures = 0;     // increments that failed (retried later)
+  std::int64_t sites_held = 0;   // site leases held now
   std::int64_t sites_taken = 0;  // site leases claimed, all time
 };
 

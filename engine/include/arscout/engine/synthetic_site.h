@@ -14,7 +14,9 @@
 // arguments: the same call gives bit-identical images on every run.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -84,6 +86,96 @@ PinholeView look_at(const Eigen::Vector3d& centre,
 // std::invalid_argument when count < 1.
 std::vector<PinholeView> street_cameras(int count, cv::Size size = {640, 480},
                                         double focal_px = 560);
+
+// splitmix64 (Steele, Lea and Flood, 2014): a tiny generator whose output
+// is fixed by its arithmetic alone. The scenes and the simulated GPS draw
+// from it rather than from std:: distributions, whose algorithms differ
+// between standard libraries, so a seed gives the same site everywhere.
+class SplitMix64 {
+ public:
+  explicit SplitMix64(uint64_t seed) : state_(seed) {}
+
+  uint64_t next() {
+    uint64_t z = (state_ += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+  }
+  // Uniform in [0, 1), 53 bits.
+  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
+  double uniform(double low, double high) {
+    return low + (high - low) * uniform();
+  }
+  // Uniform in [low, high]; the modulo bias is far below anything a scene
+  // could show.
+  int integer(int low, int high) {
+    return low +
+           static_cast<int>(next() % static_cast<uint64_t>(high - low + 1));
+  }
+  // Standard normal by Box-Muller, one value per call (the sine twin is
+  // dropped so that every draw takes exactly two uniforms).
+  double gaussian() {
+    const double radius = std::sqrt(-2 * std::log(1 - uniform()));
+    return radius * std::cos(6.283185307179586 * uniform());
+  }
+
+ private:
+  uint64_t state_;
+};
+
+// A scale scene with exact ground truth: a scout's loop walk round a city
+// block, with the layout generated to fit the walk.
+//
+// The route is a rectangle whose perimeter follows `views` (about 0.85 m of
+// walk per photo, at least 56 m), walked counterclockwise with the block on the
+// walker's left. The inner block (one building for a small loop, a row of slabs
+// or a ring of buildings for larger ones) stands 4-5.5 m from the route, an
+// outer ring of buildings faces it from the other side 5-7.5 m away (the narrow
+// ends of both ranges for small loops). Buildings are boxes of four walls and a
+// roof, 6-25 m along the street and 5-15 m high; most faces are value noise,
+// each face with a seed of its own; some faces under 12 m wide are plaster
+// (fainter), a few under 10 m brick (bricks repeat, which misleads feature
+// matching where they fill a view); the ground is asphalt. Where the route
+// rounds the block's north-east corner (in the route's own frame) it runs
+// through a courtyard: walls 4-6 m high with 6 m gateways cross the street on
+// either side of the corner (the second on the north leg, or for a short block
+// on the west leg, putting the whole north side in the courtyard), and the
+// courtyard's outer walls stand 1-2.5 m further back than the street's.
+//
+// The walker looks at the block a few metres ahead on their left; in the
+// courtyard they turn to its outer walls, sweeping up to 150 degrees further
+// round about the corner when there are photos to spare (0.5 degrees per view
+// beyond 60), keep to the outer row along the north leg and turn back to the
+// block, clockwise, after the north-west corner. Views are in walking order and
+// make a closed loop: consecutive photos 0.3-2 m apart (denser while turning),
+// 1.55-1.65 m high, level (no roll; pitch 5-6 degrees down, so the ground fills
+// the bottom of the frame and the optical axis meets a surface within 19 m even
+// across a crossing), headings changing by at most 12 degrees from photo to
+// photo, every photo at least 2.9 m from every wall. One photo in 16 or so
+// starts a burst of 3-5 photos from one spot (within 2 cm) turning 8-12 degrees
+// between them. The last photo is taken about one step before the first and
+// looks at the same facade. The principal point is at the image centre
+// ((width - 1) / 2, (height - 1) / 2), the focal length `focal_px`; the walk
+// does not depend on the image size.
+//
+// The seed changes the layout (proportions, street widths, buildings,
+// courtyard, the whole scene's heading about the vertical), the walk (start,
+// steps, bursts, headings) and the textures. The world frame is east-north-up
+// with the route's centre at the origin. Below about 55 views the smallest loop
+// forces steps over 2 m. Throws std::invalid_argument when views < 2 or the
+// size is empty.
+struct BlockScene {
+  Site site;
+  std::vector<PinholeView> views;  // in walking order
+};
+BlockScene block_scene(uint32_t seed, int views, cv::Size size = {1024, 768},
+                       double focal_px = 896);
+
+// The view as a Strecha ground-truth `.camera` file (../shared/data/
+// README.md): K, a row of zero distortion, R camera-to-world (the transpose
+// of view.R), the centre, then "width height", with 17 significant digits
+// so that a reader gets the view back to double precision.
+std::string strecha_camera(const PinholeView& view);
 
 struct Rendering {
   cv::Mat bgr;    // CV_8UC3
