@@ -31,6 +31,10 @@ class StageClock {
 
 constexpr int kGlobalIterations = 30;
 
+// P3P with fewer inliers than this gets a second opinion from the
+// neighbour's relative pose (register_from_pair's hypotheses).
+constexpr int kConfidentInliers = 60;
+
 // Below this baseline, as a fraction of the scene's depth (about 0.6
 // degrees of parallax), a new view refines only its own pose.
 constexpr double kKeyViewBaseline = 0.01;
@@ -81,7 +85,9 @@ std::vector<int> IncrementalMapper::update() {
     if (best < 0) break;
     const bool enough =
         static_cast<int>(best_count) >= options_.min_pose_inliers;
-    if (!(enough && register_image(best)) && !register_from_pair(best)) {
+    const bool by_points = enough && register_image(best);
+    if (by_points) second_opinion(best);
+    if (!by_points && !register_from_pair(best)) {
       if (!enough) {
         scene_.images[best].reason = "too few matches to the model (" +
                                      std::to_string(best_count) + " 2D-3D)";
@@ -310,6 +316,63 @@ bool IncrementalMapper::register_image(int index) {
 // agree on the baseline's length.
 bool IncrementalMapper::register_from_pair(int index) {
   StageClock clock(timings_.pose_s);
+  const auto corr = correspondences(index);
+  const auto pose = pair_pose(index, corr);
+  // Few agreeing matches of many mean no hypothesis holds.
+  if (!pose || pose->agreeing.size() < 3 ||
+      3 * pose->agreeing.size() < corr.size())
+    return false;
+  set_pose(index, pose->q, pose->centre, pose->agreeing);
+  return true;
+}
+
+// A registration on few P3P inliers, or on a small share of its 2D-3D
+// matches, may be a wrong solution that a turn on the spot or a step from
+// a neighbour explains better: the pose that explains more of the 2D-3D
+// matches stays.
+void IncrementalMapper::second_opinion(int index) {
+  SceneImage& image = scene_.images[index];
+  const auto corr = correspondences(index);
+  // Few inliers, or few of many correspondences: doubtful.
+  if (image.pose_inliers >= kConfidentInliers &&
+      3 * static_cast<size_t>(image.pose_inliers) >= corr.size())
+    return;
+  StageClock clock(timings_.pose_s);
+  const auto pose = pair_pose(index, corr);
+  if (!pose || static_cast<int>(pose->agreeing.size()) <= image.pose_inliers)
+    return;
+  for (size_t k = 0; k < image.point_of.size(); ++k) {
+    const int64_t point = image.point_of[k];
+    if (point < 0) continue;
+    std::erase(scene_.points.at(point).track,
+               Observation{index, static_cast<int>(k)});
+    image.point_of[k] = -1;
+  }
+  set_pose(index, pose->q, pose->centre, pose->agreeing);
+}
+
+void IncrementalMapper::set_pose(
+    int index, const Eigen::Quaterniond& q, const Eigen::Vector3d& centre,
+    const std::vector<std::pair<int, int64_t>>& agreeing) {
+  SceneImage& image = scene_.images[index];
+  image.q = q;
+  image.t = -(q * centre);
+  image.registered = true;
+  image.status = CaptureStatus::kRegistered;
+  image.reason.clear();
+  image.pose_inliers = static_cast<int>(agreeing.size());
+  for (const auto& [keypoint, point] : agreeing) {
+    if (image.point_of[keypoint] < 0 &&
+        !has_observation_in(scene_.points.at(point), index)) {
+      scene_.add_observation(point, {index, keypoint});
+    }
+  }
+}
+
+// The best pose the relative pose to the best-matched registered
+// neighbour offers, and the 2D-3D matches it explains.
+std::optional<IncrementalMapper::PairPose> IncrementalMapper::pair_pose(
+    int index, const std::vector<std::pair<int, int64_t>>& corr) const {
   int other = -1;
   const ImagePair* best = nullptr;
   for (const auto& [candidate, pair] : scene_.pairs_of(index)) {
@@ -319,8 +382,7 @@ bool IncrementalMapper::register_from_pair(int index) {
       other = candidate;
     }
   }
-  if (!best) return false;
-  SceneImage& image = scene_.images[index];
+  if (!best) return std::nullopt;
   const SceneImage& anchor = scene_.images[other];
   const Eigen::Matrix3d R_anchor = anchor.q.toRotationMatrix();
   Eigen::Matrix3d R;
@@ -334,7 +396,6 @@ bool IncrementalMapper::register_from_pair(int index) {
   }
   direction.normalize();
   const Eigen::Vector3d C0 = anchor.centre();
-  const auto corr = correspondences(index);
   const Eigen::Quaterniond q = Eigen::Quaterniond(R).normalized();
   // Hypotheses: a turn on the spot (a burst; the essential matrix's
   // baseline and even its rotation are then unreliable, so the turn is
@@ -345,32 +406,13 @@ bool IncrementalMapper::register_from_pair(int index) {
   poses.push_back({q, C0});
   if (auto length = baseline_length(index, R, C0, direction, corr))
     poses.push_back({q, C0 + *length * direction});
-  std::vector<std::pair<int, int64_t>> agreeing;
-  Eigen::Quaterniond rotation = q;
-  Eigen::Vector3d centre = C0;
+  PairPose result{q, C0, {}};
   for (const auto& [pose_q, pose_c] : poses) {
     auto explained = agreeing_matches(index, pose_q, pose_c, corr);
-    if (explained.size() > agreeing.size()) {
-      agreeing = std::move(explained);
-      rotation = pose_q;
-      centre = pose_c;
-    }
+    if (explained.size() > result.agreeing.size())
+      result = {pose_q, pose_c, std::move(explained)};
   }
-  // Few agreeing matches of many mean neither hypothesis holds.
-  if (agreeing.size() < 3 || 3 * agreeing.size() < corr.size()) return false;
-  image.q = rotation;
-  image.t = -(rotation * centre);
-  image.registered = true;
-  image.status = CaptureStatus::kRegistered;
-  image.reason.clear();
-  image.pose_inliers = static_cast<int>(agreeing.size());
-  for (const auto& [keypoint, point] : agreeing) {
-    if (image.point_of[keypoint] < 0 &&
-        !has_observation_in(scene_.points.at(point), index)) {
-      scene_.add_observation(point, {index, keypoint});
-    }
-  }
-  return true;
+  return result;
 }
 
 // The distance along `direction` from C0 that the median 2D-3D match

@@ -45,6 +45,17 @@ class IncrementalMapper {
   bool try_initial_pair(int a, int b, const ImagePair& pair);
   bool register_image(int image);
   bool register_from_pair(int image);
+  void second_opinion(int image);
+  struct PairPose {
+    Eigen::Quaterniond q;
+    Eigen::Vector3d centre;
+    std::vector<std::pair<int, int64_t>> agreeing;
+  };
+  std::optional<PairPose> pair_pose(
+      int image, const std::vector<std::pair<int, int64_t>>& corr) const;
+  void set_pose(int image, const Eigen::Quaterniond& q,
+                const Eigen::Vector3d& centre,
+                const std::vector<std::pair<int, int64_t>>& agreeing);
   std::optional<double> baseline_length(
       int image, const Eigen::Matrix3d& R, const Eigen::Vector3d& C0,
       const Eigen::Vector3d& direction,
