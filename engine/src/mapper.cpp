@@ -326,18 +326,14 @@ bool IncrementalMapper::register_from_pair(int index) {
   return true;
 }
 
-// A registration on few P3P inliers, or on a small share of its 2D-3D
-// matches, may be a wrong solution that a turn on the spot or a step from
-// a neighbour explains better: the pose that explains more of the 2D-3D
-// matches stays.
+// A registration on few P3P inliers may be a wrong solution that a turn on
+// the spot or a step from a neighbour explains better: the pose that
+// explains more of the 2D-3D matches stays.
 void IncrementalMapper::second_opinion(int index) {
   SceneImage& image = scene_.images[index];
-  const auto corr = correspondences(index);
-  // Few inliers, or few of many correspondences: doubtful.
-  if (image.pose_inliers >= kConfidentInliers &&
-      3 * static_cast<size_t>(image.pose_inliers) >= corr.size())
-    return;
+  if (image.pose_inliers >= kConfidentInliers) return;
   StageClock clock(timings_.pose_s);
+  const auto corr = correspondences(index);
   const auto pose = pair_pose(index, corr);
   if (!pose || static_cast<int>(pose->agreeing.size()) <= image.pose_inliers)
     return;
