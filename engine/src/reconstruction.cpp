@@ -208,9 +208,10 @@ std::set<int> Reconstruction::Impl::spatial_neighbours(
   for (const auto& [d, i] : ranked) {
     if (nearest >= options.gps_neighbours) break;
     if (chosen.count(i)) continue;
-    const bool duplicate =
-        std::any_of(chosen.begin(), chosen.end(),
-                    [&](int other) { return near_duplicate(i, other); });
+    const int candidate = i;  // lambdas may not capture bindings (C++20)
+    const bool duplicate = std::any_of(
+        chosen.begin(), chosen.end(),
+        [&](int other) { return near_duplicate(candidate, other); });
     if (duplicate) continue;
     chosen.insert(i);
     ++nearest;
@@ -238,8 +239,10 @@ std::vector<int> Reconstruction::Impl::loop_candidates(
   for (const auto& [d, i] : ranked) {
     if (static_cast<int>(screened.size()) >= kLoopScreen) break;
     if (index - i <= options.loop_min_age || chosen.count(i)) continue;
-    if (std::any_of(screened.begin(), screened.end(),
-                    [&](int other) { return near_duplicate(i, other); }))
+    const int candidate = i;  // lambdas may not capture bindings (C++20)
+    if (std::any_of(screened.begin(), screened.end(), [&](int other) {
+          return near_duplicate(candidate, other);
+        }))
       continue;
     screened.push_back(i);
     const int score = overlap_score(scene.images[index].descriptors,
