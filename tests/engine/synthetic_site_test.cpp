@@ -4,6 +4,7 @@
 // window matching. Geometry is checked independently of the renderer: the
 // test solves each ray-quad intersection as a 3x3 linear system.
 #include "arscout/engine/synthetic_site.h"
+#include "ray_quad.h"
 
 #include <cmath>
 #include <limits>
@@ -38,22 +39,6 @@ Eigen::Vector3d project(const PinholeView& view, const Eigen::Vector3d& world) {
 double plane_distance(const Quad& quad, const Eigen::Vector3d& point) {
   const Eigen::Vector3d normal = quad.edge_u.cross(quad.edge_v).normalized();
   return std::abs(normal.dot(point - quad.corner));
-}
-
-// The depth at which the ray through pixel (x, y) meets the quad, solving
-// corner + s edge_u + t edge_v = eye + depth ray.
-std::optional<double> ray_quad_depth(const PinholeView& view, double x,
-                                     double y, const Quad& quad) {
-  Eigen::Vector3d ray = view.K.inverse() * Eigen::Vector3d(x, y, 1);
-  ray = view.R.transpose() * (ray / ray.z());
-  Eigen::Matrix3d system;
-  system << quad.edge_u, quad.edge_v, -ray;
-  if (std::abs(system.determinant()) < 1e-12) return std::nullopt;
-  const Eigen::Vector3d st_depth =
-      system.partialPivLu().solve(view.centre() - quad.corner);
-  const double s = st_depth(0), t = st_depth(1), depth = st_depth(2);
-  if (s < 0 || s > 1 || t < 0 || t > 1 || depth <= 0) return std::nullopt;
-  return depth;
 }
 
 // 0 when no quad is hit, as in the rendering.
