@@ -350,7 +350,16 @@ struct EngineWorker::Impl {
       ++stats.failures;
       return false;
     }
-    if (!job.dense_due()) return true;
+    run_dense_phase(site, job, lock);
+    return true;
+  }
+
+  // The dense phase when the job has one due (new views, or cameras that
+  // the sparse phase or the refinement moved), committed as a further model
+  // version. Called and returns with the lock held.
+  void run_dense_phase(const std::string& site, service::SiteJob& job,
+                       std::unique_lock<std::mutex>& lock) {
+    if (!job.dense_due()) return;
     lock.unlock();
     try {
       service::Increment dense = timed([&] { return job.run_dense(); });
@@ -366,7 +375,6 @@ struct EngineWorker::Impl {
       sites[site].dense_retry = true;
       ++stats.failures;
     }
-    return true;
   }
 
   // The site's global refinement while it has no work waiting: it gives
@@ -391,7 +399,11 @@ struct EngineWorker::Impl {
       job.reset();
       log("site " + site + ": refinement failed, will retry: " + e.what());
       lock.lock();
+      return;
     }
+    // The refined poses move the depth maps: the cloud follows them, unless
+    // work arrived (its increment's dense phase does it then).
+    if (!give_way || q.pending.empty()) run_dense_phase(site, job, lock);
   }
 
   // Calls make() and appends its time to the increment's summary.

@@ -253,6 +253,8 @@ Increment SiteJob::run_refine(const std::function<bool()>& stop) {
   pending_through_seq_ = through_seq_;
   const RefineResult refined = sparse_->refine(stop);
   if (!refined.ran) return increment;
+  // The depth maps follow the moved cameras in the next dense phase.
+  if (dense_) dense_due_ = true;
   const Model model = sparse_->model();
   IncrementReport report;
   report.dense_points = dense_points_;

@@ -69,7 +69,9 @@ class SiteJob {
   // The global refinement between increments: `stop` is asked after every
   // solver iteration and ends it early (the progress stands). Returns the
   // writes of a model version with the refined poses and the engine state,
-  // or no writes when nothing was due. Throws like run().
+  // or no writes when nothing was due. A refinement that ran makes the
+  // dense phase due (the depth maps follow the moved cameras; the model
+  // says `dense_state` "pending" until then). Throws like run().
   Increment run_refine(const std::function<bool()>& stop);
   // The batch of the last run(), run_dense() or run_refine() committed.
   void committed();

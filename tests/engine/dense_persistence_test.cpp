@@ -306,10 +306,10 @@ TEST_F(DensePersistence, OriginalSweptEveryView) {
 
 TEST_F(DensePersistence, SerializedBytesDescribeTheMap) {
   const std::string& blob = (*blobs_)[2];
-  // "ARSDEPTH", version 1, the size; 12 bytes a pixel and a short header.
+  // "ARSDEPTH", version 2, the size; 12 bytes a pixel and a short header.
   ASSERT_GT(blob.size(), 20u);
   EXPECT_EQ(blob.substr(0, 8), "ARSDEPTH");
-  EXPECT_EQ(blob.substr(8, 4), std::string("\x01\0\0\0", 4));
+  EXPECT_EQ(blob.substr(8, 4), std::string("\x02\0\0\0", 4));
   uint64_t size = 0;
   for (int i = 0; i < 8; ++i)
     size |= uint64_t{static_cast<unsigned char>(blob[12 + i])} << (8 * i);
@@ -464,10 +464,10 @@ TEST_F(DensePersistence, CorruptBytesThrowAndChangeNothing) {
   }
   {
     std::string b = good;
-    put_u32(&b, 8, 2);
-    cases.push_back({"version 2", b, "version 2"});
+    put_u32(&b, 8, 3);
+    cases.push_back({"version 3", b, "version 3"});
     cases.push_back(
-        {"version 2, checksum right", with_checksum(b), "version 2"});
+        {"version 3, checksum right", with_checksum(b), "version 3"});
   }
   for (size_t length : {size_t{0}, size_t{5}, size_t{8}, size_t{11}, size_t{12},
                         size_t{19}, size_t{20}, size_t{40}, size_t{300},
@@ -631,6 +631,76 @@ TEST_F(DensePersistence, PosesComeFromTheModelBytesStayAsSwept) {
     EXPECT_EQ(map->t, original_->raw_depth_map(map->id)->t);
     EXPECT_EQ(dense.serialize_depth_map(map->id), (*blobs_)[i]);
   }
+}
+
+// A model can change scale around its cameras after their maps were swept
+// (a geo-registration from few GPS fixes, a global adjustment): the maps
+// follow the scale the sparse points show, and their bytes stay as swept.
+TEST_F(DensePersistence, AModelThatChangesScaleRescalesTheMaps) {
+  constexpr double kScale = 1.08;
+  Model scaled = *model_;
+  for (ModelImage& image : scaled.images)
+    for (double& t : image.tvec) t *= kScale;
+  for (ModelPoint& point : scaled.points)
+    for (double& x : point.xyz) x *= kScale;
+  DenseReconstruction dense(small_dense_options());
+  const DenseUpdate u =
+      dense.restore_depth_maps(shuffled_blobs(), scaled, street_images());
+  ASSERT_GT(u.points, 0u);
+  for (size_t i = 0; i < scaled.images.size(); ++i) {
+    const std::string& id = scaled.images[i].id;
+    const DepthMap* map = dense.raw_depth_map(id);
+    const DepthMap* swept = original_->raw_depth_map(id);
+    ASSERT_NE(map, nullptr);
+    int compared = 0;
+    for (int y = 0; y < map->depth.rows; ++y)
+      for (int x = 0; x < map->depth.cols; ++x) {
+        const float before = swept->depth.at<float>(y, x);
+        if (before <= 0) continue;
+        EXPECT_NEAR(map->depth.at<float>(y, x) / before, kScale, 1e-4) << id;
+        ++compared;
+      }
+    EXPECT_GT(compared, 1000) << id;
+    EXPECT_EQ(dense.serialize_depth_map(id), (*blobs_)[i]);
+  }
+  // The fused cloud is the original's, scaled: compare the centroids.
+  auto centroid = [](const std::vector<ColoredPoint>& points) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const ColoredPoint& p : points) sum += Eigen::Vector3d(p.x, p.y, p.z);
+    return Eigen::Vector3d(sum / static_cast<double>(points.size()));
+  };
+  const Eigen::Vector3d expected = kScale * centroid(original_->points());
+  EXPECT_LT((centroid(dense.points()) - expected).norm(),
+            0.01 * expected.norm());
+  // Back at the original scale the maps are as swept again.
+  EXPECT_TRUE(dense.update(*model_, street_images()).refused);
+  for (const ModelImage& image : model_->images)
+    EXPECT_TRUE(same_pixels(dense.raw_depth_map(image.id)->depth,
+                            original_->raw_depth_map(image.id)->depth));
+}
+
+// Maps written by version 1 (no sparse ratio) still restore; they take the
+// ratio of the model they are restored into as their reference.
+TEST_F(DensePersistence, VersionOneMapsStillRestore) {
+  std::vector<std::string> version1;
+  for (const std::string& blob : *blobs_) {
+    // The ratio lies after rows, cols, K, R and t.
+    const size_t ratio_at = rows_offset(blob) + 8 + 2 * 9 * 8 + 3 * 8;
+    std::string b = blob.substr(0, ratio_at) + blob.substr(ratio_at + 8);
+    put_u32(&b, 8, 1);
+    const uint64_t size = b.size();
+    for (size_t i = 0; i < 8; ++i)
+      b[12 + i] = static_cast<char>((size >> (8 * i)) & 0xff);
+    version1.push_back(with_checksum(b));
+    const SweptDepthMap old = decode_depth_map(version1.back());
+    const SweptDepthMap now = decode_depth_map(blob);
+    EXPECT_EQ(old.sparse_depth_ratio, 0);
+    EXPECT_GT(now.sparse_depth_ratio, 0);
+    EXPECT_TRUE(same_pixels(old.map.depth, now.map.depth));
+  }
+  DenseReconstruction dense(small_dense_options());
+  dense.restore_depth_maps(version1, *model_, street_images());
+  expect_same_points(dense.points(), original_->points());
 }
 
 }  // namespace

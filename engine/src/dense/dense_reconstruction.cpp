@@ -187,6 +187,31 @@ double median_depth(const DepthMap& map) {
   return *middle;
 }
 
+// The median, over `points`, of the point's depth in the map's camera (at
+// its current pose) over `depth` at the pixel the point falls on; 0 with
+// fewer than kMinSharedPoints such points. It changes when the model
+// changes scale around this camera.
+double sparse_depth_ratio(const DepthMap& map, const cv::Mat& depth,
+                          const std::vector<const ModelPoint*>& points) {
+  std::vector<double> ratios;
+  for (const ModelPoint* point : points) {
+    const Eigen::Vector3d in_camera =
+        map.R * Eigen::Vector3d(point->xyz[0], point->xyz[1], point->xyz[2]) +
+        map.t;
+    if (in_camera.z() <= 0) continue;
+    const Eigen::Vector3d pixel = map.K * in_camera;
+    const long x = std::lround(pixel.x() / pixel.z());
+    const long y = std::lround(pixel.y() / pixel.z());
+    if (x < 0 || y < 0 || x >= depth.cols || y >= depth.rows) continue;
+    const float at = depth.at<float>(static_cast<int>(y), static_cast<int>(x));
+    if (at > 0) ratios.push_back(in_camera.z() / at);
+  }
+  if (ratios.size() < static_cast<size_t>(kMinSharedPoints)) return 0;
+  auto middle = ratios.begin() + ratios.size() / 2;
+  std::nth_element(ratios.begin(), middle, ratios.end());
+  return *middle;
+}
+
 }  // namespace
 
 struct DenseReconstruction::Impl {
@@ -204,6 +229,15 @@ struct DenseReconstruction::Impl {
     Eigen::Vector3d swept_t = Eigen::Vector3d::Zero();
     std::vector<std::string> neighbours;
     uint64_t sequence = 0;
+    double sparse_ratio = 0;  // SweptDepthMap::sparse_depth_ratio
+    // The sweep's depths once the model changed scale around this camera
+    // (map.depth then holds them times depth_scale); empty before.
+    cv::Mat swept_depth;
+    double depth_scale = 1;
+
+    const cv::Mat& depth_as_swept() const {
+      return swept_depth.empty() ? map.depth : swept_depth;
+    }
   };
 
   explicit Impl(DenseOptions o) : options(std::move(o)), cache(32) {}
@@ -216,13 +250,16 @@ struct DenseReconstruction::Impl {
   std::unique_ptr<VoxelCloud> cloud;
 
   bool drop_withdrawn(const std::map<std::string, int>& index);
-  bool follow_poses(const Model& model,
-                    const std::map<std::string, int>& index);
+  bool follow_poses(const Model& model, const std::map<std::string, int>& index,
+                    const Covisibility& covisibility);
+  bool follow_scale(Entry& entry, const std::vector<const ModelPoint*>& points);
+  double tolerance(const Entry& entry, double depth) const;
   void sweep(const Model& model, int key, const ImageSource& images,
              const Covisibility& covisibility, DenseUpdate* update);
   void filter(const std::string& id, const Model& model,
               const std::map<std::string, int>& index,
               const Covisibility& covisibility);
+  double voxel_size() const;
   void fuse(bool rebuild);
 };
 
@@ -242,18 +279,58 @@ bool DenseReconstruction::Impl::drop_withdrawn(
   return dropped;
 }
 
-// Moves every map to its camera's current pose; true when one moved enough
-// that the fused cloud should be rebuilt.
+// How far a map's surface may move before the cloud is re-fused: a share
+// of a voxel (of the voxel the map's own footprint would give while there
+// is no cloud yet).
+double DenseReconstruction::Impl::tolerance(const Entry& entry,
+                                            double depth) const {
+  const double voxel =
+      cloud ? cloud->voxel_size() : 1.5 * depth / entry.map.K(0, 0);
+  return options.refuse_fraction * voxel;
+}
+
+// A map follows its camera's pose, but a model can also change scale
+// around a camera (a geo-registration from a few GPS fixes, a global
+// adjustment): the depths the sweep measured then no longer meet the
+// sparse points. The ratio of sparse to swept depths, against the sweep's
+// own, gives the change; the map is rescaled by it. True when its surface
+// moved by more than the tolerance.
+// A map without a sweep-time ratio (a version 1 map, or too few points
+// then) takes today's as its reference.
+bool DenseReconstruction::Impl::follow_scale(
+    Entry& entry, const std::vector<const ModelPoint*>& points) {
+  const double ratio =
+      sparse_depth_ratio(entry.map, entry.depth_as_swept(), points);
+  if (!(ratio > 0)) return false;
+  if (!(entry.sparse_ratio > 0)) {
+    entry.sparse_ratio = ratio;
+    return false;
+  }
+  const double scale = ratio / entry.sparse_ratio;
+  const double depth = median_depth(entry.map);
+  if (std::abs(scale - entry.depth_scale) * depth <= tolerance(entry, depth))
+    return false;
+  if (entry.swept_depth.empty()) entry.swept_depth = entry.map.depth.clone();
+  entry.map.depth = entry.swept_depth * scale;
+  entry.depth_scale = scale;
+  return true;
+}
+
+// Moves every map to its camera's current pose and scale; true when one
+// moved enough that the fused cloud should be rebuilt.
 bool DenseReconstruction::Impl::follow_poses(
-    const Model& model, const std::map<std::string, int>& index) {
+    const Model& model, const std::map<std::string, int>& index,
+    const Covisibility& covisibility) {
   bool moved = false;
   for (auto& [id, entry] : entries) {
     const ModelImage& image = model.images[index.at(id)];
     entry.map.R = rotation_of(image);
     entry.map.t = translation_of(image);
+    if (follow_scale(entry, covisibility.points_of(index.at(id))))
+      moved = true;
     if (!cloud) continue;
     const double depth = median_depth(entry.map);
-    const double allowed = options.refuse_fraction * cloud->voxel_size();
+    const double allowed = tolerance(entry, depth);
     const Eigen::AngleAxisd turn(entry.map.R * entry.fused_R.transpose());
     if ((centre_of(image) - entry.fused_centre).norm() > allowed ||
         std::abs(turn.angle()) * depth > allowed)
@@ -285,6 +362,8 @@ void DenseReconstruction::Impl::sweep(const Model& model, int key,
   entry.map = sweep_planes(key_view, neighbours, options.sweep);
   entry.swept_R = entry.map.R;
   entry.swept_t = entry.map.t;
+  entry.sparse_ratio = sparse_depth_ratio(entry.map, entry.map.depth,
+                                          covisibility.points_of(key));
   for (int n : neighbour_indices)
     entry.neighbours.push_back(model.images[n].id);
   entry.sequence = next_sequence++;
@@ -318,17 +397,26 @@ void DenseReconstruction::Impl::filter(const std::string& id,
   }
 }
 
+// The voxel edge: the option's, or 1.5 pixel footprints at the median depth
+// of the first map (0 while there is none). A map rescaled with its model
+// rescales the voxel with it.
+double DenseReconstruction::Impl::voxel_size() const {
+  double size = options.voxel_size;
+  for (const std::string& id : order) {
+    if (size > 0) break;
+    const Entry& e = entries.at(id);
+    const double depth = median_depth(e.map);
+    if (depth > 0) size = 1.5 * depth / e.map.K(0, 0);
+  }
+  return size;
+}
+
 void DenseReconstruction::Impl::fuse(bool rebuild) {
-  if (!cloud) {
-    double size = options.voxel_size;
-    for (const std::string& id : order) {
-      if (size > 0) break;
-      const Entry& e = entries.at(id);
-      const double depth = median_depth(e.map);
-      if (depth > 0) size = 1.5 * depth / e.map.K(0, 0);
-    }
+  if (!cloud || rebuild) {
+    const double size = voxel_size();
     if (!(size > 0)) return;
-    cloud = std::make_unique<VoxelCloud>(size);
+    if (!cloud || cloud->voxel_size() != size)
+      cloud = std::make_unique<VoxelCloud>(size);
   }
   if (rebuild) {
     cloud->clear();
@@ -375,7 +463,7 @@ DenseUpdate DenseReconstruction::update(
   const Covisibility covisibility(model);
   const bool withdrawn = impl_->drop_withdrawn(index);
   bool rebuild = withdrawn;
-  rebuild = impl_->follow_poses(model, index) || rebuild;
+  rebuild = impl_->follow_poses(model, index, covisibility) || rebuild;
   auto start = Clock::now();
   for (size_t i = 0; i < model.images.size(); ++i) {
     if (impl_->entries.count(model.images[i].id)) continue;
@@ -438,6 +526,7 @@ DenseUpdate DenseReconstruction::restore_depth_maps(
     entry.swept_t = swept.map.t;
     entry.neighbours = std::move(swept.neighbours);
     entry.sequence = swept.sequence;
+    entry.sparse_ratio = swept.sparse_depth_ratio;
     entry.map = std::move(swept.map);
     entry.colour = colour;
     entry.agreed = cv::Mat::zeros(entry.map.depth.size(), CV_8U);
@@ -458,7 +547,7 @@ DenseUpdate DenseReconstruction::restore_depth_maps(
                             impl_->entries.at(b).sequence;
                    });
   // Every map to its camera's pose; the cloud is rebuilt whatever moved.
-  impl_->follow_poses(model, index);
+  impl_->follow_poses(model, index, covisibility);
   start = Clock::now();
   // Agreement is not stored: check every pair, as after a withdrawal.
   for (auto& [id, entry] : impl_->entries) entry.agreed.setTo(0);
@@ -485,10 +574,12 @@ std::string DenseReconstruction::serialize_depth_map(
   const Impl::Entry& entry = it->second;
   SweptDepthMap swept;
   swept.map = entry.map;  // shares the pixels
+  swept.map.depth = entry.depth_as_swept();
   swept.map.R = entry.swept_R;
   swept.map.t = entry.swept_t;
   swept.neighbours = entry.neighbours;
   swept.sequence = entry.sequence;
+  swept.sparse_depth_ratio = entry.sparse_ratio;
   return encode_depth_map(swept);
 }
 

@@ -166,6 +166,7 @@ std::string encode_depth_map(const SweptDepthMap& swept) {
   w.row_major(map.K);
   w.row_major(map.R);
   w.row_major(map.t);
+  w.put(swept.sparse_depth_ratio);
   w.plane(map.depth);
   w.plane(map.score);
   w.plane(map.margin);
@@ -190,9 +191,9 @@ SweptDepthMap decode_depth_map(std::string_view bytes) {
     Reader::fail("truncated: " + std::to_string(bytes.size()) +
                  " bytes, shorter than the header");
   const uint32_t version = r.get<uint32_t>("version");
-  if (version != kDepthMapFormatVersion)
+  if (version != 1 && version != kDepthMapFormatVersion)
     Reader::fail("format version " + std::to_string(version) +
-                 ", this build reads version " +
+                 ", this build reads versions 1 to " +
                  std::to_string(kDepthMapFormatVersion));
   if (bytes.size() < kHeaderBytes)
     Reader::fail("truncated: " + std::to_string(bytes.size()) +
@@ -234,6 +235,13 @@ SweptDepthMap decode_depth_map(std::string_view bytes) {
   map.K = b.row_major<Eigen::Matrix3d>("K");
   map.R = b.row_major<Eigen::Matrix3d>("R");
   map.t = b.row_major<Eigen::Vector3d>("t");
+  if (version >= 2) {
+    swept.sparse_depth_ratio = b.get<double>("sparse ratio");
+    if (!std::isfinite(swept.sparse_depth_ratio) ||
+        swept.sparse_depth_ratio < 0)
+      Reader::fail("a sparse ratio of " +
+                   std::to_string(swept.sparse_depth_ratio));
+  }
   const uint64_t planes = 3 * sizeof(float) * uint64_t{rows} * cols;
   if (b.left() != planes)
     Reader::fail("sizes inconsistent: " + std::to_string(cols) + " x " +

@@ -2,7 +2,8 @@
 // serialize_depth_map and restore_depth_maps): what the sweep produced and
 // nothing that changes afterwards, so the bytes of a map never change.
 //
-// Layout, version 1, all numbers little-endian:
+// Layout, version 2, all numbers little-endian (version 1, still read, has
+// no sparse ratio):
 //   magic       8 bytes  "ARSDEPTH"
 //   version     u32      kDepthMapFormatVersion
 //   size        u64      of the whole blob, this field and the checksum
@@ -13,6 +14,7 @@
 //   rows, cols  u32, u32 (1 to 65536 each)
 //   K, R        9 f64 each, row-major
 //   t           3 f64
+//   sparse ratio f64     SweptDepthMap::sparse_depth_ratio (>= 0, finite)
 //   depth       rows * cols f32, row-major (cv::Mat CV_32F rows, exactly)
 //   score       the same
 //   margin      the same
@@ -30,14 +32,21 @@ namespace arscout::engine {
 
 inline constexpr char kDepthMapMagic[8] = {'A', 'R', 'S', 'D',
                                            'E', 'P', 'T', 'H'};
-inline constexpr uint32_t kDepthMapFormatVersion = 1;
+inline constexpr uint32_t kDepthMapFormatVersion = 2;
 
 // A depth map as swept: `map` with the pose its camera had then, the key
-// view's neighbours in the sweep, and its place in the order of sweeping.
+// view's neighbours in the sweep, its place in the order of sweeping, and
+// how its depths compared with the model's sparse points then.
 struct SweptDepthMap {
   DepthMap map;
   std::vector<std::string> neighbours;
   uint64_t sequence = 0;
+  // The median, over the key view's sparse points, of the point's depth
+  // over the map's depth at its pixel, at sweep time; 0 when unknown (a
+  // version 1 map, or too few points). A later model whose ratio differs
+  // has changed scale around this camera (sparse_depth_ratio in
+  // dense_reconstruction.cpp).
+  double sparse_depth_ratio = 0;
 };
 
 // Throws std::invalid_argument when depth, score and margin are not CV_32F
@@ -46,7 +55,8 @@ std::string encode_depth_map(const SweptDepthMap& swept);
 
 // Throws std::runtime_error naming what is wrong when `bytes` are not a
 // depth map of this format: wrong magic or version, truncated or too long,
-// a checksum mismatch, sizes that do not add up, non-finite K, R or t.
+// a checksum mismatch, sizes that do not add up, non-finite K, R or t, a
+// negative or non-finite sparse ratio. Reads versions 1 and 2.
 SweptDepthMap decode_depth_map(std::string_view bytes);
 
 // CRC-32 with zlib's polynomial (0xEDB88320, reflected, inverted).

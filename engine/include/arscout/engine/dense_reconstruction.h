@@ -35,7 +35,9 @@ struct DenseOptions {
   // share the most sparse points with it (both directions).
   int consistency_partners = 4;
   // Voxel edge in site units; 0 takes 1.5 pixel footprints at the median
-  // depth of the first depth map.
+  // depth of the first depth map (of the order of sweeping), derived again
+  // at every re-fusion: it follows that map's rescaling when the model
+  // changes scale, and the next map when the first is withdrawn.
   double voxel_size = 0;
   // A camera that moved more than this share of a voxel (or turned by the
   // equivalent angle) since its depth map was fused triggers a re-fusion.
@@ -113,10 +115,11 @@ class DenseReconstruction {
   // at.
   //
   // The maps take their order of sweeping back, and the voxel edge (when
-  // DenseOptions::voxel_size is 0) follows from the first of them, as it
-  // did when they were swept (when that first map has been withdrawn since,
-  // the running object kept its edge and the restored one derives it from
-  // the first map left: set voxel_size to pin it). Agreement is checked from
+  // DenseOptions::voxel_size is 0) follows from the first of them, as in
+  // the running object. Each map is rescaled as update() does when the
+  // model's scale around its camera differs from the sweep's (the ratio of
+  // sparse point depths to map depths, SweptDepthMap in depth_map_io.h).
+  // Agreement is checked from
   // scratch: every map against its consistency_partners best-connected maps of
   // `model`, both ways, as update() does after a withdrawal. The restored state
   // is therefore exactly that of an object that swept the same maps in one
