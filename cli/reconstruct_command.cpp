@@ -163,15 +163,19 @@ void print_progress(int n, int total, const engine::AddResult& r) {
 }
 
 void print_dense_progress(const engine::DenseUpdate& u) {
-  if (u.new_depth_maps.empty() && !u.refused) return;
+  if (u.new_depth_maps.empty() && !u.refused && u.refused_maps == 0) return;
   std::cout << std::fixed << std::setprecision(2)
             << "      dense: " << u.new_depth_maps.size() << " new depth map"
             << (u.new_depth_maps.size() == 1 ? "" : "s");
   for (const auto& id : u.new_depth_maps) std::cout << ' ' << id;
   if (!u.skipped.empty())
     std::cout << "  (waiting: " << u.skipped.size() << ")";
-  std::cout << "  points " << u.points << (u.refused ? " (re-fused)" : "")
-            << "  | sweep " << u.sweep_s << " filter " << u.filter_s
+  std::cout << "  points " << u.points;
+  if (u.refused)
+    std::cout << " (re-fused)";
+  else if (u.refused_maps > 0)
+    std::cout << " (" << u.refused_maps << " moved re-fused)";
+  std::cout << "  | sweep " << u.sweep_s << " filter " << u.filter_s
             << " fusion " << u.fusion_s << " s" << std::endl;
 }
 

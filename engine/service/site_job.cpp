@@ -89,9 +89,15 @@ void SiteJob::restore() {
   dense_running_ = false;
   dense_added_.clear();
   dense_withdrawn_.clear();
+  features_.clear();
+  pending_features_.clear();
+  pending_removed_features_.clear();
   if (state && state->blobs.count("state")) {
-    *sparse_ = Reconstruction::restore(
-        store_.get_blob(state->blobs.at("state")), options_.reconstruction);
+    // Of the state read above: a commit in between changes its version,
+    // and this job's next write, fenced on that version, fails and retries.
+    if (auto restored = load_site_reconstruction(
+            store_, id_, options_.reconstruction, &features_))
+      *sparse_ = std::move(*restored);
     const Json statuses = state->attrs.value("statuses", Json::object());
     for (const auto& [capture, status] : statuses.items())
       statuses_[capture] = status.get<std::string>();
@@ -206,7 +212,7 @@ Increment SiteJob::run(const std::vector<Work>& work) {
     ops.push_back(model_op(model, captures, report));
     increment.model_written = true;
   }
-  ops.push_back(state_op(model));
+  add_state_ops(model, report.added, &ops);
 
   pending_model_version_ = model_version_ + (publish_model ? 1 : 0);
   std::ostringstream summary;
@@ -224,8 +230,29 @@ Increment SiteJob::run(const std::vector<Work>& work) {
   return increment;
 }
 
-// The engine state, so that a restart needs no recomputation.
-db::WriteOp SiteJob::state_op(const Model& model) {
+// The engine state, so that a restart needs no recomputation: each
+// capture's features once, under features/ (fixed once extracted, most of
+// the bytes), and the rest as one blob per increment.
+void SiteJob::add_state_ops(const Model& model,
+                            const std::vector<std::string>& added,
+                            std::vector<db::WriteOp>* ops) {
+  pending_features_.clear();
+  pending_removed_features_ = features_;
+  for (const std::string& capture : sparse_->captures_with_features()) {
+    pending_removed_features_.erase(capture);
+    if (features_.count(capture) &&
+        std::find(added.begin(), added.end(), capture) == added.end())
+      continue;
+    db::WriteOp op =
+        db::WriteOp::put(site_path(id_, "features/" + capture),
+                         "capture-features", Json{{"capture", capture}});
+    op.blobs = db::BlobRefs{
+        {"features", store_.put_blob(sparse_->capture_features(capture))}};
+    ops->push_back(std::move(op));
+    pending_features_.insert(capture);
+  }
+  for (const std::string& capture : pending_removed_features_)
+    ops->push_back(db::WriteOp::remove(site_path(id_, "features/" + capture)));
   Json statuses = Json::object();
   for (const auto& [c, s] : statuses_) statuses[c] = s;
   for (const auto& [c, s] : pending_statuses_) statuses[c] = s;
@@ -236,8 +263,9 @@ db::WriteOp SiteJob::state_op(const Model& model) {
                             {"through_seq", pending_through_seq_},
                             {"dense_due", dense_due_}},
                        engine_version_);
-  state.blobs = db::BlobRefs{{"state", store_.put_blob(sparse_->serialize())}};
-  return state;
+  state.blobs = db::BlobRefs{
+      {"state", store_.put_blob(sparse_->serialize(/*features_apart=*/true))}};
+  ops->push_back(std::move(state));
 }
 
 bool SiteJob::refinement_due() const {
@@ -260,7 +288,7 @@ Increment SiteJob::run_refine(const std::function<bool()>& stop) {
   report.dense_points = dense_points_;
   report.total_s = refined.seconds;
   increment.ops.push_back(model_op(model, sparse_->captures(), report));
-  increment.ops.push_back(state_op(model));
+  add_state_ops(model, {}, &increment.ops);
   increment.model_written = true;
   pending_model_version_ = model_version_ + 1;
   std::ostringstream summary;
@@ -318,8 +346,11 @@ Increment SiteJob::run_dense() {
   std::ostringstream summary;
   summary << "site " << id_ << ": dense " << report.dense_points
           << " points (voxel " << dense_->voxel_size()
-          << (report.dense.refused ? ", re-fused" : "") << ", "
-          << report.dense.new_depth_maps.size() << " new depth map"
+          << (report.dense.refused ? ", re-fused" : "");
+  if (!report.dense.refused && report.dense.refused_maps > 0)
+    summary << ", " << report.dense.refused_maps << " moved map"
+            << (report.dense.refused_maps == 1 ? "" : "s") << " re-fused";
+  summary << ", " << report.dense.new_depth_maps.size() << " new depth map"
           << (report.dense.new_depth_maps.size() == 1 ? "" : "s") << ")";
   if (publish_model) summary << ", model v" << pending_model_version_;
   summary << " (" << static_cast<int>(report.total_s * 1000) << " ms)";
@@ -365,6 +396,10 @@ void SiteJob::committed() {
   for (const auto& [c, s] : pending_statuses_) statuses_[c] = s;
   for (const std::string& m : pending_depth_maps_) depth_maps_.insert(m);
   for (const std::string& m : pending_removed_maps_) depth_maps_.erase(m);
+  for (const std::string& c : pending_features_) features_.insert(c);
+  for (const std::string& c : pending_removed_features_) features_.erase(c);
+  pending_features_.clear();
+  pending_removed_features_.clear();
   model_version_ = pending_model_version_;
   through_seq_ = pending_through_seq_;
   ++engine_version_;

@@ -83,7 +83,10 @@ class SiteJob {
 
  private:
   void restore();
-  db::WriteOp state_op(const Model& model);
+  // `added`: captures new in this batch, whose features are written even
+  // when a capture of that id had some stored (withdrawn and sent again).
+  void add_state_ops(const Model& model, const std::vector<std::string>& added,
+                     std::vector<db::WriteOp>* ops);
   db::WriteOp model_op(const Model& model,
                        const std::vector<CaptureState>& captures,
                        const IncrementReport& report,
@@ -103,6 +106,9 @@ class SiteJob {
   std::set<std::string> depth_maps_;             // stored under depth/
   std::map<std::string, std::string> pending_statuses_;
   std::set<std::string> pending_depth_maps_, pending_removed_maps_;
+  // Captures whose features are stored under features/ (once each: the
+  // state blob leaves them out).
+  std::set<std::string> features_, pending_features_, pending_removed_features_;
   std::int64_t model_version_ = 0;
   std::int64_t pending_model_version_ = 0;
   std::int64_t engine_version_ = 0;  // of /sites/{id}/engine, 0: none yet

@@ -540,14 +540,29 @@ int Reconstruction::registered_count() const {
   return impl_->scene.registered_count();
 }
 
-std::string Reconstruction::serialize() const {
-  return serialize_scene(impl_->scene);
+std::string Reconstruction::serialize(bool features_apart) const {
+  return serialize_scene(impl_->scene, features_apart);
 }
 
-Reconstruction Reconstruction::restore(const std::string& bytes,
-                                       ReconstructionOptions options) {
+std::vector<std::string> Reconstruction::captures_with_features() const {
+  std::vector<std::string> ids;
+  for (const SceneImage& image : impl_->scene.images)
+    if (!image.keypoints.empty()) ids.push_back(image.id);
+  return ids;
+}
+
+std::string Reconstruction::capture_features(const std::string& capture) const {
+  const int index = impl_->scene.find_image(capture);
+  if (index < 0 || impl_->scene.images[index].keypoints.empty())
+    throw std::invalid_argument("no features of capture " + capture);
+  return serialize_features(impl_->scene.images[index]);
+}
+
+Reconstruction Reconstruction::restore(
+    const std::string& bytes, ReconstructionOptions options,
+    const std::function<std::string(const std::string&)>& features) {
   Reconstruction result(std::move(options));
-  result.impl_->scene = deserialize_scene(bytes);
+  result.impl_->scene = deserialize_scene(bytes, features);
   return result;
 }
 

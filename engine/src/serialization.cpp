@@ -9,7 +9,9 @@ namespace arscout::engine {
 namespace {
 
 constexpr char kMagic[8] = {'A', 'R', 'S', 'C', 'E', 'N', 'E', '1'};
-constexpr uint32_t kVersion = 1;
+// Version 2 added the per-image flag for features kept apart.
+constexpr uint32_t kVersion = 2;
+constexpr char kFeaturesMagic[8] = {'A', 'R', 'S', 'F', 'E', 'A', 'T', '1'};
 
 static_assert(std::endian::native == std::endian::little,
               "the state format is little-endian; add byte swapping here");
@@ -170,14 +172,7 @@ std::optional<GeoFix> read_fix(Reader& r) {
   return fix;
 }
 
-void write_image(Writer& w, const SceneImage& image) {
-  w.str(image.id);
-  w.pod(image.camera);
-  w.pod<uint8_t>(image.removed);
-  w.pod(image.width);
-  w.pod(image.height);
-  write_fix(w, image.gps);
-  w.matrix(image.gps_enu);
+void write_features(Writer& w, const SceneImage& image) {
   w.points2(image.keypoints);
   w.pod(image.descriptors.rows);
   if (image.descriptors.rows > 0) {
@@ -186,24 +181,9 @@ void write_image(Writer& w, const SceneImage& image) {
         image.descriptors.ptr<float>(0) + image.descriptors.total()));
   }
   w.vec(image.colors);
-  w.vec(image.point_of);
-  w.pod<uint8_t>(image.registered);
-  w.pod(static_cast<int>(image.status));
-  w.str(image.reason);
-  w.pod(image.pose_inliers);
-  w.matrix(image.q.coeffs());
-  w.matrix(image.t);
 }
 
-SceneImage read_image(Reader& r) {
-  SceneImage image;
-  image.id = r.str();
-  image.camera = r.pod<int>();
-  image.removed = r.pod<uint8_t>();
-  image.width = r.pod<int>();
-  image.height = r.pod<int>();
-  image.gps = read_fix(r);
-  image.gps_enu = r.matrix<Eigen::Vector3d>();
+void read_features(Reader& r, SceneImage& image) {
   image.keypoints = r.points2();
   const int rows = r.pod<int>();
   if (rows < 0) r.fail("descriptor count");
@@ -218,6 +198,57 @@ SceneImage read_image(Reader& r) {
                 values.size() * sizeof(float));
   }
   image.colors = r.vec<std::array<uint8_t, 3>>();
+}
+
+// An image's features from their own bytes (serialize_features).
+void attach_features(const std::string& bytes, SceneImage& image) {
+  Reader r(bytes);
+  const auto magic = r.pod<std::array<char, 8>>();
+  if (std::memcmp(magic.data(), kFeaturesMagic, 8) != 0)
+    r.fail("the features of " + image.id + " are not features");
+  if (r.str() != image.id)
+    r.fail("the features of " + image.id + " are another's");
+  read_features(r, image);
+  if (!r.done()) r.fail("trailing bytes after the features of " + image.id);
+}
+
+void write_image(Writer& w, const SceneImage& image, bool features_apart) {
+  w.str(image.id);
+  w.pod(image.camera);
+  w.pod<uint8_t>(image.removed);
+  w.pod(image.width);
+  w.pod(image.height);
+  write_fix(w, image.gps);
+  w.matrix(image.gps_enu);
+  const bool apart = features_apart && !image.keypoints.empty();
+  w.pod<uint8_t>(apart ? 0 : 1);
+  if (!apart) write_features(w, image);
+  w.vec(image.point_of);
+  w.pod<uint8_t>(image.registered);
+  w.pod(static_cast<int>(image.status));
+  w.str(image.reason);
+  w.pod(image.pose_inliers);
+  w.matrix(image.q.coeffs());
+  w.matrix(image.t);
+}
+
+SceneImage read_image(Reader& r, uint32_t version,
+                      const FeatureSource& features) {
+  SceneImage image;
+  image.id = r.str();
+  image.camera = r.pod<int>();
+  image.removed = r.pod<uint8_t>();
+  image.width = r.pod<int>();
+  image.height = r.pod<int>();
+  image.gps = read_fix(r);
+  image.gps_enu = r.matrix<Eigen::Vector3d>();
+  const bool inline_features = version < 2 || r.pod<uint8_t>() != 0;
+  if (inline_features) {
+    read_features(r, image);
+  } else {
+    if (!features) r.fail("the features of " + image.id + " are kept apart");
+    attach_features(features(image.id), image);
+  }
   image.point_of = r.vec<int64_t>();
   image.registered = r.pod<uint8_t>();
   const int status = r.pod<int>();
@@ -262,7 +293,15 @@ void read_pair(Reader& r, Scene& scene) {
 
 }  // namespace
 
-std::string serialize_scene(const Scene& scene) {
+std::string serialize_features(const SceneImage& image) {
+  Writer w;
+  w.pod(kFeaturesMagic);
+  w.str(image.id);
+  write_features(w, image);
+  return w.take();
+}
+
+std::string serialize_scene(const Scene& scene, bool features_apart) {
   Writer w;
   w.pod(kMagic);
   w.pod(kVersion);
@@ -275,7 +314,8 @@ std::string serialize_scene(const Scene& scene) {
     w.pod<uint8_t>(camera.refine);
   }
   w.size(scene.images.size());
-  for (const SceneImage& image : scene.images) write_image(w, image);
+  for (const SceneImage& image : scene.images)
+    write_image(w, image, features_apart);
   w.size(scene.pairs.size());
   for (const auto& [key, pair] : scene.pairs) write_pair(w, key, pair);
   w.size(scene.points.size());
@@ -296,12 +336,14 @@ std::string serialize_scene(const Scene& scene) {
   return w.take();
 }
 
-Scene deserialize_scene(const std::string& bytes) {
+Scene deserialize_scene(const std::string& bytes,
+                        const FeatureSource& features) {
   Reader r(bytes);
   const auto magic = r.pod<std::array<char, 8>>();
   if (std::memcmp(magic.data(), kMagic, 8) != 0)
     r.fail("not an arscout engine state");
-  if (r.pod<uint32_t>() != kVersion) r.fail("unsupported version");
+  const uint32_t version = r.pod<uint32_t>();
+  if (version < 1 || version > kVersion) r.fail("unsupported version");
   Scene scene;
   scene.cameras.resize(r.size());
   for (SceneCamera& camera : scene.cameras) {
@@ -312,7 +354,8 @@ Scene deserialize_scene(const std::string& bytes) {
     camera.refine = r.pod<uint8_t>();
   }
   const size_t images = r.size();
-  for (size_t i = 0; i < images; ++i) scene.images.push_back(read_image(r));
+  for (size_t i = 0; i < images; ++i)
+    scene.images.push_back(read_image(r, version, features));
   const size_t pairs = r.size();
   for (size_t i = 0; i < pairs; ++i) read_pair(r, scene);
   const size_t points = r.size();

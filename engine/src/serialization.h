@@ -3,14 +3,28 @@
 // original would have.
 #pragma once
 
+#include <functional>
 #include <string>
 
 #include "scene.h"
 
 namespace arscout::engine {
 
-std::string serialize_scene(const Scene& scene);
-// Throws std::runtime_error for bytes that are not a scene of this version.
-Scene deserialize_scene(const std::string& bytes);
+// The bytes of an image's features by its id; throws when it has none.
+using FeatureSource = std::function<std::string(const std::string& id)>;
+
+// With `features_apart`, the images' keypoints, descriptors and colours
+// (fixed once extracted, most of the bytes) are left out and
+// serialize_features() gives them per image, for a caller that stores each
+// once; images without keypoints keep theirs inline either way.
+std::string serialize_scene(const Scene& scene, bool features_apart = false);
+// Throws std::runtime_error for bytes that are not a scene of version 1 or
+// 2, or when features kept apart are missing or do not fit (`features` is
+// asked only for those).
+Scene deserialize_scene(const std::string& bytes,
+                        const FeatureSource& features = {});
+
+// One image's features: its id, keypoints, descriptors, colours.
+std::string serialize_features(const SceneImage& image);
 
 }  // namespace arscout::engine

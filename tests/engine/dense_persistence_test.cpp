@@ -13,8 +13,10 @@
 #include <memory>
 #include <optional>
 #include <random>
+#include <set>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -701,6 +703,57 @@ TEST_F(DensePersistence, VersionOneMapsStillRestore) {
   DenseReconstruction dense(small_dense_options());
   dense.restore_depth_maps(version1, *model_, street_images());
   expect_same_points(dense.points(), original_->points());
+}
+
+// Points of two clouds, as a set: both hold the same voxels, each with the
+// same mean to rounding (the order of first occupation may differ).
+void expect_same_cloud(std::vector<ColoredPoint> a,
+                       std::vector<ColoredPoint> b) {
+  ASSERT_EQ(a.size(), b.size());
+  auto by_position = [](const ColoredPoint& p, const ColoredPoint& q) {
+    return std::tie(p.x, p.y, p.z) < std::tie(q.x, q.y, q.z);
+  };
+  std::sort(a.begin(), a.end(), by_position);
+  std::sort(b.begin(), b.end(), by_position);
+  size_t different = 0;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (std::abs(a[i].x - b[i].x) > 1e-5 || std::abs(a[i].y - b[i].y) > 1e-5 ||
+        std::abs(a[i].z - b[i].z) > 1e-5 || a[i].r != b[i].r)
+      ++different;
+  EXPECT_EQ(different, 0u);
+}
+
+// A camera that moves re-fuses its own map only: the others' points stay,
+// and moving it back gives the cloud it had.
+TEST_F(DensePersistence, AMovedCameraReFusesOnlyItsMap) {
+  DenseReconstruction dense(small_dense_options());
+  dense.restore_depth_maps(shuffled_blobs(), *model_, street_images());
+  const std::vector<ColoredPoint> before = dense.points();
+  Model moved = *model_;
+  ModelImage& image = moved.images[2];
+  const Eigen::Quaterniond q(image.qvec[0], image.qvec[1], image.qvec[2],
+                             image.qvec[3]);
+  // Its centre 3 voxels along x: t = -R c.
+  const Eigen::Vector3d shift =
+      q.normalized() * Eigen::Vector3d(3 * dense.voxel_size(), 0, 0);
+  for (int k = 0; k < 3; ++k) image.tvec[k] -= shift[k];
+  const DenseUpdate u = dense.update(moved, street_images());
+  EXPECT_EQ(u.refused_maps, 1u);
+  EXPECT_FALSE(u.refused);
+  EXPECT_TRUE(u.new_depth_maps.empty());
+  const std::vector<ColoredPoint> shifted = dense.points();
+  EXPECT_NE(shifted.size(), 0u);
+  size_t kept = 0;  // points of the other maps stay where they were
+  std::set<std::tuple<float, float, float>> old;
+  for (const ColoredPoint& p : before) old.insert({p.x, p.y, p.z});
+  for (const ColoredPoint& p : shifted) kept += old.count({p.x, p.y, p.z});
+  EXPECT_GT(kept, shifted.size() / 4);
+  EXPECT_LT(kept, shifted.size());
+  const DenseUpdate back = dense.update(*model_, street_images());
+  EXPECT_EQ(back.refused_maps, 1u);
+  expect_same_cloud(dense.points(), before);
+  // Nothing moved: nothing re-fused.
+  EXPECT_EQ(dense.update(*model_, street_images()).refused_maps, 0u);
 }
 
 }  // namespace

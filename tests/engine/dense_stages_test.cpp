@@ -420,6 +420,44 @@ TEST(DenseStagesVoxelCloud, DuplicatesMergeDistinctVoxelsStay) {
   EXPECT_TRUE(cloud.points().empty());
 }
 
+// A point taken out leaves the voxel as if it had never been added; an
+// emptied voxel is gone, the others keep their order, and removing from an
+// empty voxel changes nothing.
+TEST(DenseStagesVoxelCloud, RemoveUndoesAdd) {
+  VoxelCloud cloud(1.0);
+  cloud.add({0.2, 0.2, 0.2}, {10, 20, 30});
+  cloud.add({5.5, 0.5, 0.5}, {1, 1, 1});
+  cloud.add({0.6, 0.6, 0.6}, {30, 40, 50});
+  cloud.add({9.5, 0.5, 0.5}, {2, 2, 2});
+  EXPECT_EQ(cloud.size(), 3u);
+  EXPECT_TRUE(cloud.remove({0.6, 0.6, 0.6}, {30, 40, 50}));
+  EXPECT_TRUE(cloud.remove({5.5, 0.5, 0.5}, {1, 1, 1}));
+  EXPECT_FALSE(cloud.remove({5.5, 0.5, 0.5}, {1, 1, 1}));
+  EXPECT_FALSE(cloud.remove({-3.5, 0.5, 0.5}, {1, 1, 1}));
+  ASSERT_EQ(cloud.size(), 2u);
+  const auto out = cloud.points();
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_NEAR(out[0].x, 0.2, 1e-6);
+  EXPECT_EQ(out[0].r, 10);
+  EXPECT_EQ(out[0].b, 30);
+  EXPECT_NEAR(out[1].x, 9.5, 1e-6);
+  // Re-occupied, the voxel comes last.
+  cloud.add({5.5, 0.5, 0.5}, {3, 3, 3});
+  EXPECT_NEAR(cloud.points().back().x, 5.5, 1e-6);
+  // Many removals compact the storage without changing what is seen.
+  VoxelCloud many(1.0);
+  for (int i = 0; i < 5000; ++i) many.add({i + 0.5, 0.5, 0.5}, {1, 2, 3});
+  for (int i = 0; i < 5000; ++i)
+    if (i % 3 != 0) {
+      EXPECT_TRUE(many.remove({i + 0.5, 0.5, 0.5}, {1, 2, 3}));
+    }
+  const auto left = many.points();
+  ASSERT_EQ(left.size(), many.size());
+  ASSERT_EQ(left.size(), 1667u);
+  for (size_t k = 0; k < left.size(); ++k)
+    EXPECT_NEAR(left[k].x, 3.0 * k + 0.5, 1e-4);
+}
+
 TEST(DenseStagesVoxelCloud, MeanPositionAndRoundedMeanColour) {
   VoxelCloud cloud(1.0);
   cloud.add({0.1, 0.2, 0.3}, {10, 200, 0});

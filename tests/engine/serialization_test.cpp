@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <map>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -232,6 +233,98 @@ TEST(SerializationTest, RoundTripOfImageWithoutKeypoints) {
   const Scene restored = deserialize_scene(serialize_scene(scene));
   expect_identical(scene, restored);
   EXPECT_TRUE(restored.images.back().keypoints.empty());
+}
+
+// The features of every image by id, as a store keeping them apart would.
+std::map<std::string, std::string> features_by_id(const Scene& scene) {
+  std::map<std::string, std::string> features;
+  for (const SceneImage& image : scene.images)
+    if (!image.keypoints.empty())
+      features[image.id] = serialize_features(image);
+  return features;
+}
+
+TEST(SerializationTest, FeaturesKeptApartRestoreBitExactly) {
+  const Scene scene = make_rich_scene(5, 80, 7);
+  const std::string whole = serialize_scene(scene);
+  const std::string bytes = serialize_scene(scene, /*features_apart=*/true);
+  const auto features = features_by_id(scene);
+  ASSERT_FALSE(features.empty());
+  size_t feature_bytes = 0;
+  for (const auto& [id, b] : features) feature_bytes += b.size();
+  // The features are most of the state.
+  EXPECT_LT(bytes.size(), whole.size() - feature_bytes / 2);
+  std::vector<std::string> asked;
+  const Scene restored = deserialize_scene(bytes, [&](const std::string& id) {
+    asked.push_back(id);
+    return features.at(id);
+  });
+  expect_identical(scene, restored);
+  EXPECT_EQ(asked.size(), features.size());  // each once, none other
+  EXPECT_EQ(serialize_scene(restored, true), bytes);
+  EXPECT_EQ(serialize_scene(restored), whole);
+}
+
+TEST(SerializationTest, FeaturesKeptApartMustBeGivenAndBeTheirs) {
+  const Scene scene = make_rich_scene(3, 20, 0);
+  const std::string bytes = serialize_scene(scene, true);
+  const auto features = features_by_id(scene);
+  EXPECT_THROW(deserialize_scene(bytes), std::runtime_error);
+  const std::string first = features.begin()->second;
+  // Another image's features, damaged or truncated ones: refused.
+  EXPECT_THROW(
+      deserialize_scene(bytes, [&](const std::string&) { return first; }),
+      std::runtime_error);
+  for (size_t cut :
+       {size_t{0}, size_t{5}, first.size() / 2, first.size() - 1}) {
+    EXPECT_THROW(deserialize_scene(bytes,
+                                   [&](const std::string& id) {
+                                     return features.at(id).substr(0, cut);
+                                   }),
+                 std::runtime_error)
+        << cut;
+  }
+  EXPECT_THROW(
+      deserialize_scene(
+          bytes, [&](const std::string& id) { return features.at(id) + '\0'; }),
+      std::runtime_error);
+}
+
+// Version 1 wrote every image's features inline without the flag byte that
+// version 2 puts before them; such states still restore.
+TEST(SerializationTest, VersionOneStatesStillRestore) {
+  Scene scene = make_rich_scene(3, 20, 0);
+  scene.pairs.clear();
+  scene.points.clear();
+  for (SceneImage& image : scene.images)
+    std::fill(image.point_of.begin(), image.point_of.end(), -1);
+  // Where each image's record starts: the first at its id (a length, then
+  // the bytes), the others as far on as the records before them take.
+  auto first_images = [&](size_t k) {
+    Scene part = scene;
+    part.images.resize(k);
+    return serialize_scene(part).size();
+  };
+  std::string v1 = serialize_scene(scene);
+  const std::string& id0 = scene.images[0].id;
+  std::string id0_record(8, '\0');
+  id0_record[0] = static_cast<char>(id0.size());
+  const size_t first_record = v1.find(id0_record + id0);
+  ASSERT_NE(first_record, std::string::npos);
+  std::vector<size_t> flags;
+  for (size_t k = 0; k < scene.images.size(); ++k) {
+    const SceneImage& image = scene.images[k];
+    const size_t record = first_record + first_images(k) - first_images(0);
+    const size_t fix = image.gps ? 1 + 8 + 8 + 1 + 8 + 8 + 8 : 1;
+    flags.push_back(record + 8 + image.id.size() + 4 + 1 + 4 + 4 + fix + 24);
+  }
+  for (auto it = flags.rbegin(); it != flags.rend(); ++it) {
+    ASSERT_EQ(v1[*it], 1);  // inline
+    v1.erase(*it, 1);
+  }
+  v1[8] = 1;  // the version after the magic
+  const Scene restored = deserialize_scene(v1);
+  expect_identical(scene, restored);
 }
 
 TEST(SerializationTest, TruncatedBytesThrow) {

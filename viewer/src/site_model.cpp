@@ -4,6 +4,7 @@
 
 #include "arscout/db/errors.h"
 #include "arscout/db/path.h"
+#include "arscout/engine/service.h"
 
 namespace arscout::viewer {
 namespace {
@@ -64,14 +65,11 @@ SiteModel load_site_model(db::Store& store, const std::string& site) {
 }
 
 engine::Model load_full_model(db::Store& store, const SiteModel& model) {
-  const auto engine_doc = store.get("/sites/" + model.site + "/engine");
-  const std::string state =
-      engine_doc ? blob_of(*engine_doc, "state") : std::string();
-  if (state.empty())
+  const auto state = engine::load_site_reconstruction(store, model.site);
+  if (!state)
     throw StoreError(ErrorCode::kNotFound,
                      "site " + model.site + " has no engine state");
-  engine::Model full =
-      engine::Reconstruction::restore(store.get_blob(state)).model();
+  engine::Model full = state->model();
   std::vector<std::string> stated, restored;
   for (const Json& image : model.attrs.value("images", Json::array()))
     stated.push_back(image.at("id"));

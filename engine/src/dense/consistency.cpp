@@ -135,10 +135,42 @@ void VoxelCloud::add(const Eigen::Vector3d& xyz,
   ++voxel.count;
 }
 
+bool VoxelCloud::remove(const Eigen::Vector3d& xyz,
+                        const std::array<uint8_t, 3>& rgb) {
+  auto it = index_.find(voxel_key(xyz, voxel_size_));
+  if (it == index_.end()) return false;
+  Voxel& voxel = voxels_[it->second];
+  if (--voxel.count == 0) {
+    // Exactly empty, whatever rounding the sums carried.
+    voxel = Voxel{};
+    index_.erase(it);
+    if (voxels_.size() > 1024 && index_.size() < voxels_.size() / 2) compact();
+    return true;
+  }
+  voxel.sum -= xyz;
+  for (int c = 0; c < 3; ++c)
+    voxel.rgb_sum[c] -= std::min<uint32_t>(rgb[c], voxel.rgb_sum[c]);
+  return true;
+}
+
+// Drops the emptied slots, keeping the order of the others.
+void VoxelCloud::compact() {
+  std::vector<uint32_t> moved_to(voxels_.size(), 0);
+  size_t kept = 0;
+  for (size_t i = 0; i < voxels_.size(); ++i) {
+    if (voxels_[i].count == 0) continue;
+    moved_to[i] = static_cast<uint32_t>(kept);
+    voxels_[kept++] = voxels_[i];
+  }
+  voxels_.resize(kept);
+  for (auto& [key, slot] : index_) slot = moved_to[slot];
+}
+
 std::vector<ColoredPoint> VoxelCloud::points() const {
   std::vector<ColoredPoint> points;
-  points.reserve(voxels_.size());
+  points.reserve(index_.size());
   for (const Voxel& voxel : voxels_) {
+    if (voxel.count == 0) continue;
     const Eigen::Vector3d mean = voxel.sum / voxel.count;
     ColoredPoint p;
     p.x = static_cast<float>(mean.x());

@@ -11,6 +11,7 @@
 #include <Eigen/Dense>
 
 #include "dense/depth_map_io.h"
+#include "dense/map_fusion.h"
 #include "image_loader.h"
 
 namespace arscout::engine {
@@ -175,12 +176,11 @@ class ViewCache {
   std::list<DenseView> views_;
 };
 
-double median_depth(const DepthMap& map) {
+double median_depth(const cv::Mat& depth) {
   std::vector<float> depths;
-  for (int y = 0; y < map.depth.rows; ++y)
-    for (int x = 0; x < map.depth.cols; ++x)
-      if (map.depth.at<float>(y, x) > 0)
-        depths.push_back(map.depth.at<float>(y, x));
+  for (int y = 0; y < depth.rows; ++y)
+    for (int x = 0; x < depth.cols; ++x)
+      if (depth.at<float>(y, x) > 0) depths.push_back(depth.at<float>(y, x));
   if (depths.empty()) return 0;
   auto middle = depths.begin() + depths.size() / 2;
   std::nth_element(depths.begin(), middle, depths.end());
@@ -198,7 +198,7 @@ double sparse_depth_ratio(const DepthMap& map, const cv::Mat& depth,
     const Eigen::Vector3d in_camera =
         map.R * Eigen::Vector3d(point->xyz[0], point->xyz[1], point->xyz[2]) +
         map.t;
-    if (in_camera.z() <= 0) continue;
+    if (!(in_camera.z() > 0) || !in_camera.allFinite()) continue;
     const Eigen::Vector3d pixel = map.K * in_camera;
     const long x = std::lround(pixel.x() / pixel.z());
     const long y = std::lround(pixel.y() / pixel.z());
@@ -216,10 +216,11 @@ double sparse_depth_ratio(const DepthMap& map, const cv::Mat& depth,
 
 struct DenseReconstruction::Impl {
   struct Entry {
-    DepthMap map;    // as swept; R, t follow the model
-    cv::Mat colour;  // the key view's pixels, for the points' colours
-    cv::Mat agreed;  // CV_8U: another map agrees
-    cv::Mat fused;   // CV_8U: already in the cloud
+    DepthMap map;      // as swept; R, t follow the model
+    cv::Mat colour;    // the key view's pixels, for the points' colours
+    cv::Mat agreed;    // CV_8U: another map agrees
+    MapFusion fusion;  // what it put into the cloud
+    // The pose of its last fusion whole; moving away from it re-fuses it.
     Eigen::Vector3d fused_centre = Eigen::Vector3d::Zero();
     Eigen::Matrix3d fused_R = Eigen::Matrix3d::Identity();
     // What serialize_depth_map() writes besides the map: the pose at sweep
@@ -234,9 +235,27 @@ struct DenseReconstruction::Impl {
     // (map.depth then holds them times depth_scale); empty before.
     cv::Mat swept_depth;
     double depth_scale = 1;
+    double swept_median = -1;  // of the swept depths; -1 until asked
 
     const cv::Mat& depth_as_swept() const {
       return swept_depth.empty() ? map.depth : swept_depth;
+    }
+    double median() {
+      if (swept_median < 0) swept_median = median_depth(depth_as_swept());
+      return swept_median * depth_scale;
+    }
+    FusionInput fusion_input() const {
+      return {&depth_as_swept(),
+              depth_scale,
+              &agreed,
+              &colour,
+              map.K,
+              map.R,
+              map.t};
+    }
+    void start_fusion() {
+      agreed = cv::Mat::zeros(map.depth.size(), CV_8U);
+      fusion.reset(map.depth.size());
     }
   };
 
@@ -248,10 +267,13 @@ struct DenseReconstruction::Impl {
   std::vector<std::string> order;  // of sweeping
   uint64_t next_sequence = 0;
   std::unique_ptr<VoxelCloud> cloud;
+  // Maps whose agreement grew since they were last fused.
+  std::set<std::string> dirty;
 
   bool drop_withdrawn(const std::map<std::string, int>& index);
-  bool follow_poses(const Model& model, const std::map<std::string, int>& index,
-                    const Covisibility& covisibility);
+  std::set<std::string> follow_poses(const Model& model,
+                                     const std::map<std::string, int>& index,
+                                     const Covisibility& covisibility);
   bool follow_scale(Entry& entry, const std::vector<const ModelPoint*>& points);
   double tolerance(const Entry& entry, double depth) const;
   void sweep(const Model& model, int key, const ImageSource& images,
@@ -259,8 +281,9 @@ struct DenseReconstruction::Impl {
   void filter(const std::string& id, const Model& model,
               const std::map<std::string, int>& index,
               const Covisibility& covisibility);
-  double voxel_size() const;
-  void fuse(bool rebuild);
+  double voxel_size();
+  bool fuse(bool rebuild, const std::set<std::string>& moved,
+            DenseUpdate* update);
 };
 
 bool DenseReconstruction::Impl::drop_withdrawn(
@@ -307,7 +330,7 @@ bool DenseReconstruction::Impl::follow_scale(
     return false;
   }
   const double scale = ratio / entry.sparse_ratio;
-  const double depth = median_depth(entry.map);
+  const double depth = entry.median();
   if (std::abs(scale - entry.depth_scale) * depth <= tolerance(entry, depth))
     return false;
   if (entry.swept_depth.empty()) entry.swept_depth = entry.map.depth.clone();
@@ -316,25 +339,25 @@ bool DenseReconstruction::Impl::follow_scale(
   return true;
 }
 
-// Moves every map to its camera's current pose and scale; true when one
-// moved enough that the fused cloud should be rebuilt.
-bool DenseReconstruction::Impl::follow_poses(
+// Moves every map to its camera's current pose and scale; returns the maps
+// that moved enough since their fusion to be fused again.
+std::set<std::string> DenseReconstruction::Impl::follow_poses(
     const Model& model, const std::map<std::string, int>& index,
     const Covisibility& covisibility) {
-  bool moved = false;
+  std::set<std::string> moved;
   for (auto& [id, entry] : entries) {
     const ModelImage& image = model.images[index.at(id)];
     entry.map.R = rotation_of(image);
     entry.map.t = translation_of(image);
     if (follow_scale(entry, covisibility.points_of(index.at(id))))
-      moved = true;
+      moved.insert(id);
     if (!cloud) continue;
-    const double depth = median_depth(entry.map);
+    const double depth = entry.median();
     const double allowed = tolerance(entry, depth);
     const Eigen::AngleAxisd turn(entry.map.R * entry.fused_R.transpose());
     if ((centre_of(image) - entry.fused_centre).norm() > allowed ||
         std::abs(turn.angle()) * depth > allowed)
-      moved = true;
+      moved.insert(id);
   }
   return moved;
 }
@@ -368,8 +391,7 @@ void DenseReconstruction::Impl::sweep(const Model& model, int key,
     entry.neighbours.push_back(model.images[n].id);
   entry.sequence = next_sequence++;
   entry.colour = key_view.bgr;
-  entry.agreed = cv::Mat::zeros(entry.map.depth.size(), CV_8U);
-  entry.fused = entry.agreed.clone();
+  entry.start_fusion();
   entries[id] = std::move(entry);
   order.push_back(id);
   update->new_depth_maps.push_back(id);
@@ -386,6 +408,8 @@ void DenseReconstruction::Impl::filter(const std::string& id,
     auto other = entries.find(model.images[shared.image].id);
     if (other == entries.end()) continue;
     ++partners;
+    dirty.insert(id);
+    dirty.insert(other->first);
     cv::bitwise_or(
         entry.agreed,
         agreement_mask(entry.map, other->second.map, options.consistency),
@@ -400,49 +424,57 @@ void DenseReconstruction::Impl::filter(const std::string& id,
 // The voxel edge: the option's, or 1.5 pixel footprints at the median depth
 // of the first map (0 while there is none). A map rescaled with its model
 // rescales the voxel with it.
-double DenseReconstruction::Impl::voxel_size() const {
+double DenseReconstruction::Impl::voxel_size() {
   double size = options.voxel_size;
   for (const std::string& id : order) {
     if (size > 0) break;
-    const Entry& e = entries.at(id);
-    const double depth = median_depth(e.map);
+    Entry& e = entries.at(id);
+    const double depth = e.median();
     if (depth > 0) size = 1.5 * depth / e.map.K(0, 0);
   }
   return size;
 }
 
-void DenseReconstruction::Impl::fuse(bool rebuild) {
-  if (!cloud || rebuild) {
-    const double size = voxel_size();
-    if (!(size > 0)) return;
-    if (!cloud || cloud->voxel_size() != size)
-      cloud = std::make_unique<VoxelCloud>(size);
+// Brings the cloud up to the maps: all of them fused afresh when `rebuild`
+// (or the voxel edge changed); else each moved map taken out and fused
+// again at its new pose, and the pixels that came to agree since added.
+// Costs what the moved and newly agreeing maps hold, not the site. True
+// when every map was fused afresh.
+bool DenseReconstruction::Impl::fuse(bool rebuild,
+                                     const std::set<std::string>& moved,
+                                     DenseUpdate* update) {
+  const double size = voxel_size();
+  if (!(size > 0)) return false;
+  if (!cloud || cloud->voxel_size() != size) {
+    rebuild = rebuild || cloud;  // a new voxel edge: every map again
+    cloud = std::make_unique<VoxelCloud>(size);
+    for (auto& [id, entry] : entries)
+      entry.fusion.reset(entry.map.depth.size());
   }
   if (rebuild) {
     cloud->clear();
-    for (auto& [id, entry] : entries) entry.fused.setTo(0);
+    for (auto& [id, entry] : entries)
+      entry.fusion.reset(entry.map.depth.size());
   }
   for (const std::string& id : order) {
     Entry& entry = entries.at(id);
-    const DepthMap& map = entry.map;
-    // unproject() without a K inverse per pixel: X = z A (x, y, 1) + b.
-    const Eigen::Matrix3d A = map.R.transpose() * map.K.inverse();
-    const Eigen::Vector3d b = -map.R.transpose() * map.t;
-    for (int y = 0; y < map.depth.rows; ++y) {
-      const float* depth = map.depth.ptr<float>(y);
-      const uint8_t* agreed = entry.agreed.ptr<uint8_t>(y);
-      uint8_t* fused = entry.fused.ptr<uint8_t>(y);
-      const cv::Vec3b* bgr = entry.colour.ptr<cv::Vec3b>(y);
-      for (int x = 0; x < map.depth.cols; ++x) {
-        if (!agreed[x] || fused[x] || depth[x] <= 0) continue;
-        cloud->add(depth[x] * (A * Eigen::Vector3d(x, y, 1)) + b,
-                   {bgr[x][2], bgr[x][1], bgr[x][0]});
-        fused[x] = 255;
-      }
+    const bool again = !rebuild && moved.count(id) && !entry.fusion.empty();
+    if (!rebuild && !again && !dirty.count(id) && !moved.count(id)) continue;
+    const FusionInput input = entry.fusion_input();
+    if (again) {
+      entry.fusion.remove(input, cloud.get());
+      ++update->refused_maps;
     }
-    entry.fused_centre = -map.R.transpose() * map.t;
-    entry.fused_R = map.R;
+    const bool whole = entry.fusion.empty();
+    entry.fusion.add(input, cloud.get());
+    if (whole) {
+      entry.fused_centre = -entry.map.R.transpose() * entry.map.t;
+      entry.fused_R = entry.map.R;
+    }
   }
+  dirty.clear();
+  return rebuild ||
+         (!entries.empty() && update->refused_maps == entries.size());
 }
 
 DenseReconstruction::DenseReconstruction(DenseOptions options)
@@ -462,8 +494,8 @@ DenseUpdate DenseReconstruction::update(
     index[model.images[i].id] = static_cast<int>(i);
   const Covisibility covisibility(model);
   const bool withdrawn = impl_->drop_withdrawn(index);
-  bool rebuild = withdrawn;
-  rebuild = impl_->follow_poses(model, index, covisibility) || rebuild;
+  const std::set<std::string> moved =
+      impl_->follow_poses(model, index, covisibility);
   auto start = Clock::now();
   for (size_t i = 0; i < model.images.size(); ++i) {
     if (impl_->entries.count(model.images[i].id)) continue;
@@ -480,8 +512,7 @@ DenseUpdate DenseReconstruction::update(
     impl_->filter(id, model, index, covisibility);
   update.filter_s = seconds_since(start);
   start = Clock::now();
-  impl_->fuse(rebuild);
-  update.refused = rebuild && impl_->cloud;
+  update.refused = impl_->fuse(withdrawn, moved, &update);
   update.fusion_s = seconds_since(start);
   update.points = impl_->cloud ? impl_->cloud->size() : 0;
   return update;
@@ -529,8 +560,7 @@ DenseUpdate DenseReconstruction::restore_depth_maps(
     entry.sparse_ratio = swept.sparse_depth_ratio;
     entry.map = std::move(swept.map);
     entry.colour = colour;
-    entry.agreed = cv::Mat::zeros(entry.map.depth.size(), CV_8U);
-    entry.fused = entry.agreed.clone();
+    entry.start_fusion();
     adopted.emplace_back(id, std::move(entry));
   }
   const double loading_s = seconds_since(start);
@@ -547,6 +577,7 @@ DenseUpdate DenseReconstruction::restore_depth_maps(
                             impl_->entries.at(b).sequence;
                    });
   // Every map to its camera's pose; the cloud is rebuilt whatever moved.
+  impl_->dirty.clear();
   impl_->follow_poses(model, index, covisibility);
   start = Clock::now();
   // Agreement is not stored: check every pair, as after a withdrawal.
@@ -555,8 +586,7 @@ DenseUpdate DenseReconstruction::restore_depth_maps(
     impl_->filter(id, model, index, covisibility);
   update.filter_s = seconds_since(start);
   start = Clock::now();
-  impl_->fuse(true);
-  update.refused = impl_->cloud != nullptr;
+  update.refused = impl_->fuse(true, {}, &update);
   update.fusion_s = loading_s + seconds_since(start);
   update.points = impl_->cloud ? impl_->cloud->size() : 0;
   return update;

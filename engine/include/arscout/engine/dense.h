@@ -129,14 +129,21 @@ DepthAgreement compare_depth_maps(const DepthMap& a, const DepthMap& b);
 
 // Points merged on a voxel grid: each occupied voxel keeps the mean
 // position and colour of the points that fell into it, so overlapping depth
-// maps do not pile up duplicates. Adding is incremental.
+// maps do not pile up duplicates. Adding is incremental, and a point added
+// can be taken out again (the map whose camera moved, DenseReconstruction).
 class VoxelCloud {
  public:
   explicit VoxelCloud(double voxel_size);
 
   void add(const Eigen::Vector3d& xyz, const std::array<uint8_t, 3>& rgb);
+  // Takes out a point add() put in, given the same xyz and rgb; a voxel
+  // left empty is gone. False (and nothing changed) when no point can have
+  // been added there: its voxel is empty.
+  bool remove(const Eigen::Vector3d& xyz, const std::array<uint8_t, 3>& rgb);
+  // The occupied voxels' means, in the order the voxels were first
+  // occupied.
   std::vector<ColoredPoint> points() const;
-  size_t size() const { return voxels_.size(); }
+  size_t size() const { return index_.size(); }
   double voxel_size() const { return voxel_size_; }
   void clear() {
     voxels_.clear();
@@ -147,8 +154,10 @@ class VoxelCloud {
   struct Voxel {
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     std::array<uint32_t, 3> rgb_sum{0, 0, 0};
-    uint32_t count = 0;
+    uint32_t count = 0;  // 0: emptied by remove(), skipped
   };
+  void compact();
+
   double voxel_size_;
   std::vector<Voxel> voxels_;  // in first-seen order: deterministic output
   std::unordered_map<uint64_t, uint32_t> index_;  // voxel key -> voxels_

@@ -47,8 +47,9 @@ struct DenseOptions {
 struct DenseUpdate {
   std::vector<std::string> new_depth_maps;  // key views swept this time
   std::vector<std::string> skipped;         // registered, but no neighbour
-  bool refused = false;                     // cloud rebuilt from all maps
-  size_t points = 0;                        // in the fused cloud
+  bool refused = false;     // cloud rebuilt from all maps (or all moved)
+  size_t refused_maps = 0;  // maps taken out and fused again: camera moved
+  size_t points = 0;        // in the fused cloud
   double sweep_s = 0;
   double filter_s = 0;
   double fusion_s = 0;

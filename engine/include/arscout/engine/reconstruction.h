@@ -215,11 +215,22 @@ class Reconstruction {
 
   // The whole state as bytes (features, matches, poses, points, the ENU
   // origin), so a later process continues without recomputing anything.
-  std::string serialize() const;
+  // With `features_apart`, every capture's features (keypoints, descriptors
+  // and colours: fixed once extracted, and most of the bytes) are left out:
+  // a store keeps capture_features() of each capture once, and the state it
+  // writes per increment stays a fraction of the site's size.
+  std::string serialize(bool features_apart = false) const;
+  // The captures whose features serialize(true) leaves out.
+  std::vector<std::string> captures_with_features() const;
+  // One such capture's features as bytes; throws std::invalid_argument for
+  // a capture without features here.
+  std::string capture_features(const std::string& capture) const;
   // Throws std::runtime_error when the bytes are not a state this version
-  // can read.
-  static Reconstruction restore(const std::string& bytes,
-                                ReconstructionOptions options = {});
+  // can read, or when features left out are not given by `features` (asked
+  // by capture id for exactly those) or are not that capture's.
+  static Reconstruction restore(
+      const std::string& bytes, ReconstructionOptions options = {},
+      const std::function<std::string(const std::string&)>& features = {});
 
  private:
   struct Impl;

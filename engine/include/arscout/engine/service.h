@@ -41,6 +41,8 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
+#include <set>
 #include <string>
 
 #include "arscout/engine/dense_reconstruction.h"
@@ -106,5 +108,18 @@ class EngineWorker {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// The reconstruction of `site` as the engine last committed it: the state
+// blob of /sites/{site}/engine with each capture's features from
+// /sites/{site}/features/{capture} (docs/service.md); std::nullopt when the
+// engine has not written one. `stored_features`, when given, receives the
+// captures whose features are stored. Throws std::runtime_error when the
+// state is damaged or a capture's features are missing, db::StoreError when
+// the store cannot be read. The viewer reads the full model (keypoints and
+// tracks) through it, the engine service restores a site with it.
+std::optional<Reconstruction> load_site_reconstruction(
+    db::Store& store, const std::string& site,
+    ReconstructionOptions options = {},
+    std::set<std::string>* stored_features = nullptr);
 
 }  // namespace arscout::engine
