@@ -9,15 +9,17 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <mutex>
 #include <sstream>
+#include <stdexcept>
 #include <thread>
 
+#include <Eigen/Geometry>
 #include "arscout/db/store.h"
 #include "arscout/engine/camera.h"
 #include "arscout/engine/ply.h"
 #include "arscout/engine/service.h"
 #include "arscout/ingest/gps.h"
-#include <Eigen/Geometry>
 
 #include "model_eval.h"
 #include "test_stores.h"
@@ -199,30 +201,45 @@ INSTANTIATE_TEST_SUITE_P(Backends, EngineWorkerOn,
 // The main job's stand-in for ../shared/data: `arscout render-site` writes
 // photos of the synthetic street with exact GPS and K, and the worker
 // reconstructs them into one geo-registered site with a dense cloud.
-TEST(EngineWorker, RenderedSyntheticStreetBecomesOneSite) {
+// The rendered street of `views` photos (`arscout render-site`) in DIR, and
+// its camera document in `store`.
+std::string render_street(db::Store& store, int views) {
   const std::string dir = testing::make_temp_dir("render_site");
   const std::string command = std::string(ARSCOUT_CLI) + " render-site --out " +
-                              dir + " --views 8 > " + dir + "/render.log 2>&1";
-  ASSERT_EQ(std::system(command.c_str()), 0) << command;
-  auto store = db::Store::open(testing::fresh_sqlite_url());
+                              dir + " --views " + std::to_string(views) +
+                              " > " + dir + "/render.log 2>&1";
+  if (std::system(command.c_str()) != 0)
+    throw std::runtime_error("failed: " + command);
   const engine::CameraIntrinsics K =
       engine::read_k_matrix(dir + "/images/K.txt", 1024, 768);
-  store->put("/cameras/synthetic", "camera",
-             Json{{"fx", K.fx},
-                  {"fy", K.fy},
-                  {"cx", K.cx},
-                  {"cy", K.cy},
-                  {"width", K.width},
-                  {"height", K.height},
-                  {"source", "calibrated"}});
+  store.put("/cameras/synthetic", "camera",
+            Json{{"fx", K.fx},
+                 {"fy", K.fy},
+                 {"cx", K.cx},
+                 {"cy", K.cy},
+                 {"width", K.width},
+                 {"height", K.height},
+                 {"source", "calibrated"}});
+  return dir;
+}
+
+// Uploads the street's photos as alice's; returns them.
+std::vector<fs::path> upload_street(db::Store& store, const std::string& dir) {
+  const auto fixes = ingest::read_gps_csv(dir + "/gps.csv");
+  const auto all = photos(dir + "/images");
+  for (const fs::path& p : all)
+    upload(store, "alice", p, fixes.at(p.filename().string()), "synthetic");
+  return all;
+}
+
+TEST(EngineWorker, RenderedSyntheticStreetBecomesOneSite) {
+  auto store = db::Store::open(testing::fresh_sqlite_url());
+  const std::string dir = render_street(*store, 8);
   engine::WorkerOptions options;
   engine::EngineWorker worker(*store, options);
   worker.start();
-  const auto fixes = ingest::read_gps_csv(dir + "/gps.csv");
-  const auto all = photos(dir + "/images");
+  const auto all = upload_street(*store, dir);
   ASSERT_EQ(all.size(), 8u);
-  for (const fs::path& p : all)
-    upload(*store, "alice", p, fixes.at(p.filename().string()), "synthetic");
   ASSERT_TRUE(worker.wait_idle(std::chrono::minutes(5)));
   const auto sites = store->list_children("/sites");
   ASSERT_EQ(sites.size(), 1u);
@@ -256,6 +273,77 @@ TEST(EngineWorker, RenderedSyntheticStreetBecomesOneSite) {
   EXPECT_FALSE(store->get(sites[0].path + "/depth/" + withdrawn));
   EXPECT_EQ(store->get("/captures/" + withdrawn)->attrs.value("status", ""),
             "withdrawn");
+}
+
+// Past `inline_global_ba_images` the global adjustment leaves the increment:
+// the worker runs it while the site has no work waiting, publishes the
+// refined poses, and a dense phase moves the depth maps after them. Each
+// capture's features are stored once, beside a state blob without them,
+// and a restarted worker continues from both.
+TEST(EngineWorker,
+     RefinementIsFollowedByTheDenseCloudAndStateKeepsFeaturesApart) {
+  auto store = db::Store::open(testing::fresh_sqlite_url());
+  const std::string dir = render_street(*store, 8);
+  engine::WorkerOptions options;
+  options.reconstruction.inline_global_ba_images = 3;
+  std::mutex lines_mutex;
+  std::vector<std::string> lines;
+  options.progress = [&](const std::string& line) {
+    std::lock_guard lock(lines_mutex);
+    lines.push_back(line);
+  };
+  engine::EngineWorker worker(*store, options);
+  worker.start();
+  const auto all = upload_street(*store, dir);
+  ASSERT_TRUE(worker.wait_idle(std::chrono::minutes(5)));
+  worker.stop();
+  // A refinement ran, and a dense phase came after the last one.
+  int last_refinement = -1, last_dense = -1;
+  for (size_t i = 0; i < lines.size(); ++i) {
+    if (lines[i].find("global refinement") != std::string::npos)
+      last_refinement = static_cast<int>(i);
+    if (lines[i].find(": dense ") != std::string::npos)
+      last_dense = static_cast<int>(i);
+  }
+  ASSERT_GE(last_refinement, 0);
+  EXPECT_GT(last_dense, last_refinement);
+  const auto sites = store->list_children("/sites");
+  ASSERT_EQ(sites.size(), 1u);
+  const auto model = store->get(sites[0].path + "/model");
+  ASSERT_TRUE(model);
+  EXPECT_EQ(model->attrs.value("dense_state", ""), "current");
+  EXPECT_EQ(model->attrs.at("statistics").value("registered", 0), 8);
+
+  // Features once per capture; the state blob is a fraction of them.
+  const auto features = store->list_children(sites[0].path + "/features");
+  EXPECT_EQ(features.size(), all.size());
+  size_t feature_bytes = 0;
+  for (const db::Document& doc : features)
+    feature_bytes += store->get_blob(doc.blobs.at("features")).size();
+  const auto state = store->get(sites[0].path + "/engine");
+  ASSERT_TRUE(state);
+  const size_t state_bytes = store->get_blob(state->blobs.at("state")).size();
+  std::cout << "features " << feature_bytes << " bytes, state " << state_bytes
+            << " bytes" << std::endl;
+  EXPECT_LT(state_bytes, feature_bytes / 2);
+  const auto restored = engine::load_site_reconstruction(
+      *store, sites[0].path.substr(std::string("/sites/").size()));
+  ASSERT_TRUE(restored);
+  EXPECT_EQ(restored->model().images.size(), 8u);
+
+  // A restarted worker restores the site and takes a withdrawal; the
+  // withdrawn capture's features go with it.
+  engine::EngineWorker again(*store, engine::WorkerOptions{});
+  again.start();
+  const std::string withdrawn = "alice-" + all[5].stem().string();
+  store->patch("/captures/" + withdrawn, Json{{"status", "withdrawn"}});
+  ASSERT_TRUE(again.wait_idle(std::chrono::minutes(5)));
+  again.stop();
+  EXPECT_FALSE(store->get(sites[0].path + "/features/" + withdrawn));
+  EXPECT_EQ(store->list_children(sites[0].path + "/features").size(),
+            all.size() - 1);
+  const auto after = store->get(sites[0].path + "/model");
+  EXPECT_EQ(after->attrs.at("statistics").value("registered", 0), 7);
 }
 
 }  // namespace
