@@ -18,6 +18,7 @@
 #include "arscout/engine/camera.h"
 #include "arscout/engine/service.h"
 #include "arscout/ingest/gps.h"
+#include "camera_document.h"
 #include "test_stores.h"
 #include "tool_process.h"
 
@@ -42,14 +43,7 @@ struct Scene {
 };
 
 void put_camera(db::Store& store, const engine::CameraIntrinsics& K) {
-  store.put("/cameras/fountain", "camera",
-            Json{{"fx", K.fx},
-                 {"fy", K.fy},
-                 {"cx", K.cx},
-                 {"cy", K.cy},
-                 {"width", K.width},
-                 {"height", K.height},
-                 {"source", "calibrated"}});
+  testing::put_calibrated_camera(store, "fountain", K);
 }
 
 void upload(db::Store& store, const Scene& scene, size_t i) {

@@ -15,6 +15,7 @@
 #include "arscout/db/store.h"
 #include "arscout/engine/camera.h"
 #include "arscout/ingest/gps.h"
+#include "camera_document.h"
 #include "test_stores.h"
 #include "tool_process.h"
 
@@ -101,14 +102,7 @@ TEST(EngineTakeover, TwoWorkersSplitTheSitesAndOneFinishesTheOthers) {
   auto store = db::Store::open(url);
   const engine::CameraIntrinsics K =
       engine::read_k_matrix(fountain + "/images/K.txt", 3072, 2048);
-  store->put("/cameras/fountain", "camera",
-             Json{{"fx", K.fx},
-                  {"fy", K.fy},
-                  {"cx", K.cx},
-                  {"cy", K.cy},
-                  {"width", K.width},
-                  {"height", K.height},
-                  {"source", "calibrated"}});
+  testing::put_calibrated_camera(*store, "fountain", K);
 
   const std::string work = testing::make_temp_dir("engine_takeover");
   std::map<std::string, std::unique_ptr<testing::ToolProcess>> workers;

@@ -21,6 +21,7 @@
 #include "arscout/engine/service.h"
 #include "arscout/ingest/gps.h"
 
+#include "camera_document.h"
 #include "model_eval.h"
 #include "test_stores.h"
 
@@ -108,15 +109,8 @@ TEST_P(EngineWorkerOn, TwoScoutsTwoSitesModelsWrittenBack) {
 
   const engine::CameraIntrinsics K =
       engine::read_k_matrix(fountain + "/images/K.txt", 3072, 2048);
-  store->put("/cameras/fountain", "camera",
-             Json{{"fx", K.fx},
-                  {"fy", K.fy},
-                  {"cx", K.cx},
-                  {"cy", K.cy},
-                  {"width", K.width},
-                  {"height", K.height},
-                  {"distortion", {0, 0, 0, 0, 0}},
-                  {"source", "calibrated"}});
+  testing::put_calibrated_camera(*store, "fountain", K,
+                                 Json::array({0, 0, 0, 0, 0}));
 
   engine::WorkerOptions options;
   options.progress = [](const std::string& line) {
@@ -212,14 +206,7 @@ std::string render_street(db::Store& store, int views) {
     throw std::runtime_error("failed: " + command);
   const engine::CameraIntrinsics K =
       engine::read_k_matrix(dir + "/images/K.txt", 1024, 768);
-  store.put("/cameras/synthetic", "camera",
-            Json{{"fx", K.fx},
-                 {"fy", K.fy},
-                 {"cx", K.cx},
-                 {"cy", K.cy},
-                 {"width", K.width},
-                 {"height", K.height},
-                 {"source", "calibrated"}});
+  testing::put_calibrated_camera(store, "synthetic", K);
   return dir;
 }
 
