@@ -46,6 +46,16 @@ bool starts_with(const std::string& s, const std::string& prefix) {
   return s.compare(0, prefix.size(), prefix) == 0;
 }
 
+WalkWindows walk_windows(int views) {
+  WalkWindows w;
+  w.last_end = views;
+  w.shrunk = views < 220;
+  const int last_count = w.shrunk ? std::min(100, views / 2) : 100;
+  if (w.shrunk) w.first_end = std::min(120, views / 2);
+  w.last_begin = views - last_count + 1;
+  return w;
+}
+
 // --- scratch databases -------------------------------------------------------
 
 namespace {

@@ -19,6 +19,17 @@ double percentile(std::vector<double> v, double q);
 double median(std::vector<double> v);
 bool starts_with(const std::string& s, const std::string& prefix);
 
+// The early and the late window of a walk of `views` photos (1-based photo
+// numbers, inclusive) over which the scale and service benches compare the
+// per-photo cost: photos 21-120 and the last 100, or below 220 photos
+// 21..min(120, N/2) and the last min(100, N/2) (`shrunk`).
+struct WalkWindows {
+  int first_begin = 21, first_end = 120;
+  int last_begin = 0, last_end = 0;
+  bool shrunk = false;
+};
+WalkWindows walk_windows(int views);
+
 // --- scratch databases -------------------------------------------------------
 
 // The database one run works on. Fresh ones are deleted on destruction, so

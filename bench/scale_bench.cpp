@@ -74,23 +74,6 @@ struct Options {
   bool check = false;
 };
 
-// Photo numbers (1-based, inclusive) of the early and the late window.
-struct Windows {
-  int first_begin = 21, first_end = 120;
-  int last_begin = 0, last_end = 0;
-  bool shrunk = false;
-};
-
-Windows windows_for(int views) {
-  Windows w;
-  w.last_end = views;
-  w.shrunk = views < 220;
-  const int last_count = w.shrunk ? std::min(100, views / 2) : 100;
-  if (w.shrunk) w.first_end = std::min(120, views / 2);
-  w.last_begin = views - last_count + 1;
-  return w;
-}
-
 struct Row {
   std::string label;  // "seed 1", "median"
   std::string error;  // why the figures are missing, or ""
@@ -227,7 +210,7 @@ std::vector<std::string> reconstruct_args(const Options& o,
 void measure_increments(const Options& o, const fs::path& dir, Row& row) {
   const ev::ProgressLog log =
       ev::read_progress_log((dir / "reconstruct.log").string());
-  const Windows w = windows_for(o.views);
+  const bench::WalkWindows w = bench::walk_windows(o.views);
   const std::vector<double> all = ev::increments(log, 1, o.views);
   row.inc_p50_s = ev::percentile(all, 0.5);
   row.inc_max_s = ev::percentile(all, 1.0);
@@ -335,7 +318,7 @@ const std::vector<Target>& targets() {
 }
 
 void print_header(const Options& o) {
-  const Windows w = windows_for(o.views);
+  const bench::WalkWindows w = bench::walk_windows(o.views);
   std::cout << "scale_bench: arscout reconstruct on a synthetic block walk "
             << "(render-site --scene block), " << o.views << " photos of "
             << o.width << " x " << o.height << "\n"
@@ -351,7 +334,8 @@ void print_header(const Options& o) {
   std::cout << std::endl;
 }
 
-void print_figures(const std::vector<Row>& rows, const Windows& w, int views) {
+void print_figures(const std::vector<Row>& rows, const bench::WalkWindows& w,
+                   int views) {
   const std::string first =
       std::to_string(w.first_begin) + "-" + std::to_string(w.first_end);
   const std::string last =
@@ -436,7 +420,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   rows.push_back(median_row(rows));
-  print_figures(rows, windows_for(o.views), o.views);
+  print_figures(rows, bench::walk_windows(o.views), o.views);
   const bool met = print_targets(rows);
   return o.check && !met ? 1 : 0;
 }

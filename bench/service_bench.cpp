@@ -1,20 +1,36 @@
-// service_bench: insert-to-model latency of the engine service (issue 6):
-// for each capture, from the commit of its capture document to the commit
-// of the first model version that includes it (registered), with photos
-// stored at a fixed interval, as a scout walking fountain-P11 would.
+// service_bench: insert-to-model latency of the engine service: for each
+// capture, from the commit of its capture document to the commit of the
+// first model version in which it is registered, and to the first version
+// whose dense cloud includes its view, with photos stored as scouts walking
+// a scene would store them.
 //
-//   service_bench [--db URL] [--interval 2] [--scene DIR] [--no-dense]
+//   service_bench [--scene DIR] [--scouts 1] [--interval 2] [--views N]
+//                 [--db URL] [--no-dense] [--per-capture]
+//
+// DIR holds images/*.jpg, images/K.txt and gps.csv: a Strecha scene
+// (fountain-P11 by default) or a rendered block walk (`arscout render-site
+// --scene block`). The photos, in name order, are dealt round-robin to
+// --scouts scouts; each scout stores one every --interval seconds, the
+// scouts evenly staggered, so the engine sees the walk in order at
+// scouts / interval photos per second (two scouts covering both sides of
+// one street walk together).
 //
 // The worker runs in this process on the store (as `arscout serve
 // --with-engine` does); captures are written as the API writes them. Times
 // are the store's commit times (Change::time_us). A model version is read
 // when its change is seen, so a capture first registered in a version that
 // was already overtaken is charged the later one: latencies are upper
-// bounds.
+// bounds. Printed: latency percentiles over all photos and over the walk's
+// early and late windows (bench_support.h), the cost of increments by the
+// number of photos folded into them (a backlog drains when k photos cost
+// about k times one), this process's peak resident memory and the engine
+// state stored per registered photo.
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
-#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -26,8 +42,11 @@
 
 #include "arscout/db/store.h"
 #include "arscout/engine/camera.h"
+#include "arscout/engine/image_size.h"
 #include "arscout/engine/service.h"
 #include "arscout/ingest/gps.h"
+#include "bench_support.h"
+#include "progress_log.h"
 
 #ifndef ARSCOUT_SOURCE_DIR
 #define ARSCOUT_SOURCE_DIR "."
@@ -36,7 +55,42 @@
 namespace {
 
 namespace fs = std::filesystem;
+namespace bench = arscout::bench;
 using arscout::db::Json;
+using arscout::eval::percentile;
+
+struct Options {
+  std::string url;
+  std::string scene =
+      std::string(ARSCOUT_SOURCE_DIR) + "/../shared/data/strecha/fountain-P11";
+  double interval_s = 2;
+  int scouts = 1;
+  int views = 0;  // all
+  bool no_dense = false;
+  bool per_capture = false;
+};
+
+struct Photo {
+  fs::path path;
+  std::string id;
+  int scout = 0;
+  double at_s = 0;  // when it is stored, from the start
+};
+
+// One model version that took in new captures.
+struct IncrementSeen {
+  int added = 0;
+  double sparse_s = 0;
+};
+
+// What the model feed showed, keyed by capture id.
+struct Observed {
+  std::mutex mutex;
+  std::map<std::string, std::int64_t> stored_us;
+  std::map<std::string, std::int64_t> registered_us;
+  std::map<std::string, std::int64_t> dense_us;
+  std::vector<IncrementSeen> increments;
+};
 
 std::string read_file(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -45,152 +99,247 @@ std::string read_file(const fs::path& path) {
   return bytes.str();
 }
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const double rank = p * (v.size() - 1);
-  const size_t lo = static_cast<size_t>(rank);
-  const size_t hi = std::min(lo + 1, v.size() - 1);
-  return v[lo] + (rank - lo) * (v[hi] - v[lo]);
+std::vector<Photo> walk_photos(const Options& o) {
+  std::vector<fs::path> paths;
+  for (const auto& e : fs::directory_iterator(o.scene + "/images"))
+    if (e.path().extension() == ".jpg") paths.push_back(e.path());
+  std::sort(paths.begin(), paths.end());
+  if (o.views > 0 && paths.size() > static_cast<size_t>(o.views))
+    paths.resize(static_cast<size_t>(o.views));
+  std::vector<Photo> photos;
+  for (size_t i = 0; i < paths.size(); ++i) {
+    const int scout = static_cast<int>(i % static_cast<size_t>(o.scouts));
+    const double round = static_cast<double>(i / o.scouts);
+    photos.push_back({paths[i], paths[i].stem().string(), scout,
+                      o.interval_s * (round + double(scout) / o.scouts)});
+  }
+  return photos;
 }
 
-}  // namespace
+void put_camera(arscout::db::Store& store, const Options& o,
+                const Photo& first) {
+  const auto size = arscout::engine::read_image_size(read_file(first.path));
+  if (!size) throw std::runtime_error("cannot read " + first.path.string());
+  const auto K = arscout::engine::read_k_matrix(o.scene + "/images/K.txt",
+                                                size->width, size->height);
+  store.put("/cameras/bench", "camera",
+            Json{{"fx", K.fx},
+                 {"fy", K.fy},
+                 {"cx", K.cx},
+                 {"cy", K.cy},
+                 {"width", K.width},
+                 {"height", K.height},
+                 {"source", "calibrated"}});
+}
 
-int main(int argc, char** argv) {
-  CLI::App app{"Insert-to-model latency of the engine service"};
-  std::string url, scene = std::string(ARSCOUT_SOURCE_DIR) +
-                           "/../shared/data/strecha/fountain-P11";
-  double interval_s = 2;
-  bool no_dense = false;
-  app.add_option("--db", url, "store URL (default: a fresh SQLite file)");
-  app.add_option("--scene", scene, "a Strecha scene: images/, gps.csv");
-  app.add_option("--interval", interval_s, "seconds between photos");
-  app.add_flag("--no-dense", no_dense, "sparse only");
-  CLI11_PARSE(app, argc, argv);
-  if (url.empty()) {
-    const fs::path dir = fs::temp_directory_path() / "arscout_service_bench";
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    url = "sqlite:" + (dir / "bench.db").string();
+void on_model(arscout::db::Store& store, const arscout::db::Change& change,
+              Observed& seen) {
+  auto doc = store.get(change.path);
+  if (!doc) return;
+  const Json& attrs = doc->attrs;
+  const Json captures = attrs.value("captures", Json::object());
+  const Json increment = attrs.value("increment", Json::object());
+  const int added =
+      static_cast<int>(increment.value("added", Json::array()).size());
+  std::lock_guard lock(seen.mutex);
+  if (added > 0) {
+    const Json timings = attrs.value("timings", Json::object());
+    seen.increments.push_back({added, timings.value("sparse_s", 0.0)});
   }
-  auto store = arscout::db::Store::open(url);
-  std::vector<fs::path> photos;
-  for (const auto& e : fs::directory_iterator(scene + "/images"))
-    if (e.path().extension() == ".jpg") photos.push_back(e.path());
-  std::sort(photos.begin(), photos.end());
-  if (photos.empty()) {
-    std::fprintf(stderr, "no photos in %s/images\n", scene.c_str());
-    return 2;
+  const bool dense_current = attrs.value("dense_state", "") != "pending";
+  for (const auto& [id, status] : captures.items()) {
+    if (status != "registered") continue;
+    seen.registered_us.emplace(id, change.time_us);
+    if (dense_current) seen.dense_us.emplace(id, change.time_us);
   }
-  const auto fixes = arscout::ingest::read_gps_csv(scene + "/gps.csv");
-  const auto K =
-      arscout::engine::read_k_matrix(scene + "/images/K.txt", 3072, 2048);
-  store->put("/cameras/bench", "camera",
-             Json{{"fx", K.fx},
-                  {"fy", K.fy},
-                  {"cx", K.cx},
-                  {"cy", K.cy},
-                  {"width", K.width},
-                  {"height", K.height},
-                  {"source", "calibrated"}});
+}
 
-  std::mutex mutex;
-  std::map<std::string, std::int64_t> stored_us;      // capture -> commit
-  std::map<std::string, std::int64_t> registered_us;  // first model with it
-  // First model with it whose dense cloud is current (includes its view).
-  std::map<std::string, std::int64_t> dense_us;
+void store_photo(arscout::db::Store& store, const Photo& photo,
+                 const std::map<std::string, arscout::ingest::GpsFix>& fixes,
+                 Observed& seen) {
+  const auto& fix = fixes.at(photo.path.filename().string());
+  arscout::db::WriteOp op = arscout::db::WriteOp::put(
+      "/captures/" + photo.id, "capture",
+      Json{{"scout", "scout-" + std::to_string(photo.scout + 1)},
+           {"camera", "bench"},
+           {"gps", arscout::ingest::to_json(fix)},
+           {"status", "stored"}},
+      0);
+  op.blobs = arscout::db::BlobRefs{
+      {"image", store.put_blob(read_file(photo.path))}};
+  store.batch({op});
+  const auto doc = store.get("/captures/" + photo.id);
+  std::lock_guard lock(seen.mutex);
+  seen.stored_us[photo.id] = doc->created_us;
+}
+
+// Latencies in walk order (seconds); NaN for a capture never reached.
+std::vector<double> latencies(const std::vector<Photo>& photos,
+                              const std::map<std::string, std::int64_t>& from,
+                              const std::map<std::string, std::int64_t>& to) {
+  std::vector<double> result;
+  for (const Photo& p : photos) {
+    const auto a = from.find(p.id), b = to.find(p.id);
+    result.push_back(a == from.end() || b == to.end()
+                         ? std::nan("")
+                         : double(b->second - a->second) / 1e6);
+  }
+  return result;
+}
+
+// The finite values of photos first..last (1-based, inclusive).
+std::vector<double> window(const std::vector<double>& v, int first, int last) {
+  std::vector<double> out;
+  for (int i = first; i <= last && i <= static_cast<int>(v.size()); ++i)
+    if (std::isfinite(v[i - 1])) out.push_back(v[i - 1]);
+  return out;
+}
+
+void print_latency(const char* what, const std::vector<double>& v) {
+  const bench::WalkWindows w = bench::walk_windows(static_cast<int>(v.size()));
+  const auto all = window(v, 1, static_cast<int>(v.size()));
+  const double early = percentile(window(v, w.first_begin, w.first_end), .95);
+  const double late = percentile(window(v, w.last_begin, w.last_end), .95);
+  std::printf(
+      "%s: %zu of %zu reached; p50 %.2f s, p95 %.2f s, max %.2f s; p95 "
+      "photos %d-%d %.2f s, %d-%d %.2f s, ratio %.2f\n",
+      what, all.size(), v.size(), percentile(all, .5), percentile(all, .95),
+      percentile(all, 1.0), w.first_begin, w.first_end, early, w.last_begin,
+      w.last_end, late, late / early);
+}
+
+// The sparse cost of an increment by the photos folded into it, against k
+// times the median one-photo increment.
+void print_folding(const std::vector<IncrementSeen>& increments) {
+  std::map<int, std::vector<double>> by_k;
+  for (const IncrementSeen& i : increments) by_k[i.added].push_back(i.sparse_s);
+  const double one = by_k.count(1) ? bench::median(by_k.at(1)) : std::nan("");
+  std::printf(
+      "\n| photos folded | increments | sparse s, median | per photo | vs k x "
+      "one-photo |\n|---|---|---|---|---|\n");
+  for (const auto& [k, costs] : by_k) {
+    const double m = bench::median(costs);
+    std::printf("| %d | %zu | %.2f | %.2f | %.2f |\n", k, costs.size(), m,
+                m / k, m / (k * one));
+  }
+}
+
+// Bytes stored under a site for the engine: the state blob, the features
+// documents and the depth maps.
+void print_state_bytes(arscout::db::Store& store, int registered) {
+  std::int64_t state = 0, features = 0, depth = 0;
+  const auto blob_size = [&](const arscout::db::Document& doc) {
+    std::int64_t bytes = 0;
+    for (const auto& [name, sha] : doc.blobs)
+      if (auto info = store.blob_info(sha)) bytes += info->size;
+    return bytes;
+  };
+  for (const auto& site : store.list_children("/sites")) {
+    if (auto engine = store.get(site.path + "/engine"))
+      state += blob_size(*engine);
+    for (const auto& doc : store.list_children(site.path + "/features"))
+      features += blob_size(doc);
+    for (const auto& doc : store.list_children(site.path + "/depth"))
+      depth += blob_size(doc);
+  }
+  const double n = std::max(1, registered);
+  std::printf(
+      "engine state stored: state blob %.1f MB (%.1f KB per registered "
+      "photo), features %.1f MB (%.0f KB per photo), depth maps %.1f MB "
+      "(%.0f KB per photo)\n",
+      state / 1e6, state / n / 1e3, features / 1e6, features / n / 1e3,
+      depth / 1e6, depth / n / 1e3);
+}
+
+void print_report(arscout::db::Store& store, const Options& o,
+                  const std::vector<Photo>& photos, Observed& seen) {
+  std::lock_guard lock(seen.mutex);
+  const auto registered =
+      latencies(photos, seen.stored_us, seen.registered_us);
+  const auto dense = latencies(photos, seen.stored_us, seen.dense_us);
+  if (o.per_capture) {
+    std::printf("| capture | scout | registered (s) | dense (s) |\n");
+    std::printf("|---|---|---|---|\n");
+    for (size_t i = 0; i < photos.size(); ++i)
+      std::printf("| %s | %d | %.2f | %.2f |\n", photos[i].id.c_str(),
+                  photos[i].scout + 1, registered[i], dense[i]);
+  }
+  std::printf("\n%s", bench::machine_summary().c_str());
+  std::printf("%zu photos from %s, %d scout(s), one every %.1f s each, "
+              "dense %s\n",
+              photos.size(), o.scene.c_str(), o.scouts, o.interval_s,
+              o.no_dense ? "off" : "on");
+  print_latency("to a model registering it", registered);
+  if (!o.no_dense) print_latency("to its dense cloud", dense);
+  print_folding(seen.increments);
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  std::printf("\npeak RSS of the process (worker and store): %.0f MiB\n",
+              usage.ru_maxrss / 1024.0);
+  print_state_bytes(store, static_cast<int>(seen.registered_us.size()));
+}
+
+void run(const Options& o) {
+  const std::vector<Photo> photos = walk_photos(o);
+  if (photos.empty())
+    throw std::runtime_error("no photos in " + o.scene + "/images");
+  auto store = arscout::db::Store::open(o.url);
+  put_camera(*store, o, photos.front());
+  const auto fixes = arscout::ingest::read_gps_csv(o.scene + "/gps.csv");
+  Observed seen;
   auto models = store->subscribe(
       "/sites/*/model", store->last_seq(),
-      [&](const arscout::db::Change& change) {
-        auto doc = store->get(change.path);
-        if (!doc) return;
-        const Json captures = doc->attrs.value("captures", Json::object());
-        std::fprintf(stderr, "  model v%lld timings %s\n",
-                     static_cast<long long>(doc->version),
-                     doc->attrs.value("timings", Json()).dump().c_str());
-        std::lock_guard lock(mutex);
-        const bool dense_current =
-            doc->attrs.value("dense_state", "") != "pending";
-        for (const auto& [id, status] : captures.items()) {
-          if (status != "registered") continue;
-          if (!registered_us.count(id)) registered_us[id] = change.time_us;
-          if (dense_current && !dense_us.count(id))
-            dense_us[id] = change.time_us;
-        }
-      });
-
+      [&](const arscout::db::Change& c) { on_model(*store, c, seen); });
   arscout::engine::WorkerOptions options;
-  options.dense = !no_dense;
+  options.dense = !o.no_dense;
   options.progress = [](const std::string& line) {
     std::fprintf(stderr, "  %s\n", line.c_str());
   };
   arscout::engine::EngineWorker worker(*store, options);
   worker.start();
   const auto start = std::chrono::steady_clock::now();
-  for (size_t i = 0; i < photos.size(); ++i) {
+  for (const Photo& photo : photos) {
     std::this_thread::sleep_until(
-        start +
-        std::chrono::milliseconds(static_cast<int>(1000 * interval_s * i)));
-    const std::string id = photos[i].stem().string();
-    const auto& fix = fixes.at(photos[i].filename().string());
-    arscout::db::WriteOp op =
-        arscout::db::WriteOp::put("/captures/" + id, "capture",
-                                  Json{{"scout", "bench"},
-                                       {"camera", "bench"},
-                                       {"gps", arscout::ingest::to_json(fix)},
-                                       {"status", "stored"}},
-                                  0);
-    op.blobs =
-        arscout::db::BlobRefs{{"image", store->put_blob(read_file(photos[i]))}};
-    store->batch({op});
-    const auto doc = store->get("/captures/" + id);
-    std::lock_guard lock(mutex);
-    stored_us[id] = doc->created_us;
-    std::fprintf(stderr, "stored %s\n", id.c_str());
+        start + std::chrono::milliseconds(static_cast<int>(1000 * photo.at_s)));
+    store_photo(*store, photo, fixes, seen);
+    std::fprintf(stderr, "stored %s (scout %d)\n", photo.id.c_str(),
+                 photo.scout + 1);
   }
-  worker.wait_idle(std::chrono::minutes(10));
+  worker.wait_idle(std::chrono::minutes(30));
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   models->stop();
   worker.stop();
+  print_report(*store, o, photos, seen);
+}
 
-  std::vector<double> all, after_initial, dense_all, dense_after_initial;
-  std::printf(
-      "| capture | to a model registering it (s) | to its dense cloud (s) "
-      "|\n|---|---|---|\n");
-  std::lock_guard lock(mutex);
-  for (const auto& [id, t0] : stored_us) {
-    if (!registered_us.count(id)) {
-      std::printf("| %s | never registered | |\n", id.c_str());
-      continue;
-    }
-    const double s = (registered_us.at(id) - t0) / 1e6;
-    const double d = dense_us.count(id) ? (dense_us.at(id) - t0) / 1e6 : -1;
-    all.push_back(s);
-    if (all.size() > 2) after_initial.push_back(s);
-    if (d >= 0) {
-      dense_all.push_back(d);
-      if (all.size() > 2) dense_after_initial.push_back(d);
-    }
-    std::printf("| %s | %.2f | %.2f |\n", id.c_str(), s, d);
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Insert-to-model latency of the engine service"};
+  Options o;
+  app.add_option("--db", o.url, "store URL (default: a fresh SQLite file)");
+  app.add_option("--scene", o.scene, "images/*.jpg, images/K.txt, gps.csv");
+  app.add_option("--interval", o.interval_s, "seconds between one scout's "
+                                             "photos")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--scouts", o.scouts, "scouts sharing the walk")
+      ->check(CLI::Range(1, 64));
+  app.add_option("--views", o.views, "only the first N photos (0: all)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_flag("--no-dense", o.no_dense, "sparse only");
+  app.add_flag("--per-capture", o.per_capture, "a row per capture");
+  CLI11_PARSE(app, argc, argv);
+  if (o.url.empty()) {
+    const fs::path dir = fs::temp_directory_path() / "arscout_service_bench";
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    o.url = "sqlite:" + (dir / "bench.db").string();
   }
-  char date[32];
-  const std::time_t now = std::time(nullptr);
-  std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
-  std::printf("\n%zu photos every %.1f s, dense %s, %s\n", photos.size(),
-              interval_s, no_dense ? "off" : "on", date);
-  std::printf(
-      "to a model registering it, all captures: p50 %.2f s, p95 %.2f s\n",
-      percentile(all, 0.5), percentile(all, 0.95));
-  std::printf(
-      "  from the third on (the first two wait for a third): p50 %.2f "
-      "s, p95 %.2f s\n",
-      percentile(after_initial, 0.5), percentile(after_initial, 0.95));
-  if (!no_dense) {
-    std::printf("to its dense cloud, all captures: p50 %.2f s, p95 %.2f s\n",
-                percentile(dense_all, 0.5), percentile(dense_all, 0.95));
-    std::printf("  from the third on: p50 %.2f s, p95 %.2f s\n",
-                percentile(dense_after_initial, 0.5),
-                percentile(dense_after_initial, 0.95));
+  try {
+    run(o);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "service_bench: %s\n", e.what());
+    return 1;
   }
   return 0;
 }

@@ -4,6 +4,25 @@
 #include <opencv2/core/eigen.hpp>
 
 namespace arscout::engine {
+namespace {
+
+// The correspondences a pose projects within `threshold` (normalized).
+std::vector<int> explained(const std::vector<cv::Point3d>& object,
+                           const std::vector<cv::Point2d>& points,
+                           const cv::Mat& rvec, const cv::Mat& tvec,
+                           double threshold) {
+  std::vector<cv::Point2d> projected;
+  const cv::Mat K = cv::Mat::eye(3, 3, CV_64F);
+  cv::projectPoints(object, rvec, tvec, K, cv::noArray(), projected);
+  std::vector<int> result;
+  for (size_t i = 0; i < object.size(); ++i) {
+    if (cv::norm(projected[i] - points[i]) <= threshold)
+      result.push_back(static_cast<int>(i));
+  }
+  return result;
+}
+
+}  // namespace
 
 std::optional<AbsolutePose> estimate_absolute_pose(
     const std::vector<Eigen::Vector3d>& world,
@@ -35,15 +54,28 @@ std::optional<AbsolutePose> estimate_absolute_pose(
     inlier_object.push_back(object[i]);
     inlier_points.push_back(points[i]);
   }
+  // OpenCV ends its P3P RANSAC with EPnP on the inliers, which is unstable
+  // when they lie on one plane (a wall seen square on): it can land many
+  // degrees off, in the mirror minimum of the planar pose ambiguity, where
+  // the refinement below stays. SQPnP finds the global minimum for any
+  // configuration; the pose explaining more correspondences is kept.
+  cv::Mat sq_rvec, sq_tvec;
+  if (cv::solvePnP(inlier_object, inlier_points, K, cv::noArray(), sq_rvec,
+                   sq_tvec, false, cv::SOLVEPNP_SQPNP)) {
+    cv::solvePnPRefineLM(inlier_object, inlier_points, K, cv::noArray(),
+                         sq_rvec, sq_tvec);
+  }
   cv::solvePnPRefineLM(inlier_object, inlier_points, K, cv::noArray(), rvec,
                        tvec);
-  // Keep every correspondence the refined pose explains.
-  std::vector<cv::Point2d> projected;
-  cv::projectPoints(object, rvec, tvec, K, cv::noArray(), projected);
   AbsolutePose pose;
-  for (size_t i = 0; i < object.size(); ++i) {
-    if (cv::norm(projected[i] - points[i]) <= threshold) {
-      pose.inliers.push_back(static_cast<int>(i));
+  pose.inliers = explained(object, points, rvec, tvec, threshold);
+  if (!sq_rvec.empty()) {
+    std::vector<int> sq_inliers =
+        explained(object, points, sq_rvec, sq_tvec, threshold);
+    if (sq_inliers.size() > pose.inliers.size()) {
+      pose.inliers = std::move(sq_inliers);
+      rvec = sq_rvec;
+      tvec = sq_tvec;
     }
   }
   if (static_cast<int>(pose.inliers.size()) < min_inliers) return std::nullopt;
