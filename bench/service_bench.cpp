@@ -165,8 +165,8 @@ void store_photo(arscout::db::Store& store, const Photo& photo,
            {"gps", arscout::ingest::to_json(fix)},
            {"status", "stored"}},
       0);
-  op.blobs = arscout::db::BlobRefs{
-      {"image", store.put_blob(read_file(photo.path))}};
+  op.blobs =
+      arscout::db::BlobRefs{{"image", store.put_blob(read_file(photo.path))}};
   store.batch({op});
   const auto doc = store.get("/captures/" + photo.id);
   std::lock_guard lock(seen.mutex);
@@ -254,8 +254,7 @@ void print_state_bytes(arscout::db::Store& store, int registered) {
 void print_report(arscout::db::Store& store, const Options& o,
                   const std::vector<Photo>& photos, Observed& seen) {
   std::lock_guard lock(seen.mutex);
-  const auto registered =
-      latencies(photos, seen.stored_us, seen.registered_us);
+  const auto registered = latencies(photos, seen.stored_us, seen.registered_us);
   const auto dense = latencies(photos, seen.stored_us, seen.dense_us);
   if (o.per_capture) {
     std::printf("| capture | scout | registered (s) | dense (s) |\n");
@@ -265,10 +264,11 @@ void print_report(arscout::db::Store& store, const Options& o,
                   photos[i].scout + 1, registered[i], dense[i]);
   }
   std::printf("\n%s", bench::machine_summary().c_str());
-  std::printf("%zu photos from %s, %d scout(s), one every %.1f s each, "
-              "dense %s\n",
-              photos.size(), o.scene.c_str(), o.scouts, o.interval_s,
-              o.no_dense ? "off" : "on");
+  std::printf(
+      "%zu photos from %s, %d scout(s), one every %.1f s each, "
+      "dense %s\n",
+      photos.size(), o.scene.c_str(), o.scouts, o.interval_s,
+      o.no_dense ? "off" : "on");
   print_latency("to a model registering it", registered);
   if (!o.no_dense) print_latency("to its dense cloud", dense);
   print_folding(seen.increments);
@@ -319,8 +319,9 @@ int main(int argc, char** argv) {
   Options o;
   app.add_option("--db", o.url, "store URL (default: a fresh SQLite file)");
   app.add_option("--scene", o.scene, "images/*.jpg, images/K.txt, gps.csv");
-  app.add_option("--interval", o.interval_s, "seconds between one scout's "
-                                             "photos")
+  app.add_option("--interval", o.interval_s,
+                 "seconds between one scout's "
+                 "photos")
       ->check(CLI::PositiveNumber);
   app.add_option("--scouts", o.scouts, "scouts sharing the walk")
       ->check(CLI::Range(1, 64));

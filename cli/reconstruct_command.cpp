@@ -163,13 +163,17 @@ void print_progress(int n, int total, const engine::AddResult& r) {
 }
 
 void print_dense_progress(const engine::DenseUpdate& u) {
-  if (u.new_depth_maps.empty() && !u.refused && u.refused_maps == 0) return;
+  if (u.new_depth_maps.empty() && u.covered.empty() && !u.refused &&
+      u.refused_maps == 0)
+    return;
   std::cout << std::fixed << std::setprecision(2)
             << "      dense: " << u.new_depth_maps.size() << " new depth map"
             << (u.new_depth_maps.size() == 1 ? "" : "s");
   for (const auto& id : u.new_depth_maps) std::cout << ' ' << id;
   if (!u.skipped.empty())
     std::cout << "  (waiting: " << u.skipped.size() << ")";
+  if (!u.covered.empty())
+    std::cout << "  (covered by the key views: " << u.covered.size() << ")";
   std::cout << "  points " << u.points;
   if (u.refused)
     std::cout << " (re-fused)";

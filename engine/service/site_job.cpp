@@ -351,7 +351,11 @@ Increment SiteJob::run_dense() {
     summary << ", " << report.dense.refused_maps << " moved map"
             << (report.dense.refused_maps == 1 ? "" : "s") << " re-fused";
   summary << ", " << report.dense.new_depth_maps.size() << " new depth map"
-          << (report.dense.new_depth_maps.size() == 1 ? "" : "s") << ")";
+          << (report.dense.new_depth_maps.size() == 1 ? "" : "s");
+  if (!report.dense.covered.empty())
+    summary << ", " << report.dense.covered.size()
+            << " covered by the key views";
+  summary << ")";
   if (publish_model) summary << ", model v" << pending_model_version_;
   summary << " (" << static_cast<int>(report.total_s * 1000) << " ms)";
   increment.summary = summary.str();

@@ -187,6 +187,8 @@ DenseOptions small_dense_options() {
   options.long_side = kWidth;
   options.sweep.plane_step_px = 3;
   options.sweep.min_planes = 32;
+  // Every registered view a key view: what it sees decides nothing here.
+  options.redundant_share = 0;
   return options;
 }
 

@@ -757,6 +757,8 @@ DenseOptions small_dense_options() {
   options.long_side = kWidth;
   options.sweep.plane_step_px = 3;
   options.sweep.min_planes = 32;
+  // Every registered view a key view: what it sees decides nothing here.
+  options.redundant_share = 0;
   return options;
 }
 
@@ -905,6 +907,49 @@ TEST(DenseStagesReconstruction, WithdrawnMapNoLongerVouches) {
     }
     EXPECT_EQ(count_where((map.depth > 0) & (vouched == 0)), 0) << map.id;
   }
+}
+
+// A second photo from view 2's place (a scout standing still) sees only
+// what the maps of views 1-3, which see the same street, measure already
+// (each of its points observed by 3 of them): no key view, no sweep,
+// judged once; withdrawing view 2 leaves 2 observers, makes it a candidate
+// again, and it is swept then.
+TEST(DenseStagesReconstruction, AViewTheMapsMeasureAlreadyIsNoKeyView) {
+  const SparseTruth truth = sparse_truth(300, 17);
+  Model model = build_model(truth, {1, 2, 3});
+  ModelImage again = model.images[1];  // view2
+  again.id = "again";
+  const int index = static_cast<int>(model.images.size());
+  for (ModelPoint& point : model.points) {
+    for (size_t t = 0, n = point.track.size(); t < n; ++t)
+      if (point.track[t].first == 1)
+        point.track.emplace_back(index, point.track[t].second);
+  }
+  model.images.push_back(again);
+  const ImageSource views = street_images();
+  const ImageSource images = [&](const std::string& id) {
+    return views(id == "again" ? "view2" : id);
+  };
+  DenseOptions options = small_dense_options();
+  options.redundant_share = DenseOptions{}.redundant_share;
+  DenseReconstruction dense(options);
+  const DenseUpdate u1 = dense.update(model, images);
+  EXPECT_EQ(u1.new_depth_maps.size(), 3u);
+  EXPECT_EQ(u1.covered, std::vector<std::string>{"again"});
+  EXPECT_EQ(dense.raw_depth_map("again"), nullptr);
+  const DenseUpdate u2 = dense.update(model, images);
+  EXPECT_TRUE(u2.new_depth_maps.empty());
+  EXPECT_TRUE(u2.covered.empty());
+
+  Model without2 = model;
+  without2.images.erase(without2.images.begin() + 1);
+  for (ModelPoint& point : without2.points) {
+    std::erase_if(point.track, [](const auto& t) { return t.first == 1; });
+    for (auto& t : point.track) t.first -= t.first > 1;
+  }
+  const DenseUpdate u3 = dense.update(without2, images);
+  EXPECT_EQ(u3.new_depth_maps, std::vector<std::string>{"again"});
+  EXPECT_NE(dense.raw_depth_map("again"), nullptr);
 }
 
 TEST(DenseStagesReconstruction, FusedCloudRoundTripsThroughPly) {

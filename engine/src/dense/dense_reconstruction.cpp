@@ -269,6 +269,8 @@ struct DenseReconstruction::Impl {
   std::unique_ptr<VoxelCloud> cloud;
   // Maps whose agreement grew since they were last fused.
   std::set<std::string> dirty;
+  // Registered views judged not to be key views (DenseUpdate::covered).
+  std::set<std::string> covered;
 
   bool drop_withdrawn(const std::map<std::string, int>& index);
   std::set<std::string> follow_poses(const Model& model,
@@ -276,6 +278,8 @@ struct DenseReconstruction::Impl {
                                      const Covisibility& covisibility);
   bool follow_scale(Entry& entry, const std::vector<const ModelPoint*>& points);
   double tolerance(const Entry& entry, double depth) const;
+  bool redundant(const Model& model, int image,
+                 const Covisibility& covisibility) const;
   void sweep(const Model& model, int key, const ImageSource& images,
              const Covisibility& covisibility, DenseUpdate* update);
   void filter(const std::string& id, const Model& model,
@@ -299,7 +303,29 @@ bool DenseReconstruction::Impl::drop_withdrawn(
     it = entries.erase(it);
     dropped = true;
   }
+  // A withdrawn key view may have covered others: judge them again.
+  if (dropped) covered.clear();
+  std::erase_if(covered,
+                [&](const std::string& id) { return !index.count(id); });
   return dropped;
+}
+
+// Whether the maps held already measure what `image` sees: enough of its
+// sparse points are each observed by redundant_observers key views.
+bool DenseReconstruction::Impl::redundant(
+    const Model& model, int image, const Covisibility& covisibility) const {
+  if (!(options.redundant_share > 0 && options.redundant_share <= 1))
+    return false;
+  const std::vector<const ModelPoint*> points = covisibility.points_of(image);
+  if (points.size() < static_cast<size_t>(kMinSharedPoints)) return false;
+  size_t measured = 0;
+  for (const ModelPoint* point : points) {
+    int observers = 0;
+    for (const auto& [other, keypoint] : point->track)
+      observers += other != image && entries.count(model.images[other].id);
+    measured += observers >= options.redundant_observers;
+  }
+  return measured >= options.redundant_share * points.size();
 }
 
 // How far a map's surface may move before the cloud is re-fused: a share
@@ -498,8 +524,14 @@ DenseUpdate DenseReconstruction::update(
       impl_->follow_poses(model, index, covisibility);
   auto start = Clock::now();
   for (size_t i = 0; i < model.images.size(); ++i) {
-    if (impl_->entries.count(model.images[i].id)) continue;
-    if (progress) progress(model.images[i].id);
+    const std::string& id = model.images[i].id;
+    if (impl_->entries.count(id) || impl_->covered.count(id)) continue;
+    if (impl_->redundant(model, static_cast<int>(i), covisibility)) {
+      impl_->covered.insert(id);
+      update.covered.push_back(id);
+      continue;
+    }
+    if (progress) progress(id);
     impl_->sweep(model, static_cast<int>(i), images, covisibility, &update);
   }
   update.sweep_s = seconds_since(start);

@@ -1,6 +1,8 @@
 // The dense model of one site, grown one increment at a time alongside the
-// sparse Reconstruction: every newly registered capture becomes a key view
-// and gets one plane-sweep depth map with its two best neighbours; depth
+// sparse Reconstruction: a newly registered capture that sees something the
+// key views do not measure yet becomes a key view (DenseOptions::
+// redundant_share) and gets one plane-sweep depth map with its two best
+// neighbours; depth
 // maps are checked against each other (a depth survives only when another
 // map agrees), and agreeing pixels are fused into a voxel-de-duplicated,
 // coloured point cloud in the site frame. Earlier depth maps are never
@@ -42,11 +44,24 @@ struct DenseOptions {
   // A camera that moved more than this share of a voxel (or turned by the
   // equivalent angle) since its depth map was fused triggers a re-fusion.
   double refuse_fraction = 0.25;
+  // Key views for new coverage: a newly registered view gets no depth map of
+  // its own when at least this share of the sparse points it observes are
+  // each observed by `redundant_observers` views that have one (the
+  // keyframe redundancy rule of ORB-SLAM): what it sees is measured
+  // already, from places close to its own. A burst of photos from one spot
+  // or a scout standing still then costs one sweep, not one per photo.
+  // Views with fewer than 20 sparse points are always key views. Above 1
+  // (or 0) every registered view is a key view.
+  double redundant_share = 0.9;
+  int redundant_observers = 3;
 };
 
 struct DenseUpdate {
   std::vector<std::string> new_depth_maps;  // key views swept this time
   std::vector<std::string> skipped;         // registered, but no neighbour
+  // Registered, not key views: others' maps cover what they see
+  // (DenseOptions::redundant_share). Judged once, again after a withdrawal.
+  std::vector<std::string> covered;
   bool refused = false;     // cloud rebuilt from all maps (or all moved)
   size_t refused_maps = 0;  // maps taken out and fused again: camera moved
   size_t points = 0;        // in the fused cloud
@@ -66,8 +81,9 @@ class DenseReconstruction {
   DenseReconstruction& operator=(DenseReconstruction&&) noexcept;
 
   // Brings the dense model up to `model`: sweeps the registered captures
-  // that have no depth map yet, filters, fuses; drops the maps of captures
-  // no longer in the model. `progress`, when set, is told about each sweep.
+  // that have no depth map yet and are key views, filters, fuses; drops the
+  // maps of captures no longer in the model. `progress`, when set, is told
+  // about each sweep.
   DenseUpdate update(
       const Model& model, const ImageSource& images,
       const std::function<void(const std::string&)>& progress = {});
