@@ -142,10 +142,11 @@ void on_model(arscout::db::Store& store, const arscout::db::Change& change,
   const int added =
       static_cast<int>(increment.value("added", Json::array()).size());
   std::lock_guard lock(seen.mutex);
-  if (added > 0) {
-    const Json timings = attrs.value("timings", Json::object());
-    seen.increments.push_back({added, timings.value("sparse_s", 0.0)});
-  }
+  // The sparse phase's version: the dense phase's names the same captures
+  // but spent no sparse time.
+  const double sparse_s =
+      attrs.value("timings", Json::object()).value("sparse_s", 0.0);
+  if (added > 0 && sparse_s > 0) seen.increments.push_back({added, sparse_s});
   const bool dense_current = attrs.value("dense_state", "") != "pending";
   for (const auto& [id, status] : captures.items()) {
     if (status != "registered") continue;
