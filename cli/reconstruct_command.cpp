@@ -206,7 +206,7 @@ void refine_between_photos(engine::Reconstruction& site, double budget_s) {
 
 // Before the outputs: the last photo's refinement, to the end.
 void refine_to_convergence(engine::Reconstruction& site) {
-  for (int round = 0; round < 3 && site.refinement_due(); ++round)
+  for (int round = 0; round < 10 && site.refinement_due(); ++round)
     print_refine(site.refine());
 }
 

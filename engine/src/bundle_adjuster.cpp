@@ -111,12 +111,37 @@ ceres::Problem::Options problem_options() {
   return options;
 }
 
+// Cauchy in pixels, scaled by 1 / sigma^2: the same robustness to outliers
+// whatever the weight of the inliers.
+ceres::LossFunction* reprojection_loss(double loss_scale_px, double sigma) {
+  return new ceres::ScaledLoss(new ceres::CauchyLoss(loss_scale_px),
+                               1.0 / (sigma * sigma), ceres::TAKE_OWNERSHIP);
+}
+
+// The keypoint deviation from residual norms: for a 2D Gaussian the median
+// norm is sigma sqrt(2 ln 2); the residuals of a fitted model are smaller
+// than the noise by the share of degrees of freedom the points take up.
+double estimate_pixel_sigma(std::vector<double> norms, size_t points) {
+  constexpr double kMin = 0.1, kMax = 1.0;
+  if (norms.size() < 20) return kMax;
+  std::nth_element(norms.begin(), norms.begin() + norms.size() / 2,
+                   norms.end());
+  const double median = norms[norms.size() / 2];
+  const double residuals = 2.0 * static_cast<double>(norms.size());
+  const double freedom =
+      std::max(0.25, 1.0 - 3.0 * static_cast<double>(points) / residuals);
+  const double sigma = median / std::sqrt(2 * std::log(2.0) * freedom);
+  return std::clamp(sigma, kMin, kMax);
+}
+
 class ProblemBuilder {
  public:
   ProblemBuilder(Scene& scene, const BundleOptions& options)
       : scene_(scene),
         options_(options),
-        loss_(std::make_unique<ceres::CauchyLoss>(options.loss_scale_px)),
+        loss_(std::make_unique<ceres::LossFunctionWrapper>(
+            reprojection_loss(options.loss_scale_px, 1.0),
+            ceres::TAKE_OWNERSHIP)),
         upright_loss_(std::make_unique<ceres::CauchyLoss>(3.0)),
         problem_(problem_options()) {}
 
@@ -153,6 +178,7 @@ class ProblemBuilder {
       if (options_.points_fixed && !kept.empty())
         problem_.SetParameterBlockConstant(point.xyz.data());
     }
+    weigh_reprojections();
     if (options_.gps_priors) add_gps_priors();
     if (options_.gps_priors && options_.upright_sigma_deg > 0)
       add_upright_priors();
@@ -163,6 +189,7 @@ class ProblemBuilder {
   ceres::Problem& problem() { return problem_; }
   int image_count() const { return static_cast<int>(images_.size()); }
   int point_count() const { return static_cast<int>(points_.size()); }
+  double pixel_sigma() const { return pixel_sigma_; }
 
   void normalize_quaternions() {
     for (int i : images_) scene_.images[i].q.normalize();
@@ -177,6 +204,11 @@ class ProblemBuilder {
     SceneImage& image = scene_.images[obs.image];
     if (!image.registered) return;
     SceneCamera& camera = scene_.cameras[image.camera];
+    Eigen::Vector2d projected;
+    if (options_.pixel_sigma <= 0 &&
+        project(camera, image, point.xyz, &projected))
+      residual_norms_.push_back(
+          (projected - image.keypoints[obs.keypoint]).norm());
     aspects_.emplace(image.camera, aspect_of(camera));
     problem_.AddResidualBlock(
         ReprojectionCost::create(image.keypoints[obs.keypoint],
@@ -196,6 +228,15 @@ class ProblemBuilder {
       problem_.SetParameterBlockConstant(image.q.coeffs().data());
       problem_.SetParameterBlockConstant(image.t.data());
     }
+  }
+
+  void weigh_reprojections() {
+    pixel_sigma_ =
+        options_.pixel_sigma > 0
+            ? options_.pixel_sigma
+            : estimate_pixel_sigma(std::move(residual_norms_), points_.size());
+    loss_->Reset(reprojection_loss(options_.loss_scale_px, pixel_sigma_),
+                 ceres::TAKE_OWNERSHIP);
   }
 
   void add_gps_priors() {
@@ -317,8 +358,10 @@ class ProblemBuilder {
   Scene& scene_;
   const BundleOptions& options_;
   // Declared before the problem, which uses but does not own them.
-  std::unique_ptr<ceres::LossFunction> loss_;
+  std::unique_ptr<ceres::LossFunctionWrapper> loss_;
   std::unique_ptr<ceres::LossFunction> upright_loss_;  // in units of sigma
+  std::vector<double> residual_norms_;                 // before solving, pixels
+  double pixel_sigma_ = 1;
   ceres::Problem problem_;
   bool global_ = false;
   std::set<int> free_;
@@ -497,7 +540,7 @@ BundleReport adjust_bundle(Scene& scene, const std::vector<int>& free_images,
   }
   solver.max_num_iterations = options.max_iterations;
   solver.num_threads = std::max(1, options.threads);
-  solver.function_tolerance = 1e-6;
+  solver.function_tolerance = options.function_tolerance;
   solver.parameter_tolerance = 1e-9;
   solver.logging_type = ceres::SILENT;
   solver.minimizer_progress_to_stdout = false;
@@ -507,11 +550,14 @@ BundleReport adjust_bundle(Scene& scene, const std::vector<int>& free_images,
   ceres::Solve(solver, &builder.problem(), &summary);
   builder.normalize_quaternions();
   report.stopped = stop.stopped();
+  report.converged = summary.termination_type == ceres::CONVERGENCE;
   report.iterations = static_cast<int>(summary.iterations.size());
+  const double residuals = std::max(1, summary.num_residuals);
+  report.pixel_sigma = builder.pixel_sigma();
   report.initial_rms_px =
-      std::sqrt(2 * summary.initial_cost / std::max(1, summary.num_residuals));
+      report.pixel_sigma * std::sqrt(2 * summary.initial_cost / residuals);
   report.final_rms_px =
-      std::sqrt(2 * summary.final_cost / std::max(1, summary.num_residuals));
+      report.pixel_sigma * std::sqrt(2 * summary.final_cost / residuals);
   return report;
 }
 

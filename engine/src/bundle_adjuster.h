@@ -18,7 +18,19 @@ struct BundleOptions {
   bool gps_priors = false;       // scene is in ENU and fixes pull the centres
   double upright_sigma_deg = 0;  // > 0: camera x axes held horizontal (ENU)
   double loss_scale_px = 1.0;    // Cauchy loss scale
+  // Standard deviation of a keypoint's position (working pixels): the
+  // reprojection errors are weighted by 1 / sigma^2 against the GPS and
+  // upright priors, which are in units of their own deviations. With the
+  // default of 1 px the priors pull as hard as if features were 1 px off;
+  // features good to a third of that would let the fixes' noise bend the
+  // model (docs/engine.md, "Weighting features against fixes"). 0: the
+  // a-posteriori estimate from the problem's own residuals before solving
+  // (their median, as for a 2D Gaussian, corrected for the points' degrees
+  // of freedom), within [0.1, 1] px.
+  double pixel_sigma = 1.0;
   int max_iterations = 50;
+  // Ceres' relative decrease of the cost that ends the solve.
+  double function_tolerance = 1e-6;
   int threads = 1;
   // Local adjustments only: of the images that observe the free images'
   // points without being free, the `max_fixed_images` sharing the most
@@ -42,14 +54,16 @@ struct BundleOptions {
 
 struct BundleReport {
   int iterations = 0;
-  // sqrt(2 cost / residuals) of the solver's cost, which includes the
-  // robust loss and the priors: an RMS in pixels only when residuals are
-  // small (well below the loss scale), as after convergence.
+  // pixel_sigma * sqrt(2 cost / residuals) of the solver's cost, which
+  // includes the robust loss and the priors: an RMS in pixels only when
+  // residuals are small (well below the loss scale), as after convergence.
   double initial_rms_px = 0;
   double final_rms_px = 0;
   int images = 0;
   int points = 0;
-  bool stopped = false;  // ended early by BundleOptions::stop
+  bool stopped = false;    // ended early by BundleOptions::stop
+  bool converged = false;  // by the tolerances, not the iteration cap
+  double pixel_sigma = 1;  // the keypoint deviation weighted by, pixels
 };
 
 // Adjusts the poses of `free_images` and every point they observe; other

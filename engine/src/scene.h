@@ -88,6 +88,9 @@ struct Scene {
   bool geo_registered = false;         // world frame is ENU
   bool initialized = false;
   int registered_at_last_global_ba = 0;
+  // Refinement rounds that ended on their iteration cap since the model
+  // last settled (not serialized: a restored scene starts counting again).
+  int unsettled_refine_rounds = 0;
   // Gauge for models without GPS: the first pose is held fixed, and one
   // coordinate of the second image's position fixes the scale.
   int reference_image = -1;
