@@ -15,6 +15,7 @@
 // the site (the work then runs here) or sees the holder's committed state
 // pass it (attrs.through_seq of the site's engine document).
 #include <algorithm>
+#include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <map>
@@ -35,6 +36,14 @@ namespace arscout::engine {
 
 using service::Work;
 
+namespace {
+// Registration before the cloud: while photos wait for their sparse phase,
+// a site's dense phase waits too (the next one sweeps every new key view at
+// once), but never longer than this, so that the cloud still follows a
+// scout who never pauses.
+constexpr std::chrono::seconds kDenseMaxWait{4};
+}  // namespace
+
 struct EngineWorker::Impl {
   Impl(db::Store& s, WorkerOptions o)
       : store(s),
@@ -47,6 +56,8 @@ struct EngineWorker::Impl {
     std::deque<Work> pending;
     std::deque<Work> deferred;  // while another worker holds the site
     bool dense_retry = false;   // a dense phase failed: run one again
+    // Since when a due dense phase has been waiting for queued work.
+    std::optional<std::chrono::steady_clock::time_point> dense_waiting;
     bool running = false;
     bool ready = false;
   };
@@ -350,8 +361,19 @@ struct EngineWorker::Impl {
       ++stats.failures;
       return false;
     }
-    run_dense_phase(site, job, lock);
+    if (job.dense_due() && !dense_waits(sites[site]))
+      run_dense_phase(site, job, lock);
     return true;
+  }
+
+  // Whether the site's due dense phase waits for the work queued meanwhile
+  // (kDenseMaxWait). Deterministic runs never wait: what a dense phase
+  // sweeps must not depend on timing. Called with the lock held.
+  bool dense_waits(SiteQueue& q) const {
+    if (q.pending.empty() || options.reconstruction.deterministic) return false;
+    const auto now = std::chrono::steady_clock::now();
+    if (!q.dense_waiting) q.dense_waiting = now;
+    return now - *q.dense_waiting < kDenseMaxWait;
   }
 
   // The dense phase when the job has one due (new views, or cameras that
@@ -360,6 +382,7 @@ struct EngineWorker::Impl {
   void run_dense_phase(const std::string& site, service::SiteJob& job,
                        std::unique_lock<std::mutex>& lock) {
     if (!job.dense_due()) return;
+    sites[site].dense_waiting.reset();
     lock.unlock();
     try {
       service::Increment dense = timed([&] { return job.run_dense(); });
