@@ -2,6 +2,13 @@
 // subscription's thread); a small pool runs the sites' increments, one at a
 // time per site, each folding in everything queued for its site meanwhile.
 //
+// A site's dense phase runs in a lane of its own (its own threads, at a
+// lower CPU priority), beside the site's next sparse phases: a photo's
+// registration never waits for a depth map. The lanes take turns only to
+// publish (SiteJob::publication). Deterministic runs keep the dense phase
+// inline, after the sparse phase, so that what it sweeps never depends on
+// timing.
+//
 // The checkpoint: every change up to the last one placed is either done or
 // queued; queued changes are "in flight" until the increment holding them
 // commits. A commit saves, in its own batch, the position just below the
@@ -24,6 +31,12 @@
 #include <set>
 #include <thread>
 
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
+
 #include "arscout/db/path.h"
 #include "arscout/db/store.h"
 #include "arscout/engine/service.h"
@@ -37,11 +50,15 @@ namespace arscout::engine {
 using service::Work;
 
 namespace {
-// Registration before the cloud: while photos wait for their sparse phase,
-// a site's dense phase waits too (the next one sweeps every new key view at
-// once), but never longer than this, so that the cloud still follows a
-// scout who never pauses.
-constexpr std::chrono::seconds kDenseMaxWait{4};
+// The dense lanes yield the CPU to the sparse ones, whose latency a scout
+// waits on (a nice value, per thread on Linux; elsewhere nothing).
+void lower_thread_priority() {
+#ifdef __linux__
+  constexpr int kDenseNice = 10;
+  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)),
+              kDenseNice);
+#endif
+}
 }  // namespace
 
 struct EngineWorker::Impl {
@@ -52,14 +69,16 @@ struct EngineWorker::Impl {
         leases(store, options.name, options.lease_ttl) {}
 
   struct SiteQueue {
-    std::unique_ptr<service::SiteJob> job;
+    // Shared by the lanes: a lane keeps it alive while it runs.
+    std::shared_ptr<service::SiteJob> job;
     std::deque<Work> pending;
     std::deque<Work> deferred;  // while another worker holds the site
     bool dense_retry = false;   // a dense phase failed: run one again
-    // Since when a due dense phase has been waiting for queued work.
-    std::optional<std::chrono::steady_clock::time_point> dense_waiting;
-    bool running = false;
+    bool running = false;       // its sparse lane
     bool ready = false;
+    bool dense_running = false;     // its dense lane
+    bool dense_queued = false;
+    bool dense_publishing = false;  // the dense lane waits to publish
   };
 
   db::Store& store;
@@ -71,6 +90,7 @@ struct EngineWorker::Impl {
   std::condition_variable changed;
   std::map<std::string, SiteQueue> sites;
   std::deque<std::string> ready;
+  std::deque<std::string> dense_ready;
   std::multiset<std::int64_t> in_flight;
   std::int64_t last_placed = 0;  // every change <= it is done or in flight
   std::int64_t saved_checkpoint = 0;
@@ -205,8 +225,9 @@ struct EngineWorker::Impl {
       std::vector<Work> work(q.pending.begin(), q.pending.begin() + take);
       q.pending.erase(q.pending.begin(), q.pending.begin() + take);
       if (!q.job)
-        q.job = std::make_unique<service::SiteJob>(site, store, options);
-      service::SiteJob& job = *q.job;
+        q.job = std::make_shared<service::SiteJob>(site, store, options);
+      const std::shared_ptr<service::SiteJob> held_job = q.job;
+      service::SiteJob& job = *held_job;
       lock.unlock();
       const bool ok = run_increment(site, job, work, lock);
       // run_increment returns with the lock held.
@@ -258,7 +279,8 @@ struct EngineWorker::Impl {
     log("site " + site + ": lease lost to another worker");
     SiteQueue& q = sites[site];
     defer(q);
-    if (!q.running) q.job.reset();  // a running one is dropped when done
+    // A running one is dropped when done.
+    if (!q.running && !q.dense_running) q.job.reset();
   }
 
   // Work another worker has committed needs nothing more from this one.
@@ -335,12 +357,14 @@ struct EngineWorker::Impl {
   }
 
   // Runs one increment of a site: the sparse phase, committed with the
-  // checkpoint, then the dense phase (a further model version). Returns
-  // false, with the lock held, when the sparse phase failed.
+  // checkpoint, then starts the dense phase (a further model version).
+  // Returns false, with the lock held, when the sparse phase failed.
   bool run_increment(const std::string& site, service::SiteJob& job,
                      const std::vector<Work>& work,
                      std::unique_lock<std::mutex>& lock) {
+    bool dense_due = false;
     try {
+      std::unique_lock publication(job.publication());
       service::Increment increment = timed([&] { return job.run(work); });
       lock.lock();
       std::multiset<std::int64_t> others = in_flight;
@@ -349,84 +373,171 @@ struct EngineWorker::Impl {
           others.empty() ? last_placed : *others.begin() - 1;
       lock.unlock();
       commit(site, job, increment, checkpoint);
+      dense_due = job.dense_due();
+      publication.unlock();
       lock.lock();
       for (const Work& w : work) in_flight.erase(in_flight.find(w.seq));
       saved_checkpoint = std::max(saved_checkpoint, checkpoint);
       stats.checkpoint = saved_checkpoint;
       stats.increments += increment.model_written ? 1 : 0;
     } catch (const std::exception& e) {
-      job.reset();
+      if (lock.owns_lock()) lock.unlock();
+      reset(job);
       log("site " + site + ": increment failed, will retry: " + e.what());
-      if (!lock.owns_lock()) lock.lock();
+      lock.lock();
       ++stats.failures;
       return false;
     }
-    if (job.dense_due() && !dense_waits(sites[site]))
-      run_dense_phase(site, job, lock);
+    if (dense_due) start_dense(site, job, lock);
     return true;
   }
 
-  // Whether the site's due dense phase waits for the work queued meanwhile
-  // (kDenseMaxWait). Deterministic runs never wait: what a dense phase
-  // sweeps must not depend on timing. Called with the lock held.
-  bool dense_waits(SiteQueue& q) const {
-    if (q.pending.empty() || options.reconstruction.deterministic) return false;
-    const auto now = std::chrono::steady_clock::now();
-    if (!q.dense_waiting) q.dense_waiting = now;
-    return now - *q.dense_waiting < kDenseMaxWait;
+  // Forgets a job's state after a failure (its next phase restores it).
+  static void reset(service::SiteJob& job) {
+    std::lock_guard publication(job.publication());
+    job.reset();
   }
 
-  // The dense phase when the job has one due (new views, or cameras that
-  // the sparse phase or the refinement moved), committed as a further model
+  bool dense_lanes() const {
+    return options.dense && !options.reconstruction.deterministic;
+  }
+
+  // A due dense phase: queued for the site's dense lane, or (deterministic
+  // runs) run here. Called and returns with the lock held.
+  void start_dense(const std::string& site, service::SiteJob& job,
+                   std::unique_lock<std::mutex>& lock) {
+    if (!dense_lanes()) {
+      run_dense_inline(site, job, lock);
+      return;
+    }
+    SiteQueue& q = sites[site];
+    if (q.dense_running || q.dense_queued) return;
+    q.dense_queued = true;
+    dense_ready.push_back(site);
+    changed.notify_all();
+  }
+
+  // The dense phase in the sparse lane, committed as a further model
   // version. Called and returns with the lock held.
-  void run_dense_phase(const std::string& site, service::SiteJob& job,
-                       std::unique_lock<std::mutex>& lock) {
-    if (!job.dense_due()) return;
-    sites[site].dense_waiting.reset();
+  void run_dense_inline(const std::string& site, service::SiteJob& job,
+                        std::unique_lock<std::mutex>& lock) {
     lock.unlock();
     try {
+      std::lock_guard publication(job.publication());
       service::Increment dense = timed([&] { return job.run_dense(); });
-      commit(site, job, dense, std::nullopt);
+      if (!dense.ops.empty()) commit(site, job, dense, std::nullopt);
       lock.lock();
       stats.increments += dense.model_written ? 1 : 0;
     } catch (const std::exception& e) {
-      // The sparse phase stands; the engine state says the dense cloud is
-      // behind, so the site's next increment (or a restart) catches up.
-      job.reset();
-      log("site " + site + ": dense phase failed, will catch up: " + e.what());
-      lock.lock();
-      sites[site].dense_retry = true;
-      ++stats.failures;
+      dense_failed(site, job, lock, e);
     }
   }
 
+  // The sparse phase stands; the engine state says the dense cloud is
+  // behind, so the site's next increment (or a restart) catches up.
+  // Returns with the lock held.
+  void dense_failed(const std::string& site, service::SiteJob& job,
+                    std::unique_lock<std::mutex>& lock,
+                    const std::exception& e) {
+    if (lock.owns_lock()) lock.unlock();
+    reset(job);
+    log("site " + site + ": dense phase failed, will catch up: " + e.what());
+    lock.lock();
+    sites[site].dense_retry = true;
+    ++stats.failures;
+  }
+
+  // --- dense lanes (their own threads) -------------------------------------
+  void run_dense_lanes() {
+    lower_thread_priority();
+    std::unique_lock lock(mutex);
+    while (true) {
+      changed.wait(lock, [&] { return stopping || !dense_ready.empty(); });
+      if (stopping) return;
+      const std::string site = dense_ready.front();
+      dense_ready.pop_front();
+      SiteQueue& q = sites[site];
+      q.dense_queued = false;
+      if (!held.count(site) || !q.job) continue;
+      const std::shared_ptr<service::SiteJob> job = q.job;
+      q.dense_running = true;
+      lock.unlock();
+      bool again = false;
+      try {
+        again = run_dense_lane(site, q, *job);
+        lock.lock();
+      } catch (const std::exception& e) {
+        dense_failed(site, *job, lock, e);
+      }
+      q.dense_running = q.dense_publishing = false;
+      if (again) start_dense(site, *job, lock);
+      if (q.dense_retry) make_ready(site, q);
+      changed.notify_all();
+    }
+  }
+
+  // One dense phase of the site, its sweeping beside the sparse lane.
+  // Returns whether another is due (the model changed meanwhile).
+  bool run_dense_lane(const std::string& site, SiteQueue& q,
+                      service::SiteJob& job) {
+    const auto start = std::chrono::steady_clock::now();
+    std::optional<service::DenseTask> task;
+    {
+      std::lock_guard publication(job.publication());
+      task = job.begin_dense();
+    }
+    if (!task) return false;
+    job.compute_dense(*task);
+    {
+      std::lock_guard guard(mutex);
+      q.dense_publishing = true;  // a refinement gives way
+    }
+    std::lock_guard publication(job.publication());
+    service::Increment dense = job.finish_dense(*task);
+    append_ready_time(dense, start);
+    if (!dense.ops.empty()) commit(site, job, dense, std::nullopt);
+    std::lock_guard guard(mutex);
+    stats.increments += dense.model_written ? 1 : 0;
+    return job.dense_due();
+  }
+
   // The site's global refinement while it has no work waiting: it gives
-  // way (after the solver iteration under way) as soon as work arrives,
-  // and publishes what it reached as a model version. Deterministic runs
-  // let it finish, so that a replay gives the same models however fast it
-  // arrives. Called and returns with the lock held.
+  // way (after the solver iteration under way) as soon as work arrives or
+  // the dense lane waits to publish, and publishes what it reached as a
+  // model version. Deterministic runs let it finish, so that a replay
+  // gives the same models however fast it arrives. Called and returns with
+  // the lock held.
   void run_refinement(const std::string& site, service::SiteJob& job,
                       SiteQueue& q, std::unique_lock<std::mutex>& lock) {
-    if (!job.refinement_due()) return;
     const bool give_way = !options.reconstruction.deterministic;
     lock.unlock();
+    bool dense_due = false;
     try {
+      std::lock_guard publication(job.publication());
+      if (!job.refinement_due()) {
+        lock.lock();
+        return;
+      }
       service::Increment refined = job.run_refine([&] {
         std::lock_guard guard(mutex);
-        return stopping || (give_way && !q.pending.empty());
+        return stopping ||
+               (give_way && (!q.pending.empty() || q.dense_publishing));
       });
       if (!refined.ops.empty()) commit(site, job, refined, std::nullopt);
+      dense_due = job.dense_due();
       lock.lock();
       stats.increments += refined.model_written ? 1 : 0;
     } catch (const std::exception& e) {
-      job.reset();
+      if (lock.owns_lock()) lock.unlock();
+      reset(job);
       log("site " + site + ": refinement failed, will retry: " + e.what());
       lock.lock();
       return;
     }
     // The refined poses move the depth maps: the cloud follows them, unless
     // work arrived (its increment's dense phase does it then).
-    if (!give_way || q.pending.empty()) run_dense_phase(site, job, lock);
+    if (dense_due && (!give_way || q.pending.empty()))
+      start_dense(site, job, lock);
   }
 
   // Calls make() and appends its time to the increment's summary.
@@ -434,13 +545,18 @@ struct EngineWorker::Impl {
   static service::Increment timed(Make make) {
     const auto start = std::chrono::steady_clock::now();
     service::Increment increment = make();
+    append_ready_time(increment, start);
+    return increment;
+  }
+
+  static void append_ready_time(service::Increment& increment,
+                                std::chrono::steady_clock::time_point start) {
     increment.summary += ", ready in " +
                          std::to_string(static_cast<int>(
                              std::chrono::duration<double, std::milli>(
                                  std::chrono::steady_clock::now() - start)
                                  .count())) +
                          " ms";
-    return increment;
   }
 
   // Commits an increment's writes with the site document (and the
@@ -532,6 +648,7 @@ void EngineWorker::start() {
     // A restarted worker begins afresh from the checkpoint.
     w.sites.clear();
     w.ready.clear();
+    w.dense_ready.clear();
     w.in_flight.clear();
     w.held.clear();
   }
@@ -539,8 +656,10 @@ void EngineWorker::start() {
         " sites, following /captures/* from seq " + std::to_string(since));
   w.renew_leases();
   w.threads.emplace_back([&w] { w.heartbeat(); });
-  for (int i = 0; i < std::max(1, w.options.site_threads); ++i)
+  for (int i = 0; i < std::max(1, w.options.site_threads); ++i) {
     w.threads.emplace_back([&w] { w.run_sites(); });
+    if (w.dense_lanes()) w.threads.emplace_back([&w] { w.run_dense_lanes(); });
+  }
   w.subscription = w.store.subscribe(
       "/captures/*", since, [&w](const db::Change& c) { w.on_change(c); });
 }
@@ -584,7 +703,9 @@ bool EngineWorker::wait_idle(std::chrono::milliseconds timeout) {
   return w.changed.wait_until(lock, deadline, [&] {
     if (w.last_placed < target || !w.in_flight.empty()) return false;
     for (const auto& [id, q] : w.sites)
-      if (q.running || !q.pending.empty() || q.dense_retry) return false;
+      if (q.running || !q.pending.empty() || q.dense_retry ||
+          q.dense_running || q.dense_queued)
+        return false;
     return true;
   });
 }

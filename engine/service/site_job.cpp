@@ -49,28 +49,40 @@ int SiteJob::registered() const {
 
 void SiteJob::reset() {
   loaded_ = false;
+  dense_in_flight_ = false;
+  dense_finishing_ = false;
   sparse_.reset();
   dense_.reset();
   statuses_.clear();
   depth_maps_.clear();
+  std::lock_guard lock(images_mutex_);
   images_.clear();
 }
 
 std::string SiteJob::image_bytes(const std::string& capture) {
-  auto it = images_.find(capture);
-  if (it == images_.end()) {
+  std::string sha;
+  {
+    std::lock_guard lock(images_mutex_);
+    auto it = images_.find(capture);
+    if (it != images_.end()) sha = it->second;
+  }
+  if (sha.empty()) {
     auto doc = store_.get("/captures/" + capture);
     if (!doc || !doc->blobs.count("image"))
       throw std::runtime_error("capture " + capture + " has no image");
-    it = images_.emplace(capture, doc->blobs.at("image")).first;
+    sha = doc->blobs.at("image");
+    std::lock_guard lock(images_mutex_);
+    images_.emplace(capture, sha);
   }
-  return store_.get_blob(it->second);
+  return store_.get_blob(sha);
 }
 
 void SiteJob::restore() {
   sparse_ = std::make_unique<Reconstruction>(options_.reconstruction);
+  ++generation_;
+  dense_.reset();
   if (options_.dense)
-    dense_ = std::make_unique<DenseReconstruction>(options_.dense_options);
+    dense_ = std::make_shared<DenseReconstruction>(options_.dense_options);
   dense_sha_.clear();
   dense_points_ = 0;
   if (auto model = store_.get(site_path(id_, "model"))) {
@@ -86,7 +98,8 @@ void SiteJob::restore() {
   // A crash between the two phases left the dense cloud behind.
   dense_due_ =
       options_.dense && state && state->attrs.value("dense_due", false);
-  dense_running_ = false;
+  dense_in_flight_ = false;
+  dense_finishing_ = false;
   dense_added_.clear();
   dense_withdrawn_.clear();
   features_.clear();
@@ -261,7 +274,7 @@ void SiteJob::add_state_ops(const Model& model,
                        Json{{"statuses", statuses},
                             {"registered", model.images.size()},
                             {"through_seq", pending_through_seq_},
-                            {"dense_due", dense_due_}},
+                            {"dense_due", dense_due_ || dense_in_flight_}},
                        engine_version_);
   state.blobs = db::BlobRefs{
       {"state", store_.put_blob(sparse_->serialize(/*features_apart=*/true))}};
@@ -302,84 +315,121 @@ Increment SiteJob::run_refine(const std::function<bool()>& stop) {
 }
 
 Increment SiteJob::run_dense() {
-  const auto start = Clock::now();
+  std::optional<DenseTask> task = begin_dense();
+  if (!task) return {};
+  compute_dense(*task);
+  return finish_dense(*task);
+}
+
+std::optional<DenseTask> SiteJob::begin_dense() {
   if (!loaded_) restore();
+  if (!dense_ || !dense_due_ || dense_in_flight_) return std::nullopt;
+  DenseTask task;
+  task.dense = dense_;
+  task.generation = generation_;
+  task.model = sparse_->model();
+  task.added = std::move(dense_added_);
+  task.withdrawn = std::move(dense_withdrawn_);
+  dense_added_.clear();
+  dense_withdrawn_.clear();
+  dense_due_ = false;
+  dense_in_flight_ = true;
+  return task;
+}
+
+void SiteJob::compute_dense(DenseTask& task) {
+  const auto start = Clock::now();
+  DenseReconstruction& dense = *task.dense;
+  task.update = dense.update(
+      task.model, [this](const std::string& c) { return image_bytes(c); });
+  for (const std::string& map : task.update.new_depth_maps)
+    task.map_blobs[map] = store_.put_blob(dense.serialize_depth_map(map));
+  task.kept_maps = dense.depth_map_ids();
+  task.cloud_sha =
+      store_.put_blob(encode_ply(dense.points(), "arscout dense model"));
+  task.voxel_size = dense.voxel_size();
+  task.seconds = seconds_since(start);
+}
+
+Increment SiteJob::finish_dense(DenseTask& task) {
+  Increment increment;
+  if (!loaded_ || task.generation != generation_) return increment;
   pending_statuses_.clear();
   pending_depth_maps_.clear();
   pending_removed_maps_.clear();
   pending_through_seq_ = through_seq_;
-  IncrementReport report;
-  report.added = dense_added_;
-  report.withdrawn = dense_withdrawn_;
-  const Model model = sparse_->model();
-  report.dense = dense_->update(
-      model, [this](const std::string& c) { return image_bytes(c); });
-  report.dense_points = report.dense.points;
   std::vector<db::WriteOp> ops;
-  for (const std::string& map : report.dense.new_depth_maps) {
-    const std::string sha = store_.put_blob(dense_->serialize_depth_map(map));
+  for (const auto& [map, sha] : task.map_blobs) {
     db::WriteOp op = db::WriteOp::put(site_path(id_, "depth/" + map),
                                       "depth-map", Json{{"capture", map}});
     op.blobs = db::BlobRefs{{"map", sha}};
     ops.push_back(std::move(op));
     pending_depth_maps_.insert(map);
   }
-  const std::vector<std::string> kept = dense_->depth_map_ids();
   for (const std::string& map : depth_maps_) {
-    if (std::find(kept.begin(), kept.end(), map) != kept.end()) continue;
+    if (std::find(task.kept_maps.begin(), task.kept_maps.end(), map) !=
+        task.kept_maps.end())
+      continue;
     ops.push_back(db::WriteOp::remove(site_path(id_, "depth/" + map)));
     pending_removed_maps_.insert(map);
   }
-  report.total_s = seconds_since(start);
-  const std::vector<CaptureState> captures = sparse_->captures();
+  IncrementReport report;
+  report.added = task.added;
+  report.withdrawn = task.withdrawn;
+  report.dense = task.update;
+  report.dense_points = task.update.points;
+  report.total_s = task.seconds;
+  // The sparse model of now: the sparse lane may have moved on meanwhile.
+  const Model model = sparse_->model();
   const bool publish_model = !model.images.empty() || model_version_ > 0;
-  Increment increment;
   if (publish_model) {
     pending_dense_points_ = report.dense_points;
-    ops.push_back(model_op(model, captures, report, /*dense_current=*/true));
+    ops.push_back(model_op(model, sparse_->captures(), report, &task.cloud_sha));
     increment.model_written = true;
   }
   // Fenced like the sparse phase: a patch on the version this job wrote.
   ops.push_back(db::WriteOp::patch(
-      site_path(id_, "engine"), Json{{"dense_due", false}}, engine_version_));
+      site_path(id_, "engine"), Json{{"dense_due", dense_due_}}, engine_version_));
   pending_model_version_ = model_version_ + (publish_model ? 1 : 0);
-  std::ostringstream summary;
-  summary << "site " << id_ << ": dense " << report.dense_points
-          << " points (voxel " << dense_->voxel_size()
-          << (report.dense.refused ? ", re-fused" : "");
-  if (!report.dense.refused && report.dense.refused_maps > 0)
-    summary << ", " << report.dense.refused_maps << " moved map"
-            << (report.dense.refused_maps == 1 ? "" : "s") << " re-fused";
-  summary << ", " << report.dense.new_depth_maps.size() << " new depth map"
-          << (report.dense.new_depth_maps.size() == 1 ? "" : "s");
-  if (!report.dense.covered.empty())
-    summary << ", " << report.dense.covered.size()
-            << " covered by the key views";
-  summary << ")";
-  if (publish_model) summary << ", model v" << pending_model_version_;
-  summary << " (" << static_cast<int>(report.total_s * 1000) << " ms)";
-  increment.summary = summary.str();
+  increment.summary = dense_summary(task, publish_model);
   increment.ops = std::move(ops);
-  dense_running_ = true;
+  dense_finishing_ = true;
   return increment;
+}
+
+std::string SiteJob::dense_summary(const DenseTask& task,
+                                   bool model_published) const {
+  const DenseUpdate& update = task.update;
+  std::ostringstream summary;
+  summary << "site " << id_ << ": dense " << update.points << " points (voxel "
+          << task.voxel_size << (update.refused ? ", re-fused" : "");
+  if (!update.refused && update.refused_maps > 0)
+    summary << ", " << update.refused_maps << " moved map"
+            << (update.refused_maps == 1 ? "" : "s") << " re-fused";
+  summary << ", " << update.new_depth_maps.size() << " new depth map"
+          << (update.new_depth_maps.size() == 1 ? "" : "s");
+  if (!update.covered.empty())
+    summary << ", " << update.covered.size() << " covered by the key views";
+  summary << ")";
+  if (model_published) summary << ", model v" << pending_model_version_;
+  summary << " (" << static_cast<int>(task.seconds * 1000) << " ms)";
+  return summary.str();
 }
 
 db::WriteOp SiteJob::model_op(const Model& model,
                               const std::vector<CaptureState>& captures,
                               const IncrementReport& report,
-                              bool dense_current) {
+                              const std::string* new_cloud) {
   Json attrs = model_attrs(id_, model, captures, report);
-  attrs["dense_state"] =
-      !dense_ ? "off" : (dense_current || !dense_due_ ? "current" : "pending");
+  // Current: the cloud follows every change of the model published with it.
+  const bool behind = dense_due_ || (dense_in_flight_ && !new_cloud);
+  attrs["dense_state"] = !dense_ ? "off" : (behind ? "pending" : "current");
   db::WriteOp op = db::WriteOp::put(site_path(id_, "model"), "model", attrs);
   db::BlobRefs blobs{{"sparse", store_.put_blob(sparse_ply(model))}};
   if (dense_) {
     // The sparse phase republishes the last dense cloud; the dense phase
     // replaces it.
-    blobs["dense"] = dense_current
-                         ? store_.put_blob(encode_ply(dense_->points(),
-                                                      "arscout dense model"))
-                         : dense_sha_;
+    blobs["dense"] = new_cloud ? *new_cloud : dense_sha_;
     if (blobs["dense"].empty())
       blobs["dense"] = store_.put_blob(encode_ply({}, "arscout dense model"));
     pending_dense_sha_ = blobs["dense"];
@@ -389,11 +439,9 @@ db::WriteOp SiteJob::model_op(const Model& model,
 }
 
 void SiteJob::committed() {
-  if (dense_running_) {
-    dense_running_ = false;
-    dense_due_ = false;
-    dense_added_.clear();
-    dense_withdrawn_.clear();
+  if (dense_finishing_) {
+    dense_finishing_ = false;
+    dense_in_flight_ = false;
     dense_points_ = pending_dense_points_;
   }
   dense_sha_ = pending_dense_sha_;

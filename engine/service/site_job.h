@@ -4,13 +4,18 @@
 // restored from the store the first time a job runs, so a restarted worker
 // continues where the last committed increment left off.
 //
-// Not thread-safe: the worker runs one increment of a site at a time.
+// Two lanes may work on one site at once: the sparse lane (run, run_refine)
+// and the dense lane (begin_dense, compute_dense, finish_dense). Every call
+// except compute_dense must hold publication(), and so must the commit of
+// the writes it returns and committed(): the site's model versions and its
+// fenced engine-state writes then follow one order.
 #pragma once
 
 #include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <string>
@@ -31,6 +36,24 @@ struct Work {
   Kind kind = Kind::kAdd;
   std::string capture;
   std::int64_t seq = 0;  // of the change that asked for it
+};
+
+// A dense phase out of the publication order: begin_dense() takes the
+// model and what changed; compute_dense() sweeps, fuses and stores the
+// blobs (the long part, while the sparse lane goes on); finish_dense()
+// publishes the cloud with the sparse model of that moment.
+struct DenseTask {
+  std::shared_ptr<DenseReconstruction> dense;
+  std::uint64_t generation = 0;  // of the job state it was taken from
+  Model model;
+  std::vector<std::string> added, withdrawn;
+  // Filled in by compute_dense().
+  DenseUpdate update;
+  std::map<std::string, std::string> map_blobs;  // new depth map -> sha
+  std::vector<std::string> kept_maps;
+  std::string cloud_sha;
+  double voxel_size = 0;
+  double seconds = 0;
 };
 
 struct Increment {
@@ -61,8 +84,20 @@ class SiteJob {
   // The dense phase of an increment: sweeps the new key views, fuses, and
   // returns the writes of a further model version with the new cloud. The
   // sparse phase (run) publishes first, so that a photo shows up registered
-  // without waiting for its depth map. Throws like run().
+  // without waiting for its depth map. Throws like run(). In one go, all
+  // under publication(): begin_dense, compute_dense, finish_dense.
   Increment run_dense();
+  // The dense phase in three steps (see DenseTask): nullopt when none is
+  // due or one is under way already. A failed compute_dense() is followed
+  // by reset() (the stored state still says the cloud is due). finish_dense
+  // returns no writes when the job was reset since begin_dense (its work is
+  // dropped; the restored state has the dense phase due).
+  std::optional<DenseTask> begin_dense();
+  void compute_dense(DenseTask& task);
+  Increment finish_dense(DenseTask& task);
+  // Held by whoever calls a member other than compute_dense, from the call
+  // until its writes are committed and committed() returned.
+  std::mutex& publication() { return publication_; }
   // True when the site's global refinement has work (Reconstruction::
   // refinement_due): the worker runs it while no work is waiting.
   bool refinement_due() const;
@@ -87,11 +122,14 @@ class SiteJob {
   // when a capture of that id had some stored (withdrawn and sent again).
   void add_state_ops(const Model& model, const std::vector<std::string>& added,
                      std::vector<db::WriteOp>* ops);
+  // `new_cloud`: the sha of the cloud a dense phase publishes; otherwise
+  // the last published one stays.
   db::WriteOp model_op(const Model& model,
                        const std::vector<CaptureState>& captures,
                        const IncrementReport& report,
-                       bool dense_current = false);
+                       const std::string* new_cloud = nullptr);
   void add(const std::string& capture, IncrementReport* report);
+  std::string dense_summary(const DenseTask& task, bool model_published) const;
   CaptureInput capture_input(const std::string& capture);
   std::string image_bytes(const std::string& capture);
 
@@ -100,7 +138,10 @@ class SiteJob {
   const WorkerOptions& options_;
   bool loaded_ = false;
   std::unique_ptr<Reconstruction> sparse_;
-  std::unique_ptr<DenseReconstruction> dense_;
+  std::shared_ptr<DenseReconstruction> dense_;
+  std::uint64_t generation_ = 0;  // restores so far
+  std::mutex publication_;
+  std::mutex images_mutex_;                      // both lanes read photos
   std::map<std::string, std::string> images_;    // capture -> image sha
   std::map<std::string, std::string> statuses_;  // as last published
   std::set<std::string> depth_maps_;             // stored under depth/
@@ -115,9 +156,11 @@ class SiteJob {
   // The highest change seq folded into the state (attrs.through_seq).
   std::int64_t through_seq_ = 0;
   std::int64_t pending_through_seq_ = 0;
-  // The dense phase still to run, and what it covers.
+  // The dense phase still to run, and what it covers; one taken by
+  // begin_dense and not yet committed (or dropped by a reset).
   bool dense_due_ = false;
-  bool dense_running_ = false;
+  bool dense_in_flight_ = false;
+  bool dense_finishing_ = false;  // the writes of finish_dense await commit
   std::vector<std::string> dense_added_, dense_withdrawn_;
   std::string dense_sha_, pending_dense_sha_;  // the published dense PLY
   std::size_t dense_points_ = 0, pending_dense_points_ = 0;
