@@ -147,12 +147,16 @@ void on_model(arscout::db::Store& store, const arscout::db::Change& change,
   const double sparse_s =
       attrs.value("timings", Json::object()).value("sparse_s", 0.0);
   if (added > 0 && sparse_s > 0) seen.increments.push_back({added, sparse_s});
+  // Each image says whether the cloud covers its view (its depth map or
+  // its key views'); a model without that says it for all at once.
   const bool dense_current = attrs.value("dense_state", "") != "pending";
-  for (const auto& [id, status] : captures.items()) {
-    if (status != "registered") continue;
-    seen.registered_us.emplace(id, change.time_us);
-    if (dense_current) seen.dense_us.emplace(id, change.time_us);
+  for (const Json& image : attrs.value("images", Json::array())) {
+    const std::string id = image.value("id", "");
+    if (image.value("dense", dense_current))
+      seen.dense_us.emplace(id, change.time_us);
   }
+  for (const auto& [id, status] : captures.items())
+    if (status == "registered") seen.registered_us.emplace(id, change.time_us);
 }
 
 void store_photo(arscout::db::Store& store, const Photo& photo,

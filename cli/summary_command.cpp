@@ -11,6 +11,8 @@
 
 #include "arscout/db/path.h"
 #include "arscout/db/store.h"
+#include "arscout/engine/ply.h"
+#include "arscout/engine/service.h"
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
@@ -98,6 +100,34 @@ void write_blob(db::Store& store, const std::string& sha,
   if (!out) throw std::runtime_error("cannot write " + path.string());
 }
 
+// The model's clouds: the sparse PLY's blob and the dense cloud's tiles,
+// and with --models both written as DIR/{site}/sparse.ply and dense.ply.
+void print_clouds(db::Store& store, const SummaryArgs& a,
+                  const std::string& site, const db::Document& model) {
+  const fs::path dir = fs::path(a.models) / site;
+  if (model.blobs.count("sparse")) {
+    const std::string sha = model.blobs.at("sparse");
+    std::cout << "  sparse: /v1/blobs/" << sha;
+    if (!a.models.empty()) {
+      write_blob(store, sha, dir / "sparse.ply");
+      std::cout << " -> " << (dir / "sparse.ply").string();
+    }
+    std::cout << "\n";
+  }
+  const std::vector<std::string> tiles = engine::dense_cloud_blobs(model);
+  if (tiles.empty()) return;
+  std::cout << "  dense: " << tiles.size() << " tile"
+            << (tiles.size() == 1 ? "" : "s") << " (/v1/blobs/{sha} each)";
+  if (!a.models.empty()) {
+    fs::create_directories(dir);
+    engine::write_ply((dir / "dense.ply").string(),
+                      engine::load_dense_cloud(store, tiles),
+                      "arscout site " + site + " dense cloud");
+    std::cout << " -> " << (dir / "dense.ply").string();
+  }
+  std::cout << "\n";
+}
+
 int run_summary(const SummaryArgs& a) {
   auto store = db::Store::open(a.db);
   if (a.wait_s > 0 && !wait_for_engine(*store, a)) {
@@ -132,18 +162,7 @@ int run_summary(const SummaryArgs& a) {
               << s.value("sparse_points", 0) << " sparse points, "
               << s.value("dense_points", 0) << " dense points, frame "
               << model->attrs.value("frame", "?") << "\n";
-    for (const char* cloud : {"sparse", "dense"}) {
-      if (!model->blobs.count(cloud)) continue;
-      const std::string sha = model->blobs.at(cloud);
-      std::cout << "  " << cloud << ": /v1/blobs/" << sha;
-      if (!a.models.empty()) {
-        const fs::path path =
-            fs::path(a.models) / id / (std::string(cloud) + ".ply");
-        write_blob(*store, sha, path);
-        std::cout << " -> " << path.string();
-      }
-      std::cout << "\n";
-    }
+    print_clouds(*store, a, id, *model);
   }
   std::cout << std::flush;
   return kExitOk;

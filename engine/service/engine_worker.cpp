@@ -55,8 +55,7 @@ namespace {
 void lower_thread_priority() {
 #ifdef __linux__
   constexpr int kDenseNice = 10;
-  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)),
-              kDenseNice);
+  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kDenseNice);
 #endif
 }
 }  // namespace
@@ -76,7 +75,7 @@ struct EngineWorker::Impl {
     bool dense_retry = false;   // a dense phase failed: run one again
     bool running = false;       // its sparse lane
     bool ready = false;
-    bool dense_running = false;     // its dense lane
+    bool dense_running = false;  // its dense lane
     bool dense_queued = false;
     bool dense_publishing = false;  // the dense lane waits to publish
   };
@@ -703,8 +702,8 @@ bool EngineWorker::wait_idle(std::chrono::milliseconds timeout) {
   return w.changed.wait_until(lock, deadline, [&] {
     if (w.last_placed < target || !w.in_flight.empty()) return false;
     for (const auto& [id, q] : w.sites)
-      if (q.running || !q.pending.empty() || q.dense_retry ||
-          q.dense_running || q.dense_queued)
+      if (q.running || !q.pending.empty() || q.dense_retry || q.dense_running ||
+          q.dense_queued)
         return false;
     return true;
   });

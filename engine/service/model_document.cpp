@@ -14,7 +14,8 @@ Json camera_json(const ModelCamera& camera) {
           {"source", k.source}};
 }
 
-Json image_json(const ModelImage& image, const Model& model) {
+Json image_json(const ModelImage& image, const Model& model,
+                const std::set<std::string>* dense_views) {
   Json j = {{"id", image.id},
             {"camera", model.cameras.at(image.camera).id},
             {"qvec", image.qvec},
@@ -24,6 +25,7 @@ Json image_json(const ModelImage& image, const Model& model) {
     j["geodetic"] = {{"lat", image.geodetic->lat},
                      {"lon", image.geodetic->lon},
                      {"alt", image.geodetic->alt}};
+  if (dense_views) j["dense"] = dense_views->count(image.id) > 0;
   return j;
 }
 
@@ -47,7 +49,8 @@ Json timings_json(const IncrementReport& r) {
 
 Json model_attrs(const std::string& site, const Model& model,
                  const std::vector<CaptureState>& captures,
-                 const IncrementReport& report) {
+                 const IncrementReport& report,
+                 const std::set<std::string>* dense_views) {
   Json attrs;
   attrs["site"] = site;
   attrs["frame"] = model.geo_registered ? "enu" : "local";
@@ -59,7 +62,7 @@ Json model_attrs(const std::string& site, const Model& model,
   Json cameras = Json::array(), images = Json::array();
   for (const ModelCamera& c : model.cameras) cameras.push_back(camera_json(c));
   for (const ModelImage& i : model.images)
-    images.push_back(image_json(i, model));
+    images.push_back(image_json(i, model, dense_views));
   attrs["cameras"] = std::move(cameras);
   attrs["images"] = std::move(images);
   Json status = Json::object();

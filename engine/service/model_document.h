@@ -3,6 +3,7 @@
 // clouds, which travel as PLY blobs.
 #pragma once
 
+#include <set>
 #include <string>
 #include <vector>
 
@@ -25,9 +26,13 @@ struct IncrementReport {
   double total_s = 0;
 };
 
+// `dense_views`, with a dense cloud: the registered views it covers (key
+// views with a depth map, and views those cover), so that each image entry
+// says whether its view is in the published cloud ("dense").
 Json model_attrs(const std::string& site, const Model& model,
                  const std::vector<CaptureState>& captures,
-                 const IncrementReport& report);
+                 const IncrementReport& report,
+                 const std::set<std::string>* dense_views = nullptr);
 
 // The binary PLY of the model's sparse points (encode_ply's layout).
 std::string sparse_ply(const Model& model);

@@ -83,15 +83,21 @@ void SiteJob::restore() {
   dense_.reset();
   if (options_.dense)
     dense_ = std::make_shared<DenseReconstruction>(options_.dense_options);
-  dense_sha_.clear();
+  dense_tiles_.clear();
   dense_points_ = 0;
+  dense_views_.clear();
+  covered_views_.clear();
   if (auto model = store_.get(site_path(id_, "model"))) {
     model_version_ = model->version;
-    if (model->blobs.count("dense")) dense_sha_ = model->blobs.at("dense");
+    dense_tiles_ =
+        dense_tiles_from_json(model->attrs.value("dense_tiles", Json::array()));
     dense_points_ = model->attrs.value("statistics", Json::object())
                         .value("dense_points", std::size_t{0});
+    for (const Json& image : model->attrs.value("images", Json::array()))
+      if (image.value("dense", false)) dense_views_.insert(image.at("id"));
+    covered_views_ = dense_views_;  // those with a map stay in anyway
   }
-  pending_dense_sha_ = dense_sha_;
+  pending_dense_tiles_ = dense_tiles_;
   auto state = store_.get(site_path(id_, "engine"));
   engine_version_ = state ? state->version : 0;
   through_seq_ = state ? state->attrs.value("through_seq", std::int64_t{0}) : 0;
@@ -327,6 +333,7 @@ std::optional<DenseTask> SiteJob::begin_dense() {
   DenseTask task;
   task.dense = dense_;
   task.generation = generation_;
+  task.published = dense_tiles_;
   task.model = sparse_->model();
   task.added = std::move(dense_added_);
   task.withdrawn = std::move(dense_withdrawn_);
@@ -345,8 +352,11 @@ void SiteJob::compute_dense(DenseTask& task) {
   for (const std::string& map : task.update.new_depth_maps)
     task.map_blobs[map] = store_.put_blob(dense.serialize_depth_map(map));
   task.kept_maps = dense.depth_map_ids();
-  task.cloud_sha =
-      store_.put_blob(encode_ply(dense.points(), "arscout dense model"));
+  task.views.insert(task.kept_maps.begin(), task.kept_maps.end());
+  task.views.insert(task.update.covered.begin(), task.update.covered.end());
+  task.tiles = store_dense_tiles(
+      dense.points(), dense_tile_size(dense.voxel_size()), task.published,
+      [this](const std::string& bytes) { return store_.put_blob(bytes); });
   task.voxel_size = dense.voxel_size();
   task.seconds = seconds_since(start);
 }
@@ -373,6 +383,7 @@ Increment SiteJob::finish_dense(DenseTask& task) {
     ops.push_back(db::WriteOp::remove(site_path(id_, "depth/" + map)));
     pending_removed_maps_.insert(map);
   }
+  add_tile_ops(task.tiles, &ops);
   IncrementReport report;
   report.added = task.added;
   report.withdrawn = task.withdrawn;
@@ -384,17 +395,43 @@ Increment SiteJob::finish_dense(DenseTask& task) {
   const bool publish_model = !model.images.empty() || model_version_ > 0;
   if (publish_model) {
     pending_dense_points_ = report.dense_points;
-    ops.push_back(model_op(model, sparse_->captures(), report, &task.cloud_sha));
+    // Covered once, covered while registered (a withdrawal judges again).
+    for (const std::string& view : task.update.covered)
+      covered_views_.insert(view);
+    for (const std::string& view : task.withdrawn) covered_views_.erase(view);
+    std::set<std::string> views = task.views;
+    for (const ModelImage& image : task.model.images)
+      if (covered_views_.count(image.id)) views.insert(image.id);
+    ops.push_back(
+        model_op(model, sparse_->captures(), report, &task.tiles, &views));
     increment.model_written = true;
   }
   // Fenced like the sparse phase: a patch on the version this job wrote.
-  ops.push_back(db::WriteOp::patch(
-      site_path(id_, "engine"), Json{{"dense_due", dense_due_}}, engine_version_));
+  ops.push_back(db::WriteOp::patch(site_path(id_, "engine"),
+                                   Json{{"dense_due", dense_due_}},
+                                   engine_version_));
   pending_model_version_ = model_version_ + (publish_model ? 1 : 0);
   increment.summary = dense_summary(task, publish_model);
   increment.ops = std::move(ops);
   dense_finishing_ = true;
   return increment;
+}
+
+// The tiles that changed since the published cloud, and those gone.
+void SiteJob::add_tile_ops(const DenseTiles& tiles,
+                           std::vector<db::WriteOp>* ops) const {
+  for (const auto& [name, tile] : tiles) {
+    const auto was = dense_tiles_.find(name);
+    if (was != dense_tiles_.end() && was->second.blob == tile.blob) continue;
+    db::WriteOp op =
+        db::WriteOp::put(site_path(id_, "dense/" + name), "dense-tile",
+                         Json{{"tile", name}, {"points", tile.points}});
+    op.blobs = db::BlobRefs{{"points", tile.blob}};
+    ops->push_back(std::move(op));
+  }
+  for (const auto& [name, tile] : dense_tiles_)
+    if (!tiles.count(name))
+      ops->push_back(db::WriteOp::remove(site_path(id_, "dense/" + name)));
 }
 
 std::string SiteJob::dense_summary(const DenseTask& task,
@@ -419,22 +456,22 @@ std::string SiteJob::dense_summary(const DenseTask& task,
 db::WriteOp SiteJob::model_op(const Model& model,
                               const std::vector<CaptureState>& captures,
                               const IncrementReport& report,
-                              const std::string* new_cloud) {
-  Json attrs = model_attrs(id_, model, captures, report);
+                              const DenseTiles* new_cloud,
+                              const std::set<std::string>* new_views) {
+  if (dense_) pending_dense_views_ = new_views ? *new_views : dense_views_;
+  Json attrs = model_attrs(id_, model, captures, report,
+                           dense_ ? &pending_dense_views_ : nullptr);
   // Current: the cloud follows every change of the model published with it.
   const bool behind = dense_due_ || (dense_in_flight_ && !new_cloud);
   attrs["dense_state"] = !dense_ ? "off" : (behind ? "pending" : "current");
   db::WriteOp op = db::WriteOp::put(site_path(id_, "model"), "model", attrs);
-  db::BlobRefs blobs{{"sparse", store_.put_blob(sparse_ply(model))}};
   if (dense_) {
     // The sparse phase republishes the last dense cloud; the dense phase
     // replaces it.
-    blobs["dense"] = new_cloud ? *new_cloud : dense_sha_;
-    if (blobs["dense"].empty())
-      blobs["dense"] = store_.put_blob(encode_ply({}, "arscout dense model"));
-    pending_dense_sha_ = blobs["dense"];
+    pending_dense_tiles_ = new_cloud ? *new_cloud : dense_tiles_;
+    op.attrs["dense_tiles"] = dense_tiles_json(pending_dense_tiles_);
   }
-  op.blobs = blobs;
+  op.blobs = db::BlobRefs{{"sparse", store_.put_blob(sparse_ply(model))}};
   return op;
 }
 
@@ -443,8 +480,9 @@ void SiteJob::committed() {
     dense_finishing_ = false;
     dense_in_flight_ = false;
     dense_points_ = pending_dense_points_;
+    dense_views_ = pending_dense_views_;
   }
-  dense_sha_ = pending_dense_sha_;
+  dense_tiles_ = pending_dense_tiles_;
   for (const auto& [c, s] : pending_statuses_) statuses_[c] = s;
   for (const std::string& m : pending_depth_maps_) depth_maps_.insert(m);
   for (const std::string& m : pending_removed_maps_) depth_maps_.erase(m);

@@ -23,6 +23,7 @@
 
 #include "arscout/db/document.h"
 #include "arscout/engine/service.h"
+#include "dense_tiles.h"
 #include "model_document.h"
 
 namespace arscout::db {
@@ -51,7 +52,9 @@ struct DenseTask {
   DenseUpdate update;
   std::map<std::string, std::string> map_blobs;  // new depth map -> sha
   std::vector<std::string> kept_maps;
-  std::string cloud_sha;
+  std::set<std::string> views;  // the cloud covers them (model_attrs)
+  DenseTiles published;         // the tiles as published when it began
+  DenseTiles tiles;
   double voxel_size = 0;
   double seconds = 0;
 };
@@ -122,14 +125,17 @@ class SiteJob {
   // when a capture of that id had some stored (withdrawn and sent again).
   void add_state_ops(const Model& model, const std::vector<std::string>& added,
                      std::vector<db::WriteOp>* ops);
-  // `new_cloud`: the sha of the cloud a dense phase publishes; otherwise
-  // the last published one stays.
+  // `new_cloud`: the tiles a dense phase publishes; otherwise the last
+  // published ones stay.
   db::WriteOp model_op(const Model& model,
                        const std::vector<CaptureState>& captures,
                        const IncrementReport& report,
-                       const std::string* new_cloud = nullptr);
+                       const DenseTiles* new_cloud = nullptr,
+                       const std::set<std::string>* new_views = nullptr);
   void add(const std::string& capture, IncrementReport* report);
   std::string dense_summary(const DenseTask& task, bool model_published) const;
+  void add_tile_ops(const DenseTiles& tiles,
+                    std::vector<db::WriteOp>* ops) const;
   CaptureInput capture_input(const std::string& capture);
   std::string image_bytes(const std::string& capture);
 
@@ -162,8 +168,11 @@ class SiteJob {
   bool dense_in_flight_ = false;
   bool dense_finishing_ = false;  // the writes of finish_dense await commit
   std::vector<std::string> dense_added_, dense_withdrawn_;
-  std::string dense_sha_, pending_dense_sha_;  // the published dense PLY
+  DenseTiles dense_tiles_, pending_dense_tiles_;  // the published cloud
   std::size_t dense_points_ = 0, pending_dense_points_ = 0;
+  // The views the published cloud covers, and those judged covered by
+  // other key views so far (DenseUpdate::covered).
+  std::set<std::string> dense_views_, pending_dense_views_, covered_views_;
 };
 
 }  // namespace arscout::engine::service

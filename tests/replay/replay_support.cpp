@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "arscout/engine/ply.h"
+#include "arscout/engine/service.h"
 #include "test_stores.h"
 
 namespace arscout::replay {
@@ -149,10 +150,8 @@ double median_horizontal_distance(std::map<std::string, eval::GeoRow> a,
 }
 
 double dense_point_count(db::Store& store, const db::Document& model) {
-  const auto blob = model.blobs.find("dense");
-  if (blob == model.blobs.end()) return 0;
   return static_cast<double>(
-      engine::decode_ply(store.get_blob(blob->second)).size());
+      engine::load_dense_cloud(store, engine::dense_cloud_blobs(model)).size());
 }
 
 }  // namespace arscout::replay

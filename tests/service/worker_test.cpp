@@ -159,9 +159,9 @@ TEST_P(EngineWorkerOn, TwoScoutsTwoSitesModelsWrittenBack) {
     } else {
       EXPECT_GE(statistics.value("registered", 0), 25);
     }
-    ASSERT_TRUE(model->blobs.count("sparse") && model->blobs.count("dense"));
+    ASSERT_TRUE(model->blobs.count("sparse"));
     const auto dense =
-        engine::decode_ply(store->get_blob(model->blobs.at("dense")));
+        engine::load_dense_cloud(*store, engine::dense_cloud_blobs(*model));
     EXPECT_GT(dense.size(), 50000u) << id;
     // Every capture says where it went and how it fared.
     for (const Json& c : site.attrs.at("captures")) {
@@ -256,7 +256,8 @@ TEST(EngineWorker, RenderedSyntheticStreetBecomesOneSite) {
   // dense phase's (the cloud without the withdrawn view).
   EXPECT_EQ(after->version, model->version + 2);
   EXPECT_EQ(after->attrs.value("dense_state", ""), "current");
-  EXPECT_NE(after->blobs.at("dense"), model->blobs.at("dense"));
+  EXPECT_NE(engine::dense_cloud_blobs(*after),
+            engine::dense_cloud_blobs(*model));
   EXPECT_EQ(after->attrs.at("statistics").value("registered", 0), 7);
   for (const Json& image : after->attrs.at("images"))
     EXPECT_NE(image.value("id", ""), withdrawn);

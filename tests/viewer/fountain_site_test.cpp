@@ -19,6 +19,7 @@
 
 #include "arscout/db/store.h"
 #include "arscout/engine/model_io.h"
+#include "arscout/engine/service.h"
 #include "arscout/ingest/auth.h"
 #include "arscout/ingest/client.h"
 #include "arscout/ingest/server.h"
@@ -197,11 +198,19 @@ TEST_F(FountainSite, GeoCsvIsTheModelsGeoRegistration) {
 
 TEST_F(FountainSite, PlyExportsHoldTheCloudsInTheirFrames) {
   const ExportFile enu = export_site(*store_, site_, ExportFormat::kPly);
-  EXPECT_EQ(enu.bytes, store_->get_blob(model_.dense_blob));
   const ExportFile sparse =
       export_site(*store_, site_, ExportFormat::kPly, Cloud::kSparse);
   EXPECT_EQ(sparse.bytes, store_->get_blob(model_.sparse_blob));
+  // The dense PLY joins the stored tiles, point for point.
   const auto cloud = engine::decode_ply(enu.bytes);
+  const auto tiles = engine::load_dense_cloud(*store_, model_.dense_blobs);
+  ASSERT_EQ(cloud.size(), tiles.size());
+  ASSERT_GT(cloud.size(), 0u);
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    ASSERT_TRUE(cloud[i].x == tiles[i].x && cloud[i].y == tiles[i].y &&
+                cloud[i].z == tiles[i].z && cloud[i].r == tiles[i].r &&
+                cloud[i].g == tiles[i].g && cloud[i].b == tiles[i].b)
+        << "point " << i;
 
   const ExportFile ecef = export_site(*store_, site_, ExportFormat::kEcefPly);
   const size_t end = ecef.bytes.find("end_header\n");

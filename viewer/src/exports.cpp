@@ -100,8 +100,8 @@ ExportFile geo_csv(db::Store& store, const std::string& site) {
 }
 
 std::string cloud_name(const SiteModel& model, Cloud cloud) {
-  return cloud == Cloud::kDense && !model.dense_blob.empty() ? "dense"
-                                                             : "sparse";
+  return cloud == Cloud::kDense && !model.dense_blobs.empty() ? "dense"
+                                                              : "sparse";
 }
 
 }  // namespace
@@ -167,12 +167,18 @@ ExportFile export_site(db::Store& store, const std::string& site,
   const std::string base =
       site + "-v" + std::to_string(model.version) + "-" + which;
   if (format == ExportFormat::kPly) {
-    const std::string& blob =
-        which == "dense" ? model.dense_blob : model.sparse_blob;
-    if (blob.empty())
+    if (model.sparse_blob.empty())
       throw StoreError(ErrorCode::kNotFound,
                        "site " + site + ": the model has no point cloud");
-    return {base + ".ply", "application/x-ply", store.get_blob(blob)};
+    // The sparse cloud is one blob; the dense one is joined from its tiles.
+    if (which == "sparse")
+      return {base + ".ply", "application/x-ply",
+              store.get_blob(model.sparse_blob)};
+    return {base + ".ply", "application/x-ply",
+            engine::encode_ply(load_cloud(store, model, cloud),
+                               "arscout site " + site + " model v" +
+                                   std::to_string(model.version) +
+                                   " dense cloud; frame site")};
   }
   const engine::Geodetic origin = origin_of(model);
   const std::string comment = "arscout site " + site + " model v" +

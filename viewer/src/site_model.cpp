@@ -56,11 +56,7 @@ SiteModel load_site_model(db::Store& store, const std::string& site) {
   model.updated_us = doc->updated_us;
   model.attrs = doc->attrs;
   model.sparse_blob = blob_of(*doc, "sparse");
-  model.dense_blob = blob_of(*doc, "dense");
-  // Before its first dense phase a model carries an empty dense PLY.
-  if (doc->attrs.value("statistics", Json::object()).value("dense_points", 0) ==
-      0)
-    model.dense_blob.clear();
+  model.dense_blobs = engine::dense_cloud_blobs(*doc);
   return model;
 }
 
@@ -86,11 +82,10 @@ engine::Model load_full_model(db::Store& store, const SiteModel& model) {
 std::vector<engine::ColoredPoint> load_cloud(db::Store& store,
                                              const SiteModel& model,
                                              Cloud which) {
-  const std::string& blob = which == Cloud::kDense && !model.dense_blob.empty()
-                                ? model.dense_blob
-                                : model.sparse_blob;
-  if (blob.empty()) return {};
-  return engine::decode_ply(store.get_blob(blob));
+  if (which == Cloud::kDense && !model.dense_blobs.empty())
+    return engine::load_dense_cloud(store, model.dense_blobs);
+  if (model.sparse_blob.empty()) return {};
+  return engine::decode_ply(store.get_blob(model.sparse_blob));
 }
 
 std::optional<ImageCamera> image_camera(const SiteModel& model,

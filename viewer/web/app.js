@@ -15,7 +15,8 @@ const $ = (id) => document.getElementById(id);
 
 // The frusta's depth as a share of the cloud's (robust) size.
 const FRUSTUM_SCALE = 0.04;
-const CLOUD_CACHE_SIZE = 4;
+// Parsed blobs kept besides those of the cloud on screen.
+const CLOUD_CACHE_EXTRA = 4;
 const LIST_REFRESH_MS = 500;
 
 const state = {
@@ -241,16 +242,44 @@ function showModelDetails(doc) {
 }
 
 /**
+ * The blobs that hold a model's cloud: the sparse PLY, or the dense cloud's
+ * tiles (attrs.dense_tiles; one "dense" blob in models written before
+ * tiles). A tile that did not change keeps its blob, so a new version
+ * downloads only the tiles that did.
+ */
+function cloudBlobs(doc, kind) {
+  if (kind === 'dense' && Array.isArray(doc?.attrs?.dense_tiles)) {
+    return doc.attrs.dense_tiles.map((tile) => tile.blob).filter(Boolean);
+  }
+  const hash = doc?.blobs?.[kind];
+  return hash ? [hash] : [];
+}
+
+/**
  * The clouds a model offers. Until its first dense cloud is computed a
- * model carries an empty dense placeholder, which does not count.
+ * model may carry an empty dense placeholder, which does not count.
  */
 function cloudKinds(doc) {
-  const blobs = doc?.blobs || {};
   const stats = doc?.attrs?.statistics || {};
   return {
-    sparse: Boolean(blobs.sparse),
-    dense: Boolean(blobs.dense) && stats.dense_points !== 0,
+    sparse: cloudBlobs(doc, 'sparse').length > 0,
+    dense: cloudBlobs(doc, 'dense').length > 0 && stats.dense_points !== 0,
   };
+}
+
+/** One cloud from several parsed ones (a dense cloud's tiles). */
+function joinClouds(parts) {
+  if (parts.length === 1) return parts[0];
+  const count = parts.reduce((n, part) => n + part.count, 0);
+  const positions = new Float32Array(count * 3);
+  const colors = new Uint8Array(count * 3);
+  let at = 0;
+  for (const part of parts) {
+    positions.set(part.positions.subarray(0, part.count * 3), at);
+    colors.set(part.colors.subarray(0, part.count * 3), at);
+    at += part.count * 3;
+  }
+  return { count, positions, colors };
 }
 
 /** Which cloud to show: the user's choice if the model has it, else dense if present. */
@@ -268,7 +297,7 @@ function showKindControls(doc, kind) {
   $('cloud-dense').checked = kind === 'dense';
 }
 
-// Parsed clouds by blob hash (a few, most recently used last).
+// Parsed clouds by blob hash (most recently used last).
 const clouds = new Map();
 
 function cloudFor(hash, label, signal) {
@@ -283,8 +312,14 @@ function cloudFor(hash, label, signal) {
     entry.catch(() => clouds.delete(hash));
   }
   clouds.set(hash, entry);
-  while (clouds.size > CLOUD_CACHE_SIZE) clouds.delete(clouds.keys().next().value);
   return entry;
+}
+
+/** Keeps the blobs of the cloud on screen and the few others used last. */
+function pruneClouds(shown) {
+  const others = [...clouds.keys()].filter((hash) => !shown.includes(hash));
+  const stale = others.slice(0, Math.max(0, others.length - CLOUD_CACHE_EXTRA));
+  for (const hash of stale) clouds.delete(hash);
 }
 
 /** The world's vertical: ENU's z, else the cameras' mean "up" (-y). */
@@ -339,9 +374,9 @@ function showNoModel() {
 /** Puts a model document's cloud and frusta on screen. */
 async function showModel(doc, generation, signal) {
   const kind = cloudKind(doc);
-  const hash = doc.blobs?.[kind];
+  const hashes = cloudBlobs(doc, kind);
   showKindControls(doc, kind);
-  if (!hash) {
+  if (hashes.length === 0) {
     viewer.clearCloud();
     state.model = doc;
     state.shownKind = kind;
@@ -351,7 +386,9 @@ async function showModel(doc, generation, signal) {
     viewMessage('This model has no point cloud.');
     return;
   }
-  const cloud = await cloudFor(hash, `${kind} cloud`, signal);
+  const cloud = joinClouds(await Promise.all(
+    hashes.map((hash) => cloudFor(hash, `${kind} cloud`, signal))));
+  pruneClouds(hashes);
   if (generation !== state.generation) return;
   // The camera is framed once per site (on its first cloud with points);
   // later versions keep the user's view.

@@ -17,7 +17,10 @@
 //                            captures, registered count, model version
 //   /sites/{id}/model        the model (a new version per increment): ENU
 //                            origin, cameras, poses, statistics, timings;
-//                            blobs "sparse" and "dense" (binary PLY)
+//                            blob "sparse" (binary PLY), the dense cloud's
+//                            tiles (attrs.dense_tiles)
+//   /sites/{id}/dense/{t}    one tile of the dense cloud (blob "points",
+//                            binary PLY), rewritten when its points change
 //   /sites/{id}/engine       the engine's state (blob "state"), so that a
 //                            restarted worker continues without recomputing
 //   /sites/{id}/depth/{c}    one swept depth map per key view (blob "map")
@@ -44,13 +47,16 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "arscout/engine/dense_reconstruction.h"
+#include "arscout/engine/ply.h"
 #include "arscout/engine/reconstruction.h"
 
 namespace arscout::db {
 class Store;
-}
+struct Document;
+}  // namespace arscout::db
 
 namespace arscout::engine {
 
@@ -121,5 +127,17 @@ std::optional<Reconstruction> load_site_reconstruction(
     db::Store& store, const std::string& site,
     ReconstructionOptions options = {},
     std::set<std::string>* stored_features = nullptr);
+
+// The dense cloud a model document (/sites/{id}/model) publishes: the PLY
+// blobs of its tiles (attrs.dense_tiles) in tile order, or the one "dense"
+// blob of a model written before tiles; empty before the first dense
+// phase.
+std::vector<std::string> dense_cloud_blobs(const db::Document& model);
+// Their points (`blobs` as dense_cloud_blobs gave them), concatenated.
+// Throws db::StoreError(kNotFound) when a blob is gone (collected after a
+// later version replaced its tile: read the model again) and
+// std::runtime_error when one is not a PLY.
+std::vector<ColoredPoint> load_dense_cloud(
+    db::Store& store, const std::vector<std::string>& blobs);
 
 }  // namespace arscout::engine

@@ -30,7 +30,9 @@ struct SiteModel {
   std::int64_t updated_us = 0;  // when it was committed (Unix microseconds)
   Json attrs;                   // the document's attributes
   std::string sparse_blob;      // SHA-256 of the sparse PLY ("" if none)
-  std::string dense_blob;       // SHA-256 of the dense PLY ("" if none)
+  // SHA-256 of each PLY that holds the dense cloud: its tiles (none before
+  // the first dense phase; engine::dense_cloud_blobs).
+  std::vector<std::string> dense_blobs;
 };
 
 // Throws db::StoreError kNotFound ("site S has no model yet") when there is

@@ -1,0 +1,154 @@
+#include "dense_tiles.h"
+
+#include "arscout/db/document.h"
+#include "arscout/db/store.h"
+#include "arscout/engine/service.h"
+
+#include <cmath>
+#include <cstring>
+#include <unordered_map>
+#include <utility>
+
+namespace arscout::engine::service {
+namespace {
+
+using TileKey = std::pair<long long, long long>;
+
+TileKey tile_key(const ColoredPoint& p, double size) {
+  return {static_cast<long long>(std::floor(p.x / size)),
+          static_cast<long long>(std::floor(p.y / size))};
+}
+
+std::string tile_name(const TileKey& key) {
+  return std::to_string(key.first) + "_" + std::to_string(key.second);
+}
+
+struct TileKeyHash {
+  std::size_t operator()(const TileKey& k) const {
+    return std::hash<long long>()(k.first * 1000003LL ^ k.second);
+  }
+};
+
+// A point's 15 bytes mixed into 64 bits (splitmix64's finaliser), summed
+// over a tile: the sum does not depend on the points' order, which the
+// voxel cloud does not keep.
+std::uint64_t point_hash(const ColoredPoint& p) {
+  std::uint64_t a = 0, b = 0;
+  std::memcpy(&a, &p.x, sizeof(float));
+  std::memcpy(reinterpret_cast<char*>(&a) + 4, &p.y, sizeof(float));
+  std::memcpy(&b, &p.z, sizeof(float));
+  b |= static_cast<std::uint64_t>(p.r) << 32 |
+       static_cast<std::uint64_t>(p.g) << 40 |
+       static_cast<std::uint64_t>(p.b) << 48;
+  std::uint64_t z = a * 0x9E3779B97F4A7C15ull ^ b;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+}  // namespace
+
+double dense_tile_size(double voxel) { return 512 * voxel; }
+
+DenseTiles store_dense_tiles(
+    const std::vector<ColoredPoint>& points, double size,
+    const DenseTiles& published,
+    const std::function<std::string(const std::string& bytes)>& put_blob) {
+  // One pass for each point's tile and the tiles' hashes; the points are
+  // gathered only for the tiles that changed.
+  std::unordered_map<TileKey, std::size_t, TileKeyHash> index;
+  std::vector<DenseTile> found;
+  std::vector<std::string> names;
+  std::vector<std::uint32_t> tile_of(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const TileKey key = tile_key(points[i], size);
+    auto [it, added] = index.emplace(key, found.size());
+    if (added) {
+      found.emplace_back();
+      names.push_back(tile_name(key));
+    }
+    DenseTile& tile = found[it->second];
+    tile.hash += point_hash(points[i]);
+    ++tile.points;
+    tile_of[i] = static_cast<std::uint32_t>(it->second);
+  }
+  std::vector<std::vector<ColoredPoint>> changed(found.size());
+  std::vector<bool> is_changed(found.size(), false);
+  for (std::size_t t = 0; t < found.size(); ++t) {
+    const auto was = published.find(names[t]);
+    if (was != published.end() && was->second.hash == found[t].hash &&
+        was->second.points == found[t].points && !was->second.blob.empty())
+      found[t].blob = was->second.blob;
+    else
+      is_changed[t] = true;
+  }
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (is_changed[tile_of[i]]) changed[tile_of[i]].push_back(points[i]);
+  DenseTiles tiles;
+  for (std::size_t t = 0; t < found.size(); ++t) {
+    if (is_changed[t])
+      found[t].blob =
+          put_blob(encode_ply(changed[t], "arscout dense tile " + names[t]));
+    tiles[names[t]] = found[t];
+  }
+  return tiles;
+}
+
+nlohmann::json dense_tiles_json(const DenseTiles& tiles) {
+  nlohmann::json array = nlohmann::json::array();
+  for (const auto& [name, tile] : tiles)
+    array.push_back({{"tile", name},
+                     {"blob", tile.blob},
+                     {"points", tile.points},
+                     {"hash", std::to_string(tile.hash)}});
+  return array;
+}
+
+DenseTiles dense_tiles_from_json(const nlohmann::json& attr) {
+  DenseTiles tiles;
+  if (!attr.is_array()) return tiles;
+  for (const nlohmann::json& entry : attr) {
+    DenseTile tile;
+    tile.blob = entry.value("blob", "");
+    tile.points = entry.value("points", std::size_t{0});
+    try {
+      tile.hash = std::stoull(entry.value("hash", "0"));
+    } catch (const std::exception&) {
+      tile.hash = 0;  // stored again by the next dense phase
+    }
+    tiles[entry.value("tile", "")] = tile;
+  }
+  return tiles;
+}
+
+}  // namespace arscout::engine::service
+
+namespace arscout::engine {
+
+std::vector<std::string> dense_cloud_blobs(const db::Document& model) {
+  std::vector<std::string> blobs;
+  const auto tiles = model.attrs.find("dense_tiles");
+  if (tiles != model.attrs.end()) {
+    for (const auto& [name, tile] : service::dense_tiles_from_json(*tiles))
+      if (!tile.blob.empty()) blobs.push_back(tile.blob);
+    return blobs;
+  }
+  const auto old = model.blobs.find("dense");
+  const std::size_t points =
+      model.attrs.value("statistics", nlohmann::json::object())
+          .value("dense_points", std::size_t{0});
+  if (old != model.blobs.end() && points > 0) blobs.push_back(old->second);
+  return blobs;
+}
+
+std::vector<ColoredPoint> load_dense_cloud(
+    db::Store& store, const std::vector<std::string>& blobs) {
+  std::vector<ColoredPoint> cloud;
+  for (const std::string& blob : blobs) {
+    const std::vector<ColoredPoint> tile = decode_ply(store.get_blob(blob));
+    cloud.insert(cloud.end(), tile.begin(), tile.end());
+  }
+  return cloud;
+}
+
+}  // namespace arscout::engine

@@ -1,0 +1,48 @@
+// The published dense cloud as tiles: square columns of the site frame, each
+// stored as its own PLY blob under /sites/{id}/dense/{tile}. A dense phase
+// that adds one key view changes a few tiles, so it stores those few rather
+// than the whole cloud (1.4 s for 8 million points on one blob, growing
+// with the site; bench/RESULTS.md).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "arscout/engine/ply.h"
+
+namespace arscout::engine::service {
+
+struct DenseTile {
+  std::string blob;        // SHA-256 of its PLY
+  std::uint64_t hash = 0;  // of its points, in any order
+  std::size_t points = 0;
+};
+
+// By tile name ("ix_iy": the column's integer coordinates).
+using DenseTiles = std::map<std::string, DenseTile>;
+
+// A tile's edge for a cloud of voxel edge `voxel`: 512 voxels (about 8.6 m
+// at the block walk's 1.7 cm), so a tile's PLY stays a few megabytes.
+double dense_tile_size(double voxel);
+
+// Splits `points` into tiles of edge `size` and stores (put_blob) the PLY of
+// each tile whose points differ from its entry in `published`; the others
+// keep their blob. Returns every non-empty tile.
+DenseTiles store_dense_tiles(
+    const std::vector<ColoredPoint>& points, double size,
+    const DenseTiles& published,
+    const std::function<std::string(const std::string& bytes)>& put_blob);
+
+// The model document's "dense_tiles" attribute (docs/service.md): an array
+// of {tile, blob, points, hash (decimal string)}, by tile name.
+nlohmann::json dense_tiles_json(const DenseTiles& tiles);
+// Its inverse (a tile without a readable hash is stored again by the next
+// dense phase).
+DenseTiles dense_tiles_from_json(const nlohmann::json& attr);
+
+}  // namespace arscout::engine::service

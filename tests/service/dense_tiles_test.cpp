@@ -1,0 +1,119 @@
+// The dense cloud's tiles (engine/service/dense_tiles.h): a dense phase
+// stores only the tiles whose points changed, whatever their order.
+#include "dense_tiles.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "arscout/db/document.h"
+#include "arscout/engine/service.h"
+
+namespace arscout::engine::service {
+namespace {
+
+std::vector<ColoredPoint> random_cloud(std::size_t n, float extent) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-extent, extent);
+  std::vector<ColoredPoint> points(n);
+  for (ColoredPoint& p : points) {
+    p.x = u(rng);
+    p.y = u(rng);
+    p.z = u(rng) / 4;
+    p.r = static_cast<std::uint8_t>(rng());
+  }
+  return points;
+}
+
+// A put_blob that keeps what it was given, by a made-up address.
+struct FakeBlobs {
+  std::map<std::string, std::string> stored;
+  std::string put(const std::string& bytes) {
+    const std::string sha = "blob" + std::to_string(stored.size());
+    stored[sha] = bytes;
+    return sha;
+  }
+  auto putter() {
+    return [this](const std::string& bytes) { return put(bytes); };
+  }
+};
+
+TEST(DenseTiles, ColumnsOfTheFrameHoldEveryPointOnce) {
+  const auto points = random_cloud(20000, 20);  // 40 m across, 10 m tiles
+  FakeBlobs blobs;
+  const DenseTiles tiles = store_dense_tiles(points, 10, {}, blobs.putter());
+  EXPECT_EQ(tiles.size(), 16u);  // 4 x 4 columns
+  EXPECT_TRUE(tiles.count("-2_-2") && tiles.count("1_1"));
+  std::size_t total = 0;
+  for (const auto& [name, tile] : tiles) {
+    const auto content = decode_ply(blobs.stored.at(tile.blob));
+    EXPECT_EQ(content.size(), tile.points) << name;
+    total += content.size();
+    for (const ColoredPoint& p : content) {
+      const std::string column =
+          std::to_string(static_cast<long long>(std::floor(p.x / 10))) + "_" +
+          std::to_string(static_cast<long long>(std::floor(p.y / 10)));
+      ASSERT_EQ(column, name);
+    }
+  }
+  EXPECT_EQ(total, points.size());
+}
+
+TEST(DenseTiles, OnlyChangedTilesAreStoredAgainInAnyOrder) {
+  auto points = random_cloud(20000, 20);
+  FakeBlobs blobs;
+  const DenseTiles first = store_dense_tiles(points, 10, {}, blobs.putter());
+  ASSERT_EQ(blobs.stored.size(), 16u);
+  // The same points in another order: nothing to store.
+  std::reverse(points.begin(), points.end());
+  DenseTiles again = store_dense_tiles(points, 10, first, blobs.putter());
+  EXPECT_EQ(blobs.stored.size(), 16u);
+  for (const auto& [name, tile] : first)
+    EXPECT_EQ(again.at(name).blob, tile.blob) << name;
+  // One point's colour changes, one point is added in a new column: two
+  // tiles are stored, the rest keep their blobs.
+  for (ColoredPoint& p : points)
+    if (p.x > 0 && p.x < 10 && p.y > 0 && p.y < 10) {
+      p.g = static_cast<std::uint8_t>(p.g + 1);
+      break;
+    }
+  ColoredPoint far;
+  far.x = 55;
+  far.y = -3;
+  points.push_back(far);
+  const DenseTiles third = store_dense_tiles(points, 10, again, blobs.putter());
+  EXPECT_EQ(blobs.stored.size(), 18u);
+  EXPECT_NE(third.at("0_0").blob, again.at("0_0").blob);
+  EXPECT_EQ(third.at("5_-1").points, 1u);
+  EXPECT_EQ(third.at("1_1").blob, again.at("1_1").blob);
+}
+
+TEST(DenseTiles, TheModelAttributeRoundTripsAndNamesTheBlobs) {
+  FakeBlobs blobs;
+  const DenseTiles tiles =
+      store_dense_tiles(random_cloud(5000, 20), 10, {}, blobs.putter());
+  const DenseTiles back = dense_tiles_from_json(dense_tiles_json(tiles));
+  ASSERT_EQ(back.size(), tiles.size());
+  for (const auto& [name, tile] : tiles) {
+    EXPECT_EQ(back.at(name).blob, tile.blob);
+    EXPECT_EQ(back.at(name).hash, tile.hash);
+    EXPECT_EQ(back.at(name).points, tile.points);
+  }
+  db::Document model;
+  model.attrs = {{"dense_tiles", dense_tiles_json(tiles)},
+                 {"statistics", {{"dense_points", 5000}}}};
+  const std::vector<std::string> named = dense_cloud_blobs(model);
+  EXPECT_EQ(named.size(), tiles.size());
+  // A model written before tiles names its one "dense" blob.
+  db::Document old;
+  old.attrs = {{"statistics", {{"dense_points", 12}}}};
+  old.blobs = db::BlobRefs{{"dense", "abc"}};
+  EXPECT_EQ(dense_cloud_blobs(old), std::vector<std::string>{"abc"});
+  old.attrs["statistics"]["dense_points"] = 0;  // the empty placeholder
+  EXPECT_TRUE(dense_cloud_blobs(old).empty());
+}
+
+}  // namespace
+}  // namespace arscout::engine::service
