@@ -77,7 +77,7 @@ struct EngineWorker::Impl {
     bool ready = false;
     bool dense_running = false;  // its dense lane
     bool dense_queued = false;
-    bool dense_publishing = false;  // the dense lane waits to publish
+    bool dense_turn = false;  // the dense lane waits for publication()
   };
 
   db::Store& store;
@@ -227,6 +227,8 @@ struct EngineWorker::Impl {
         q.job = std::make_shared<service::SiteJob>(site, store, options);
       const std::shared_ptr<service::SiteJob> held_job = q.job;
       service::SiteJob& job = *held_job;
+      // A dense phase waiting to publish goes first: the lanes take turns.
+      changed.wait(lock, [&] { return stopping || !q.dense_turn; });
       lock.unlock();
       const bool ok = run_increment(site, job, work, lock);
       // run_increment returns with the lock held.
@@ -468,7 +470,7 @@ struct EngineWorker::Impl {
       } catch (const std::exception& e) {
         dense_failed(site, *job, lock, e);
       }
-      q.dense_running = q.dense_publishing = false;
+      q.dense_running = q.dense_turn = false;
       if (again) start_dense(site, *job, lock);
       if (q.dense_retry) make_ready(site, q);
       changed.notify_all();
@@ -482,15 +484,14 @@ struct EngineWorker::Impl {
     const auto start = std::chrono::steady_clock::now();
     std::optional<service::DenseTask> task;
     {
+      set_dense_turn(q, true);
       std::lock_guard publication(job.publication());
+      set_dense_turn(q, false);
       task = job.begin_dense();
     }
     if (!task) return false;
     job.compute_dense(*task);
-    {
-      std::lock_guard guard(mutex);
-      q.dense_publishing = true;  // a refinement gives way
-    }
+    set_dense_turn(q, true);  // a refinement gives way too
     std::lock_guard publication(job.publication());
     service::Increment dense = job.finish_dense(*task);
     append_ready_time(dense, start);
@@ -513,14 +514,13 @@ struct EngineWorker::Impl {
     bool dense_due = false;
     try {
       std::lock_guard publication(job.publication());
-      if (!job.refinement_due()) {
+      if (!job.refinement_due() || dense_turn(q)) {
         lock.lock();
         return;
       }
       service::Increment refined = job.run_refine([&] {
         std::lock_guard guard(mutex);
-        return stopping ||
-               (give_way && (!q.pending.empty() || q.dense_publishing));
+        return stopping || (give_way && (!q.pending.empty() || q.dense_turn));
       });
       if (!refined.ops.empty()) commit(site, job, refined, std::nullopt);
       dense_due = job.dense_due();
@@ -537,6 +537,19 @@ struct EngineWorker::Impl {
     // work arrived (its increment's dense phase does it then).
     if (dense_due && (!give_way || q.pending.empty()))
       start_dense(site, job, lock);
+  }
+
+  // The dense lane asks for its turn at publication(): the sparse lane
+  // lets it go first (it would otherwise take the lock again at once).
+  void set_dense_turn(SiteQueue& q, bool waiting) {
+    std::lock_guard guard(mutex);
+    q.dense_turn = waiting;
+    if (!waiting) changed.notify_all();
+  }
+
+  bool dense_turn(const SiteQueue& q) {
+    std::lock_guard guard(mutex);
+    return q.dense_turn;
   }
 
   // Calls make() and appends its time to the increment's summary.
