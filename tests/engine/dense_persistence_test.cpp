@@ -189,6 +189,7 @@ DenseOptions small_dense_options() {
   options.sweep.min_planes = 32;
   // Every registered view a key view: what it sees decides nothing here.
   options.redundant_share = 0;
+  options.new_coverage_share = 0;
   return options;
 }
 

@@ -759,6 +759,7 @@ DenseOptions small_dense_options() {
   options.sweep.min_planes = 32;
   // Every registered view a key view: what it sees decides nothing here.
   options.redundant_share = 0;
+  options.new_coverage_share = 0;
   return options;
 }
 
@@ -914,8 +915,8 @@ TEST(DenseStagesReconstruction, WithdrawnMapNoLongerVouches) {
 // (each of its points observed by 3 of them): no key view, no sweep,
 // judged once; withdrawing view 2 leaves 2 observers, makes it a candidate
 // again, and it is swept then.
-TEST(DenseStagesReconstruction, AViewTheMapsMeasureAlreadyIsNoKeyView) {
-  const SparseTruth truth = sparse_truth(300, 17);
+// Views 1-3 and "again": view 2 photographed a second time.
+Model model_with_view2_again(const SparseTruth& truth) {
   Model model = build_model(truth, {1, 2, 3});
   ModelImage again = model.images[1];  // view2
   again.id = "again";
@@ -926,10 +927,36 @@ TEST(DenseStagesReconstruction, AViewTheMapsMeasureAlreadyIsNoKeyView) {
         point.track.emplace_back(index, point.track[t].second);
   }
   model.images.push_back(again);
+  return model;
+}
+
+ImageSource view2_again_images() {
   const ImageSource views = street_images();
-  const ImageSource images = [&](const std::string& id) {
+  return [views](const std::string& id) {
     return views(id == "again" ? "view2" : id);
   };
+}
+
+TEST(DenseStagesReconstruction, AViewWhosePictureTheMapsMeasureIsNoKeyView) {
+  const SparseTruth truth = sparse_truth(300, 17);
+  const Model model = model_with_view2_again(truth);
+  DenseOptions options = small_dense_options();
+  options.new_coverage_share = DenseOptions{}.new_coverage_share;
+  DenseReconstruction dense(options);
+  const DenseUpdate update = dense.update(model, view2_again_images());
+  // The street's views converge on one facade: once the maps of views 1
+  // and 2 measure it (two maps, so that their depths can agree), view 3
+  // and the second photo of view 2 bring nothing.
+  EXPECT_EQ(update.new_depth_maps,
+            (std::vector<std::string>{"view1", "view2"}));
+  EXPECT_EQ(update.covered, (std::vector<std::string>{"view3", "again"}));
+  EXPECT_GT(update.points, 0u);
+}
+
+TEST(DenseStagesReconstruction, AViewTheMapsMeasureAlreadyIsNoKeyView) {
+  const SparseTruth truth = sparse_truth(300, 17);
+  const Model model = model_with_view2_again(truth);
+  const ImageSource images = view2_again_images();
   DenseOptions options = small_dense_options();
   options.redundant_share = DenseOptions{}.redundant_share;
   DenseReconstruction dense(options);

@@ -12,6 +12,7 @@
 
 #include "dense/depth_map_io.h"
 #include "dense/map_fusion.h"
+#include "dense/view_coverage.h"
 #include "image_loader.h"
 
 namespace arscout::engine {
@@ -280,6 +281,8 @@ struct DenseReconstruction::Impl {
   double tolerance(const Entry& entry, double depth) const;
   bool redundant(const Model& model, int image,
                  const Covisibility& covisibility) const;
+  bool measured_already(const Model& model, int image,
+                        const Covisibility& covisibility) const;
   void sweep(const Model& model, int key, const ImageSource& images,
              const Covisibility& covisibility, DenseUpdate* update);
   void filter(const std::string& id, const Model& model,
@@ -326,6 +329,30 @@ bool DenseReconstruction::Impl::redundant(
     measured += observers >= options.redundant_observers;
   }
   return measured >= options.redundant_share * points.size();
+}
+
+// Whether the maps of the key views best connected to `image` already
+// measure nearly all of its picture (DenseOptions::new_coverage_share).
+bool DenseReconstruction::Impl::measured_already(
+    const Model& model, int image, const Covisibility& covisibility) const {
+  if (!(options.new_coverage_share > 0 && options.new_coverage_share <= 1))
+    return false;
+  std::vector<const DepthMap*> maps;
+  for (const auto& shared : covisibility.shared_with(image)) {
+    if (static_cast<int>(maps.size()) >= options.consistency_partners) break;
+    auto it = entries.find(model.images[shared.image].id);
+    if (it != entries.end()) maps.push_back(&it->second.map);
+  }
+  if (maps.empty()) return false;
+  const ModelImage& view = model.images[image];
+  std::vector<std::array<double, 2>> keypoints;
+  for (size_t k = 0; k < view.keypoints.size() && k < view.point_ids.size();
+       ++k)
+    if (view.point_ids[k] >= 0) keypoints.push_back(view.keypoints[k]);
+  if (keypoints.size() < static_cast<size_t>(kMinSharedPoints)) return false;
+  return measured_share(model.cameras[view.camera].intrinsics,
+                        rotation_of(view), translation_of(view), keypoints,
+                        maps) >= options.new_coverage_share;
 }
 
 // How far a map's surface may move before the cloud is re-fused: a share
@@ -526,7 +553,8 @@ DenseUpdate DenseReconstruction::update(
   for (size_t i = 0; i < model.images.size(); ++i) {
     const std::string& id = model.images[i].id;
     if (impl_->entries.count(id) || impl_->covered.count(id)) continue;
-    if (impl_->redundant(model, static_cast<int>(i), covisibility)) {
+    if (impl_->redundant(model, static_cast<int>(i), covisibility) ||
+        impl_->measured_already(model, static_cast<int>(i), covisibility)) {
       impl_->covered.insert(id);
       update.covered.push_back(id);
       continue;
