@@ -68,6 +68,7 @@ struct Options {
   int views = 0;  // all
   bool no_dense = false;
   bool per_capture = false;
+  double new_coverage = 0;  // DenseOptions::new_coverage_share
 };
 
 struct Photo {
@@ -297,6 +298,7 @@ void run(const Options& o) {
       [&](const arscout::db::Change& c) { on_model(*store, c, seen); });
   arscout::engine::WorkerOptions options;
   options.dense = !o.no_dense;
+  options.dense_options.new_coverage_share = o.new_coverage;
   options.progress = [](const std::string& line) {
     std::fprintf(stderr, "  %s\n", line.c_str());
   };
@@ -334,6 +336,9 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--no-dense", o.no_dense, "sparse only");
   app.add_flag("--per-capture", o.per_capture, "a row per capture");
+  app.add_option("--dense-new-coverage", o.new_coverage,
+                 "as arscout serve's (0: off)")
+      ->check(CLI::Range(0.0, 1.0));
   CLI11_PARSE(app, argc, argv);
   if (o.url.empty()) {
     const fs::path dir = fs::temp_directory_path() / "arscout_service_bench";

@@ -41,6 +41,13 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
                   "dense working resolution, long side in px")
       ->capture_default_str()
       ->check(CLI::Range(100, 10000));
+  cmd->add_option("--dense-new-coverage", o->dense_options.new_coverage_share,
+                  "sweep no depth map for a photo when two held maps "
+                  "already measure this share of its picture (0: off; 0.8 "
+                  "halves the sweeps on a walk, thins converging photos' "
+                  "clouds: docs/dense.md)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   cmd->add_flag("--deterministic", o->reconstruction.deterministic,
                 "fixed seeds, single-threaded solvers and one capture per "
                 "increment: the same feed gives the same models");

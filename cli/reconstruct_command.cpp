@@ -369,6 +369,11 @@ void add_reconstruct_command(CLI::App& app) {
                   "dense working resolution, long side in px")
       ->capture_default_str()
       ->check(CLI::Range(100, 10000));
+  cmd->add_option("--dense-new-coverage", args.dense_options.new_coverage_share,
+                  "as arscout serve's: no sweep for a photo two held maps "
+                  "already measure this share of (0: off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   cmd->add_flag("--cuda", args.dense_options.sweep.use_cuda,
                 "sweep on the GPU when this build has the CUDA path and a "
                 "device (else the CPU path runs)");

@@ -941,7 +941,7 @@ TEST(DenseStagesReconstruction, AViewWhosePictureTheMapsMeasureIsNoKeyView) {
   const SparseTruth truth = sparse_truth(300, 17);
   const Model model = model_with_view2_again(truth);
   DenseOptions options = small_dense_options();
-  options.new_coverage_share = DenseOptions{}.new_coverage_share;
+  options.new_coverage_share = 0.8;  // off by default
   DenseReconstruction dense(options);
   const DenseUpdate update = dense.update(model, view2_again_images());
   // The street's views converge on one facade: once the maps of views 1

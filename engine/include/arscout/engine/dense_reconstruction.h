@@ -60,10 +60,13 @@ struct DenseOptions {
   // either when the maps of its consistency_partners best-connected key
   // views already measure at least this share of its picture where it sees
   // the scene (cells of a 16 x 12 grid holding its keypoints; depths of
-  // those maps projected into it). On a walk of photos 0.3-2 m apart this
-  // sweeps about one view in N rather than every one (bench/RESULTS.md).
-  // Above 1 (or 0): off.
-  double new_coverage_share = 0.8;
+  // those maps projected into it, two maps to a cell so that their depths
+  // can agree). Off by default (0; above 1 too): the coarse grid does not
+  // see what another angle adds, and on fountain-P11 at 0.8 it kept 3 of
+  // 10 maps and a tenth of the points. On a long walk of photos 0.3-2 m
+  // apart it halves the sweeps (bench/RESULTS.md), which a service that
+  // must keep up with several scouts may want (`--dense-new-coverage`).
+  double new_coverage_share = 0;
 };
 
 struct DenseUpdate {
