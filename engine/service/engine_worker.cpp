@@ -63,7 +63,7 @@ void lower_thread_priority() {
 struct EngineWorker::Impl {
   Impl(db::Store& s, WorkerOptions o)
       : store(s),
-        options(std::move(o)),
+        options(with_lane_options(std::move(o))),
         directory(options.site_radius_m),
         leases(store, options.name, options.lease_ttl) {}
 
@@ -71,14 +71,25 @@ struct EngineWorker::Impl {
     // Shared by the lanes: a lane keeps it alive while it runs.
     std::shared_ptr<service::SiteJob> job;
     std::deque<Work> pending;
-    std::deque<Work> deferred;  // while another worker holds the site
-    bool dense_retry = false;   // a dense phase failed: run one again
-    bool running = false;       // its sparse lane
+    std::deque<Work> deferred;   // while another worker holds the site
+    bool dense_retry = false;    // a dense phase failed: run one again
+    bool refine_wanted = false;  // a refinement gave way to the dense lane
+    bool running = false;        // its sparse lane
     bool ready = false;
     bool dense_running = false;  // its dense lane
     bool dense_queued = false;
     bool dense_turn = false;  // the dense lane waits for publication()
   };
+
+  // The dense lanes sweep on their own low-priority threads only, leaving
+  // OpenCV's shared pool to the sparse lanes (PlaneSweepOptions::parallel).
+  static WorkerOptions with_lane_options(WorkerOptions o) {
+    if (o.dense && !o.reconstruction.deterministic) {
+      o.dense_options.sweep.parallel = false;
+      o.dense_options.consistency.parallel = false;
+    }
+    return o;
+  }
 
   db::Store& store;
   const WorkerOptions options;
@@ -189,7 +200,9 @@ struct EngineWorker::Impl {
   }
 
   void make_ready(const std::string& site, SiteQueue& q) {
-    if (q.running || q.ready || (q.pending.empty() && !q.dense_retry)) return;
+    if (q.running || q.ready ||
+        (q.pending.empty() && !q.dense_retry && !q.refine_wanted))
+      return;
     q.ready = true;
     ready.push_back(site);
   }
@@ -214,7 +227,8 @@ struct EngineWorker::Impl {
         continue;
       }
       q.running = true;
-      q.dense_retry = false;
+      const bool retry_dense = q.dense_retry;
+      q.dense_retry = q.refine_wanted = false;
       // Deterministic runs take one capture per increment: folding
       // whatever arrived meanwhile depends on timing, and so would the
       // dense phase's choice of views.
@@ -229,9 +243,11 @@ struct EngineWorker::Impl {
       service::SiteJob& job = *held_job;
       // A dense phase waiting to publish goes first: the lanes take turns.
       changed.wait(lock, [&] { return stopping || !q.dense_turn; });
-      lock.unlock();
-      const bool ok = run_increment(site, job, work, lock);
-      // run_increment returns with the lock held.
+      bool ok = true;  // nothing to add: a refinement that gave way resumes
+      if (!work.empty() || retry_dense) {
+        lock.unlock();
+        ok = run_increment(site, job, work, lock);  // returns locked
+      }
       if (ok && held.count(site) &&
           (q.pending.empty() || options.reconstruction.deterministic))
         run_refinement(site, job, q, lock);
@@ -463,24 +479,32 @@ struct EngineWorker::Impl {
       const std::shared_ptr<service::SiteJob> job = q.job;
       q.dense_running = true;
       lock.unlock();
-      bool again = false;
+      DenseLaneEnd end;
       try {
-        again = run_dense_lane(site, q, *job);
+        end = run_dense_lane(site, q, *job);
         lock.lock();
       } catch (const std::exception& e) {
         dense_failed(site, *job, lock, e);
       }
       q.dense_running = q.dense_turn = false;
-      if (again) start_dense(site, *job, lock);
-      if (q.dense_retry) make_ready(site, q);
+      if (end.dense_due) start_dense(site, *job, lock);
+      // A refinement that gave way to this lane resumes, unless work came.
+      q.refine_wanted = end.refinement_due && q.pending.empty();
+      if (q.dense_retry || q.refine_wanted) make_ready(site, q);
       changed.notify_all();
     }
   }
 
+  // What is due when a dense lane ends: another dense phase (the model
+  // changed meanwhile), the refinement (it gave way to this lane).
+  struct DenseLaneEnd {
+    bool dense_due = false;
+    bool refinement_due = false;
+  };
+
   // One dense phase of the site, its sweeping beside the sparse lane.
-  // Returns whether another is due (the model changed meanwhile).
-  bool run_dense_lane(const std::string& site, SiteQueue& q,
-                      service::SiteJob& job) {
+  DenseLaneEnd run_dense_lane(const std::string& site, SiteQueue& q,
+                              service::SiteJob& job) {
     const auto start = std::chrono::steady_clock::now();
     std::optional<service::DenseTask> task;
     {
@@ -489,7 +513,7 @@ struct EngineWorker::Impl {
       set_dense_turn(q, false);
       task = job.begin_dense();
     }
-    if (!task) return false;
+    if (!task) return {};
     job.compute_dense(*task);
     set_dense_turn(q, true);  // a refinement gives way too
     std::lock_guard publication(job.publication());
@@ -498,7 +522,7 @@ struct EngineWorker::Impl {
     if (!dense.ops.empty()) commit(site, job, dense, std::nullopt);
     std::lock_guard guard(mutex);
     stats.increments += dense.model_written ? 1 : 0;
-    return job.dense_due();
+    return {job.dense_due(), job.refinement_due()};
   }
 
   // The site's global refinement while it has no work waiting: it gives
@@ -716,7 +740,7 @@ bool EngineWorker::wait_idle(std::chrono::milliseconds timeout) {
     if (w.last_placed < target || !w.in_flight.empty()) return false;
     for (const auto& [id, q] : w.sites)
       if (q.running || !q.pending.empty() || q.dense_retry || q.dense_running ||
-          q.dense_queued)
+          q.dense_queued || q.refine_wanted || q.ready)
         return false;
     return true;
   });

@@ -280,6 +280,10 @@ TEST(DenseStagesAgreement, MapAgreesWithItselfWhereverItHasDepth) {
   EXPECT_EQ(count_where(mask != has_depth), 0);
   EXPECT_EQ(count_where(mask(cv::Rect(10, 10, 20, 15))), 0);
   EXPECT_GT(count_where(mask), 0.9 * kWidth * kHeight);
+  // On the calling thread alone: the same mask.
+  ConsistencyOptions serial;
+  serial.parallel = false;
+  EXPECT_EQ(count_where(agreement_mask(a, b, serial) != mask), 0);
   // Only 0 and 255.
   EXPECT_EQ(count_where(mask == 0) + count_where(mask == 255),
             kWidth * kHeight);

@@ -155,10 +155,17 @@ TEST(SweepKernels, SweepIsTheSameOnOneThreadAndOnSeveral) {
   const DepthMap one = sweep_planes(views[1], neighbours, {});
   cv::setNumThreads(4);
   const DepthMap several = sweep_planes(views[1], neighbours, {});
+  // Kept on the calling thread (PlaneSweepOptions::parallel false): the
+  // same map again.
+  PlaneSweepOptions serial;
+  serial.parallel = false;
+  const DepthMap here = sweep_planes(views[1], neighbours, serial);
   cv::setNumThreads(threads);
   EXPECT_GT(one.coverage(), 0.5);
   EXPECT_EQ(cv::norm(one.depth, several.depth, cv::NORM_INF), 0);
   EXPECT_EQ(cv::norm(one.score, several.score, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(here.depth, several.depth, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(here.score, several.score, cv::NORM_INF), 0);
 }
 
 }  // namespace

@@ -69,7 +69,7 @@ cv::Mat agreement_mask(const DepthMap& map, const DepthMap& other,
       options.max_reprojection_px * options.max_reprojection_px;
   const Reprojection forward(map, other), backward(other, map);
   // Rows are independent: the mask is the same for any thread count.
-  cv::parallel_for_(cv::Range(0, map.depth.rows), [&](const cv::Range& rows) {
+  auto check_rows = [&](const cv::Range& rows) {
     for (int y = rows.start; y < rows.end; ++y) {
       const float* depth = map.depth.ptr<float>(y);
       uint8_t* out = agrees.ptr<uint8_t>(y);
@@ -90,7 +90,11 @@ cv::Mat agreement_mask(const DepthMap& map, const DepthMap& other,
           out[x] = 255;
       }
     }
-  });
+  };
+  if (options.parallel)
+    cv::parallel_for_(cv::Range(0, map.depth.rows), check_rows);
+  else
+    check_rows(cv::Range(0, map.depth.rows));
   return agrees;
 }
 

@@ -488,6 +488,19 @@ double DenseReconstruction::Impl::voxel_size() {
   return size;
 }
 
+// Whether the derived voxel edge moved far enough from the cloud's to fuse
+// every map afresh at it. The edge is a resolution (1.5 pixel footprints),
+// and the first map's depths follow every small change of the model's
+// scale around it: a rebuild for each would cost the whole site per
+// increment. A scale change of a tenth or more (a model that settles its
+// scale, or geo-registration) still rebuilds.
+namespace {
+bool voxel_edge_changed(double current, double derived) {
+  constexpr double kVoxelTolerance = 0.1;
+  return std::abs(derived - current) > kVoxelTolerance * current;
+}
+}  // namespace
+
 // Brings the cloud up to the maps: all of them fused afresh when `rebuild`
 // (or the voxel edge changed); else each moved map taken out and fused
 // again at its new pose, and the pixels that came to agree since added.
@@ -498,7 +511,7 @@ bool DenseReconstruction::Impl::fuse(bool rebuild,
                                      DenseUpdate* update) {
   const double size = voxel_size();
   if (!(size > 0)) return false;
-  if (!cloud || cloud->voxel_size() != size) {
+  if (!cloud || voxel_edge_changed(cloud->voxel_size(), size)) {
     rebuild = rebuild || cloud;  // a new voxel edge: every map again
     cloud = std::make_unique<VoxelCloud>(size);
     for (auto& [id, entry] : entries)

@@ -435,13 +435,17 @@ DepthMap sweep_planes(const DenseView& key,
   auto boundary = [&](int s) {
     return std::min(rows, blocks * s / strips * kSumBlock);
   };
-  cv::parallel_for_(cv::Range(0, strips), [&](const cv::Range& range) {
+  auto sweep_strips = [&](const cv::Range& range) {
     for (int s = range.start; s < range.end; ++s) {
       StripSweep strip(inputs, cv::Range(boundary(s), boundary(s + 1)));
       strip.run(directions);
       strip.finish(directions, &map);
     }
-  });
+  };
+  if (options.parallel)
+    cv::parallel_for_(cv::Range(0, strips), sweep_strips);
+  else
+    sweep_strips(cv::Range(0, strips));
   return map;
 }
 

@@ -49,6 +49,12 @@ struct PlaneSweepOptions {
   double min_score = 0.35;
   double min_margin = 0.02;
   bool use_cuda = false;  // the CUDA path, when built with ARSCOUT_CUDA
+  // Strips over OpenCV's worker threads; false keeps the sweep on the
+  // calling thread (the same map either way). A caller that sweeps beside
+  // latency-critical work at a low priority wants that: OpenCV's shared
+  // pool would otherwise run the sweep at full priority and leave the other
+  // work's own parallel calls to run serially.
+  bool parallel = true;
 };
 
 // A photo ready for the sweep: undistorted, at the dense working
@@ -110,6 +116,7 @@ DepthMap sweep_planes(const DenseView& key,
 struct ConsistencyOptions {
   double max_relative_depth = 0.01;  // |z_other - z_predicted| / z
   double max_reprojection_px = 1.0;  // back in the first map
+  bool parallel = true;  // rows over OpenCV's threads (PlaneSweepOptions)
 };
 
 // Forward-backward check of `map` against `other`: a pixel agrees when its

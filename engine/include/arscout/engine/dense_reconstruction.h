@@ -39,8 +39,11 @@ struct DenseOptions {
   int consistency_partners = 4;
   // Voxel edge in site units; 0 takes 1.5 pixel footprints at the median
   // depth of the first depth map (of the order of sweeping), derived again
-  // at every re-fusion: it follows that map's rescaling when the model
-  // changes scale, and the next map when the first is withdrawn.
+  // at every fusion and adopted, with every map fused afresh, when it
+  // differs from the cloud's by more than a tenth: it follows that map's
+  // rescaling when the model changes scale, and the next map when the
+  // first is withdrawn, but not each small change of scale a bundle
+  // adjustment brings (a rebuild costs the whole site).
   double voxel_size = 0;
   // A camera that moved more than this share of a voxel (or turned by the
   // equivalent angle) since its depth map was fused triggers a re-fusion.
