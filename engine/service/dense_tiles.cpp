@@ -14,9 +14,18 @@ namespace {
 
 using TileKey = std::pair<long long, long long>;
 
+// Clamped: a point far outside any site (or not finite) must not make the
+// conversion undefined; it lands in an edge tile.
+long long tile_index(float coordinate, double size) {
+  constexpr double kLimit = 1e9;
+  const double index = std::floor(coordinate / size);
+  if (!(index > -kLimit)) return static_cast<long long>(-kLimit);
+  if (!(index < kLimit)) return static_cast<long long>(kLimit);
+  return static_cast<long long>(index);
+}
+
 TileKey tile_key(const ColoredPoint& p, double size) {
-  return {static_cast<long long>(std::floor(p.x / size)),
-          static_cast<long long>(std::floor(p.y / size))};
+  return {tile_index(p.x, size), tile_index(p.y, size)};
 }
 
 std::string tile_name(const TileKey& key) {
@@ -25,7 +34,9 @@ std::string tile_name(const TileKey& key) {
 
 struct TileKeyHash {
   std::size_t operator()(const TileKey& k) const {
-    return std::hash<long long>()(k.first * 1000003LL ^ k.second);
+    return std::hash<unsigned long long>()(
+        static_cast<unsigned long long>(k.first) * 1000003ULL ^
+        static_cast<unsigned long long>(k.second));
   }
 };
 
