@@ -63,7 +63,7 @@ void lower_thread_priority() {
 struct EngineWorker::Impl {
   Impl(db::Store& s, WorkerOptions o)
       : store(s),
-        options(with_lane_options(std::move(o))),
+        options(std::move(o)),
         directory(options.site_radius_m),
         leases(store, options.name, options.lease_ttl) {}
 
@@ -80,16 +80,6 @@ struct EngineWorker::Impl {
     bool dense_queued = false;
     bool dense_turn = false;  // the dense lane waits for publication()
   };
-
-  // The dense lanes sweep on their own low-priority threads only, leaving
-  // OpenCV's shared pool to the sparse lanes (PlaneSweepOptions::parallel).
-  static WorkerOptions with_lane_options(WorkerOptions o) {
-    if (o.dense && !o.reconstruction.deterministic) {
-      o.dense_options.sweep.parallel = false;
-      o.dense_options.consistency.parallel = false;
-    }
-    return o;
-  }
 
   db::Store& store;
   const WorkerOptions options;
@@ -514,6 +504,13 @@ struct EngineWorker::Impl {
       task = job.begin_dense();
     }
     if (!task) return {};
+    // OpenCV's shared pool runs at full priority, and while a sweep holds
+    // it the sparse lane's own parallel calls (SIFT) run serially: the
+    // sweep takes the pool only while the sparse lane is idle.
+    {
+      std::lock_guard guard(mutex);
+      task->parallel = !q.running && q.pending.empty();
+    }
     job.compute_dense(*task);
     set_dense_turn(q, true);  // a refinement gives way too
     std::lock_guard publication(job.publication());

@@ -347,6 +347,7 @@ std::optional<DenseTask> SiteJob::begin_dense() {
 void SiteJob::compute_dense(DenseTask& task) {
   const auto start = Clock::now();
   DenseReconstruction& dense = *task.dense;
+  dense.set_parallel(task.parallel);
   task.update = dense.update(
       task.model, [this](const std::string& c) { return image_bytes(c); });
   for (const std::string& map : task.update.new_depth_maps)

@@ -48,6 +48,9 @@ struct DenseTask {
   std::uint64_t generation = 0;  // of the job state it was taken from
   Model model;
   std::vector<std::string> added, withdrawn;
+  // Sweeps over OpenCV's threads (DenseReconstruction::set_parallel); the
+  // worker clears it while the site's sparse lane is busy.
+  bool parallel = true;
   // Filled in by compute_dense().
   DenseUpdate update;
   std::map<std::string, std::string> map_blobs;  // new depth map -> sha

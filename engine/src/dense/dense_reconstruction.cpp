@@ -709,6 +709,11 @@ const DepthMap* DenseReconstruction::raw_depth_map(
   return it == impl_->entries.end() ? nullptr : &it->second.map;
 }
 
+void DenseReconstruction::set_parallel(bool parallel) {
+  impl_->options.sweep.parallel = parallel;
+  impl_->options.consistency.parallel = parallel;
+}
+
 double DenseReconstruction::voxel_size() const {
   return impl_->cloud ? impl_->cloud->voxel_size() : 0;
 }

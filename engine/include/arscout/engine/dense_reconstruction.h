@@ -104,6 +104,12 @@ class DenseReconstruction {
       const Model& model, const ImageSource& images,
       const std::function<void(const std::string&)>& progress = {});
 
+  // Whether the next updates spread their sweeps and checks over OpenCV's
+  // worker threads (PlaneSweepOptions::parallel and
+  // ConsistencyOptions::parallel): a caller beside latency-critical work
+  // keeps them on its own thread while that work is busy.
+  void set_parallel(bool parallel);
+
   std::vector<ColoredPoint> points() const;
   // The stored maps, filtered: only pixels another map agrees with.
   std::vector<DepthMap> filtered_depth_maps() const;
