@@ -535,7 +535,7 @@ struct EngineWorker::Impl {
     bool dense_due = false;
     try {
       std::lock_guard publication(job.publication());
-      if (!job.refinement_due() || dense_turn(q)) {
+      if (!job.refinement_due() || dense_waits_for_turn(q)) {
         lock.lock();
         return;
       }
@@ -568,7 +568,7 @@ struct EngineWorker::Impl {
     if (!waiting) changed.notify_all();
   }
 
-  bool dense_turn(const SiteQueue& q) {
+  bool dense_waits_for_turn(const SiteQueue& q) {
     std::lock_guard guard(mutex);
     return q.dense_turn;
   }

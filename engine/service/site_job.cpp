@@ -86,7 +86,6 @@ void SiteJob::restore() {
   dense_tiles_.clear();
   dense_points_ = 0;
   dense_views_.clear();
-  covered_views_.clear();
   if (auto model = store_.get(site_path(id_, "model"))) {
     model_version_ = model->version;
     dense_tiles_ =
@@ -95,7 +94,6 @@ void SiteJob::restore() {
                         .value("dense_points", std::size_t{0});
     for (const Json& image : model->attrs.value("images", Json::array()))
       if (image.value("dense", false)) dense_views_.insert(image.at("id"));
-    covered_views_ = dense_views_;  // those with a map stay in anyway
   }
   pending_dense_tiles_ = dense_tiles_;
   auto state = store_.get(site_path(id_, "engine"));
@@ -354,7 +352,8 @@ void SiteJob::compute_dense(DenseTask& task) {
     task.map_blobs[map] = store_.put_blob(dense.serialize_depth_map(map));
   task.kept_maps = dense.depth_map_ids();
   task.views.insert(task.kept_maps.begin(), task.kept_maps.end());
-  task.views.insert(task.update.covered.begin(), task.update.covered.end());
+  const std::vector<std::string> covered = dense.covered_ids();
+  task.views.insert(covered.begin(), covered.end());
   task.tiles = store_dense_tiles(
       dense.points(), dense_tile_size(dense.voxel_size()), task.published,
       [this](const std::string& bytes) { return store_.put_blob(bytes); });
@@ -396,15 +395,8 @@ Increment SiteJob::finish_dense(DenseTask& task) {
   const bool publish_model = !model.images.empty() || model_version_ > 0;
   if (publish_model) {
     pending_dense_points_ = report.dense_points;
-    // Covered once, covered while registered (a withdrawal judges again).
-    for (const std::string& view : task.update.covered)
-      covered_views_.insert(view);
-    for (const std::string& view : task.withdrawn) covered_views_.erase(view);
-    std::set<std::string> views = task.views;
-    for (const ModelImage& image : task.model.images)
-      if (covered_views_.count(image.id)) views.insert(image.id);
     ops.push_back(
-        model_op(model, sparse_->captures(), report, &task.tiles, &views));
+        model_op(model, sparse_->captures(), report, &task.tiles, &task.views));
     increment.model_written = true;
   }
   // Fenced like the sparse phase: a patch on the version this job wrote.

@@ -173,9 +173,8 @@ class SiteJob {
   std::vector<std::string> dense_added_, dense_withdrawn_;
   DenseTiles dense_tiles_, pending_dense_tiles_;  // the published cloud
   std::size_t dense_points_ = 0, pending_dense_points_ = 0;
-  // The views the published cloud covers, and those judged covered by
-  // other key views so far (DenseUpdate::covered).
-  std::set<std::string> dense_views_, pending_dense_views_, covered_views_;
+  // The views the published cloud covers.
+  std::set<std::string> dense_views_, pending_dense_views_;
 };
 
 }  // namespace arscout::engine::service

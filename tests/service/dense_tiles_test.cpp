@@ -111,7 +111,8 @@ TEST(DenseTiles, TheModelAttributeRoundTripsAndNamesTheBlobs) {
   old.attrs = {{"statistics", {{"dense_points", 12}}}};
   old.blobs = db::BlobRefs{{"dense", "abc"}};
   EXPECT_EQ(dense_cloud_blobs(old), std::vector<std::string>{"abc"});
-  old.attrs["statistics"]["dense_points"] = 0;  // the empty placeholder
+  // Before its first dense phase such a model carried an empty PLY.
+  old.attrs["statistics"]["dense_points"] = 0;
   EXPECT_TRUE(dense_cloud_blobs(old).empty());
 }
 

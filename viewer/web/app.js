@@ -256,8 +256,8 @@ function cloudBlobs(doc, kind) {
 }
 
 /**
- * The clouds a model offers. Until its first dense cloud is computed a
- * model may carry an empty dense placeholder, which does not count.
+ * The clouds a model offers. A model written before tiles carries an empty
+ * dense PLY until its first dense phase: that one does not count.
  */
 function cloudKinds(doc) {
   const stats = doc?.attrs?.statistics || {};

@@ -669,6 +669,10 @@ std::vector<std::string> DenseReconstruction::depth_map_ids() const {
   return impl_->order;
 }
 
+std::vector<std::string> DenseReconstruction::covered_ids() const {
+  return {impl_->covered.begin(), impl_->covered.end()};
+}
+
 std::string DenseReconstruction::serialize_depth_map(
     const std::string& id) const {
   auto it = impl_->entries.find(id);

@@ -132,6 +132,10 @@ class DenseReconstruction {
 
   // Key views that have a depth map, in the order they were swept.
   std::vector<std::string> depth_map_ids() const;
+  // Registered views judged not to be key views (DenseUpdate::covered, all
+  // of them so far): the key views' maps measure what they see. Empty after
+  // restore_depth_maps until the next update() judges them again.
+  std::vector<std::string> covered_ids() const;
   // One key view's depth map as swept (depth, score, margin, K, R, t at
   // sweep time, the neighbours it was swept with, its place in the order of
   // sweeping), as self-describing bytes: a magic, a format version, the
