@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <chrono>
 #include <mutex>
+#include <random>
 #include <thread>
 #include <unordered_map>
 
@@ -22,6 +23,25 @@ namespace arscout::db::internal {
 namespace {
 
 constexpr int kBusyTimeoutMs = 15000;
+
+// SQLite's own busy timeout sleeps up to 100 ms between tries, so a process
+// that writes steadily holds the lock at nearly every wake-up of another, and
+// the other waits for seconds (two processes' 600 writes each ran one after
+// the other). Short pauses with jitter let a waiting writer in within a few
+// of the other's transactions; the total wait stays kBusyTimeoutMs.
+int retry_while_busy(void* since_arg, int attempt) {
+  using Clock = std::chrono::steady_clock;
+  auto& since = *static_cast<Clock::time_point*>(since_arg);
+  if (attempt == 0) since = Clock::now();
+  if (Clock::now() - since > std::chrono::milliseconds(kBusyTimeoutMs))
+    return 0;
+  thread_local std::minstd_rand jitter(static_cast<unsigned>(
+      ::getpid() ^ std::hash<std::thread::id>{}(std::this_thread::get_id())));
+  const int ceiling_us = 50 << std::min(attempt, 5);  // 50 us .. 1.6 ms
+  std::this_thread::sleep_for(std::chrono::microseconds(
+      ceiling_us / 2 + static_cast<int>(jitter() % (ceiling_us / 2 + 1))));
+  return 1;
+}
 
 // Conditions of the file or the machine that pass or that an operator can
 // fix (a lock, a full or read-only disk, a damaged file) are "unavailable"
@@ -96,7 +116,7 @@ class Connection : public SqlSession {
                                 ? " (it is on a read-only file system)"
                                 : ""));
     }
-    sqlite3_busy_timeout(db_, kBusyTimeoutMs);
+    sqlite3_busy_handler(db_, retry_while_busy, &busy_since_);
     sqlite3_extended_result_codes(db_, 1);
   }
   bool read_only() const { return sqlite3_db_readonly(db_, "main") == 1; }
@@ -177,6 +197,7 @@ class Connection : public SqlSession {
   }
 
   sqlite3* db_ = nullptr;
+  std::chrono::steady_clock::time_point busy_since_;  // of the current wait
   std::unordered_map<std::string, sqlite3_stmt*> cache_;
 };
 
