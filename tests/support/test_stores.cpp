@@ -7,7 +7,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <random>
+#include <vector>
 
 // Read by LeakSanitizer in the -DARSCOUT_SANITIZE=ON build (ignored
 // otherwise). libpqxx 6.4 leaks the PGresult of a statement that fails on a
@@ -27,6 +29,36 @@ std::string random_suffix() {
          std::to_string(rd() % 100000);
 }
 
+// The temp directories a test program made, removed when it exits after
+// its tests passed: a suite run leaves /tmp as it found it (stores of
+// hundreds of megabytes each added up to tens of gigabytes), while a failed
+// test's directories stay behind as evidence. Helper processes run no tests
+// and keep theirs for the test that spawned them.
+class TempDirs {
+ public:
+  void add(const std::filesystem::path& dir) {
+    std::lock_guard lock(mutex_);
+    dirs_.push_back(dir);
+  }
+  ~TempDirs() {
+    const ::testing::UnitTest& run = *::testing::UnitTest::GetInstance();
+    if (run.test_to_run_count() == 0 || !run.Passed()) return;
+    for (const std::filesystem::path& dir : dirs_) {
+      std::error_code ignored;  // a mount point left busy stays; no matter
+      std::filesystem::remove_all(dir, ignored);
+    }
+  }
+
+ private:
+  std::mutex mutex_;
+  std::vector<std::filesystem::path> dirs_;
+};
+
+TempDirs& temp_dirs() {
+  static TempDirs dirs;
+  return dirs;
+}
+
 }  // namespace
 
 bool in_ci() {
@@ -38,6 +70,7 @@ std::string make_temp_dir(const std::string& tag) {
   auto dir = std::filesystem::temp_directory_path() /
              ("arscout-" + tag + "-" + random_suffix());
   std::filesystem::create_directories(dir);
+  temp_dirs().add(dir);
   return dir.string();
 }
 
