@@ -179,6 +179,8 @@ void print_dense_progress(const engine::DenseUpdate& u) {
     std::cout << " (re-fused)";
   else if (u.refused_maps > 0)
     std::cout << " (" << u.refused_maps << " moved re-fused)";
+  if (u.deferred_maps > 0)
+    std::cout << " (" << u.deferred_maps << " moved left for later)";
   std::cout << "  | sweep " << u.sweep_s << " filter " << u.filter_s
             << " fusion " << u.fusion_s << " s" << std::endl;
 }
@@ -294,7 +296,9 @@ int run_reconstruct(const ReconstructArgs& a) {
   std::cout << "added " << added << " images in " << std::setprecision(2)
             << std::fixed << seconds << " s" << std::defaultfloat << std::endl;
   refine_to_convergence(site);
-  if (dense) print_dense_progress(dense->update(site.model(), images));
+  if (dense)
+    print_dense_progress(
+        engine::update_until_settled(*dense, site.model(), images));
   write_outputs(site, dense ? &*dense : nullptr, a);
   if (!a.save_state.empty()) {
     std::ofstream out(a.save_state, std::ios::binary);

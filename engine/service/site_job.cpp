@@ -321,6 +321,7 @@ Increment SiteJob::run_refine(const std::function<bool()>& stop) {
 Increment SiteJob::run_dense() {
   std::optional<DenseTask> task = begin_dense();
   if (!task) return {};
+  task->settle = true;
   compute_dense(*task);
   return finish_dense(*task);
 }
@@ -346,8 +347,11 @@ void SiteJob::compute_dense(DenseTask& task) {
   const auto start = Clock::now();
   DenseReconstruction& dense = *task.dense;
   dense.set_parallel(task.parallel);
-  task.update = dense.update(
-      task.model, [this](const std::string& c) { return image_bytes(c); });
+  const ImageSource images = [this](const std::string& c) {
+    return image_bytes(c);
+  };
+  task.update = task.settle ? update_until_settled(dense, task.model, images)
+                            : dense.update(task.model, images);
   for (const std::string& map : task.update.new_depth_maps)
     task.map_blobs[map] = store_.put_blob(dense.serialize_depth_map(map));
   task.kept_maps = dense.depth_map_ids();
@@ -390,6 +394,9 @@ Increment SiteJob::finish_dense(DenseTask& task) {
   report.dense = task.update;
   report.dense_points = task.update.points;
   report.total_s = task.seconds;
+  // Moved maps left for later: the lane runs again, and the cloud is
+  // published as pending until then.
+  if (task.update.deferred_maps > 0) dense_due_ = true;
   // The sparse model of now: the sparse lane may have moved on meanwhile.
   const Model model = sparse_->model();
   const bool publish_model = !model.images.empty() || model_version_ > 0;
@@ -436,6 +443,8 @@ std::string SiteJob::dense_summary(const DenseTask& task,
   if (!update.refused && update.refused_maps > 0)
     summary << ", " << update.refused_maps << " moved map"
             << (update.refused_maps == 1 ? "" : "s") << " re-fused";
+  if (update.deferred_maps > 0)
+    summary << ", " << update.deferred_maps << " left for later";
   summary << ", " << update.new_depth_maps.size() << " new depth map"
           << (update.new_depth_maps.size() == 1 ? "" : "s");
   if (!update.covered.empty())

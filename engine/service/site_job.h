@@ -51,6 +51,10 @@ struct DenseTask {
   // Sweeps over OpenCV's threads (DenseReconstruction::set_parallel); the
   // worker clears it while the site's sparse lane is busy.
   bool parallel = true;
+  // Re-fuse every moved map before publishing (update_until_settled): the
+  // one-step run_dense() of deterministic runs. A lane instead leaves the
+  // rest to its next phase (DenseOptions::refuse_budget).
+  bool settle = false;
   // Filled in by compute_dense().
   DenseUpdate update;
   std::map<std::string, std::string> map_blobs;  // new depth map -> sha

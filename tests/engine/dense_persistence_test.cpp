@@ -759,5 +759,50 @@ TEST_F(DensePersistence, AMovedCameraReFusesOnlyItsMap) {
   EXPECT_EQ(dense.update(*model_, street_images()).refused_maps, 0u);
 }
 
+// Moves a camera's centre `distance` along its own x axis (t = -R c).
+void shift_camera(ModelImage& image, double distance) {
+  const Eigen::Quaterniond q(image.qvec[0], image.qvec[1], image.qvec[2],
+                             image.qvec[3]);
+  const Eigen::Vector3d shift =
+      q.normalized() * Eigen::Vector3d(distance, 0, 0);
+  for (int k = 0; k < 3; ++k) image.tvec[k] -= shift[k];
+}
+
+// Past the budget, moved maps wait: the farthest moved is re-fused first,
+// the others keep their points until a later update, and settling takes
+// them all.
+TEST_F(DensePersistence, MovedMapsBeyondTheBudgetWaitForLaterUpdates) {
+  DenseOptions options = small_dense_options();
+  options.refuse_budget = 1;
+  DenseReconstruction dense(options);
+  dense.restore_depth_maps(shuffled_blobs(), *model_, street_images());
+  ASSERT_GE(model_->images.size(), 4u);
+  const std::vector<ColoredPoint> before = dense.points();
+  const double voxel = dense.voxel_size();
+  Model both = *model_;
+  shift_camera(both.images[2], 3 * voxel);
+  shift_camera(both.images[3], 6 * voxel);
+  const DenseUpdate first = dense.update(both, street_images());
+  EXPECT_EQ(first.refused_maps, 1u);
+  EXPECT_EQ(first.deferred_maps, 1u);
+  // Image 3 (moved farther) went first: with it where it is and image 2
+  // back, nothing is out of place.
+  Model farther = *model_;
+  shift_camera(farther.images[3], 6 * voxel);
+  const DenseUpdate second = dense.update(farther, street_images());
+  EXPECT_EQ(second.refused_maps, 0u);
+  EXPECT_EQ(second.deferred_maps, 0u);
+  // Three moved at once, one per round until settled.
+  Model three = *model_;
+  for (int i = 1; i <= 3; ++i) shift_camera(three.images[i], 4 * voxel);
+  const DenseUpdate settled =
+      update_until_settled(dense, three, street_images());
+  EXPECT_EQ(settled.refused_maps, 3u);
+  EXPECT_EQ(settled.deferred_maps, 0u);
+  EXPECT_EQ(dense.update(three, street_images()).refused_maps, 0u);
+  update_until_settled(dense, *model_, street_images());
+  expect_same_cloud(dense.points(), before);
+}
+
 }  // namespace
 }  // namespace arscout::engine

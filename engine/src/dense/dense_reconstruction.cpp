@@ -224,6 +224,7 @@ struct DenseReconstruction::Impl {
     // The pose of its last fusion whole; moving away from it re-fuses it.
     Eigen::Vector3d fused_centre = Eigen::Vector3d::Zero();
     Eigen::Matrix3d fused_R = Eigen::Matrix3d::Identity();
+    double fused_scale = 1;  // depth_scale then
     // What serialize_depth_map() writes besides the map: the pose at sweep
     // time (map.R and map.t follow the model), the neighbours swept with,
     // the place in the order of sweeping.
@@ -274,10 +275,12 @@ struct DenseReconstruction::Impl {
   std::set<std::string> covered;
 
   bool drop_withdrawn(const std::map<std::string, int>& index);
-  std::set<std::string> follow_poses(const Model& model,
-                                     const std::map<std::string, int>& index,
-                                     const Covisibility& covisibility);
-  bool follow_scale(Entry& entry, const std::vector<const ModelPoint*>& points);
+  std::map<std::string, double> follow_poses(
+      const Model& model, const std::map<std::string, int>& index,
+      const Covisibility& covisibility);
+  void follow_scale(Entry& entry, const std::vector<const ModelPoint*>& points);
+  std::set<std::string> within_budget(
+      const std::map<std::string, double>& moved) const;
   double tolerance(const Entry& entry, double depth) const;
   bool redundant(const Model& model, int image,
                  const Covisibility& covisibility) const;
@@ -369,50 +372,70 @@ double DenseReconstruction::Impl::tolerance(const Entry& entry,
 // around a camera (a geo-registration from a few GPS fixes, a global
 // adjustment): the depths the sweep measured then no longer meet the
 // sparse points. The ratio of sparse to swept depths, against the sweep's
-// own, gives the change; the map is rescaled by it. True when its surface
-// moved by more than the tolerance.
+// own, gives the change; the map is rescaled by it when its surface moves
+// by more than the tolerance.
 // A map without a sweep-time ratio (a version 1 map, or too few points
 // then) takes today's as its reference.
-bool DenseReconstruction::Impl::follow_scale(
+void DenseReconstruction::Impl::follow_scale(
     Entry& entry, const std::vector<const ModelPoint*>& points) {
   const double ratio =
       sparse_depth_ratio(entry.map, entry.depth_as_swept(), points);
-  if (!(ratio > 0)) return false;
+  if (!(ratio > 0)) return;
   if (!(entry.sparse_ratio > 0)) {
     entry.sparse_ratio = ratio;
-    return false;
+    return;
   }
   const double scale = ratio / entry.sparse_ratio;
   const double depth = entry.median();
   if (std::abs(scale - entry.depth_scale) * depth <= tolerance(entry, depth))
-    return false;
+    return;
   if (entry.swept_depth.empty()) entry.swept_depth = entry.map.depth.clone();
   entry.map.depth = entry.swept_depth * scale;
   entry.depth_scale = scale;
-  return true;
 }
 
 // Moves every map to its camera's current pose and scale; returns the maps
-// that moved enough since their fusion to be fused again.
-std::set<std::string> DenseReconstruction::Impl::follow_poses(
+// that moved enough since their fusion to be fused again, each with how
+// many tolerances it moved.
+std::map<std::string, double> DenseReconstruction::Impl::follow_poses(
     const Model& model, const std::map<std::string, int>& index,
     const Covisibility& covisibility) {
-  std::set<std::string> moved;
+  std::map<std::string, double> moved;
   for (auto& [id, entry] : entries) {
     const ModelImage& image = model.images[index.at(id)];
     entry.map.R = rotation_of(image);
     entry.map.t = translation_of(image);
-    if (follow_scale(entry, covisibility.points_of(index.at(id))))
-      moved.insert(id);
-    if (!cloud) continue;
+    follow_scale(entry, covisibility.points_of(index.at(id)));
+    if (!cloud) continue;  // nothing fused yet
     const double depth = entry.median();
     const double allowed = tolerance(entry, depth);
     const Eigen::AngleAxisd turn(entry.map.R * entry.fused_R.transpose());
-    if ((centre_of(image) - entry.fused_centre).norm() > allowed ||
-        std::abs(turn.angle()) * depth > allowed)
-      moved.insert(id);
+    const double by = std::max(
+        {(centre_of(image) - entry.fused_centre).norm(),
+         std::abs(turn.angle()) * depth,
+         std::abs(entry.depth_scale - entry.fused_scale) * depth /
+             entry.depth_scale}) /
+        allowed;
+    if (by > 1) moved[id] = by;
   }
   return moved;
+}
+
+// The moved maps one update re-fuses: those that moved farthest, at most
+// refuse_budget of them. The others keep their points where their cameras
+// were and stay moved (their fusion pose is unchanged), so a later update
+// takes them.
+std::set<std::string> DenseReconstruction::Impl::within_budget(
+    const std::map<std::string, double>& moved) const {
+  std::vector<std::pair<double, std::string>> farthest;
+  for (const auto& [id, by] : moved) farthest.emplace_back(by, id);
+  std::sort(farthest.begin(), farthest.end(), std::greater<>());
+  if (options.refuse_budget > 0 &&
+      farthest.size() > static_cast<size_t>(options.refuse_budget))
+    farthest.resize(options.refuse_budget);
+  std::set<std::string> chosen;
+  for (const auto& [by, id] : farthest) chosen.insert(id);
+  return chosen;
 }
 
 void DenseReconstruction::Impl::sweep(const Model& model, int key,
@@ -536,6 +559,7 @@ bool DenseReconstruction::Impl::fuse(bool rebuild,
     if (whole) {
       entry.fused_centre = -entry.map.R.transpose() * entry.map.t;
       entry.fused_R = entry.map.R;
+      entry.fused_scale = entry.depth_scale;
     }
   }
   dirty.clear();
@@ -560,7 +584,7 @@ DenseUpdate DenseReconstruction::update(
     index[model.images[i].id] = static_cast<int>(i);
   const Covisibility covisibility(model);
   const bool withdrawn = impl_->drop_withdrawn(index);
-  const std::set<std::string> moved =
+  const std::map<std::string, double> moved =
       impl_->follow_poses(model, index, covisibility);
   auto start = Clock::now();
   for (size_t i = 0; i < model.images.size(); ++i) {
@@ -585,10 +609,29 @@ DenseUpdate DenseReconstruction::update(
     impl_->filter(id, model, index, covisibility);
   update.filter_s = seconds_since(start);
   start = Clock::now();
-  update.refused = impl_->fuse(withdrawn, moved, &update);
+  const std::set<std::string> refuse = impl_->within_budget(moved);
+  update.refused = impl_->fuse(withdrawn, refuse, &update);
+  update.deferred_maps = update.refused ? 0 : moved.size() - refuse.size();
   update.fusion_s = seconds_since(start);
   update.points = impl_->cloud ? impl_->cloud->size() : 0;
   return update;
+}
+
+DenseUpdate update_until_settled(DenseReconstruction& dense,
+                                 const Model& model,
+                                 const ImageSource& images) {
+  DenseUpdate total = dense.update(model, images);
+  while (total.deferred_maps > 0) {
+    const DenseUpdate round = dense.update(model, images);
+    if (round.refused_maps == 0 && !round.refused) break;  // cannot happen
+    total.refused = total.refused || round.refused;
+    total.refused_maps += round.refused_maps;
+    total.deferred_maps = round.deferred_maps;
+    total.points = round.points;
+    total.filter_s += round.filter_s;
+    total.fusion_s += round.fusion_s;
+  }
+  return total;
 }
 
 DenseUpdate DenseReconstruction::restore_depth_maps(

@@ -48,6 +48,13 @@ struct DenseOptions {
   // A camera that moved more than this share of a voxel (or turned by the
   // equivalent angle) since its depth map was fused triggers a re-fusion.
   double refuse_fraction = 0.25;
+  // At most this many moved maps are re-fused per update, those that moved
+  // farthest first; the rest keep their points where their cameras were
+  // and are taken by later updates (DenseUpdate::deferred_maps). A global
+  // adjustment of a 200-photo walk moved 40-80 maps per dense phase, and
+  // re-fusing them all made the phase's cost grow with the site. 0: no
+  // limit.
+  int refuse_budget = 8;
   // Key views for new coverage: a newly registered view gets no depth map of
   // its own when at least this share of the sparse points it observes are
   // each observed by `redundant_observers` views that have one (the
@@ -80,6 +87,9 @@ struct DenseUpdate {
   std::vector<std::string> covered;
   bool refused = false;     // cloud rebuilt from all maps (or all moved)
   size_t refused_maps = 0;  // maps taken out and fused again: camera moved
+  // Moved maps left for a later update (DenseOptions::refuse_budget): the
+  // cloud still shows them where their cameras were.
+  size_t deferred_maps = 0;
   size_t points = 0;        // in the fused cloud
   double sweep_s = 0;
   double filter_s = 0;
@@ -184,6 +194,15 @@ class DenseReconstruction {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// update() again while moved maps were left for later
+// (DenseUpdate::deferred_maps): the cloud then follows every camera, as a
+// batch run wants at its end. Each further round only re-fuses (the model
+// is the same), so it ends. The result is the first round's with the
+// counts and times of all rounds added and the last round's points.
+DenseUpdate update_until_settled(DenseReconstruction& dense,
+                                 const Model& model,
+                                 const ImageSource& images);
 
 // One key view's depth map straight from a sparse model: the key and its
 // best neighbours are decoded, undistorted and swept, without filtering.
