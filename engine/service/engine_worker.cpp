@@ -73,7 +73,7 @@ struct EngineWorker::Impl {
     std::deque<Work> pending;
     std::deque<Work> deferred;   // while another worker holds the site
     bool dense_retry = false;    // a dense phase failed: run one again
-    bool refine_wanted = false;  // a refinement gave way to the dense lane
+    bool refine_wanted = false;  // a refinement waits for the dense lane
     bool running = false;        // its sparse lane
     bool ready = false;
     bool dense_running = false;  // its dense lane
@@ -524,7 +524,7 @@ struct EngineWorker::Impl {
 
   // The site's global refinement while it has no work waiting: it gives
   // way (after the solver iteration under way) as soon as work arrives or
-  // the dense lane waits to publish, and publishes what it reached as a
+  // the dense lane has work (dense_busy), and publishes what it reached as a
   // model version. Deterministic runs let it finish, so that a replay
   // gives the same models however fast it arrives. Called and returns with
   // the lock held.
@@ -535,13 +535,14 @@ struct EngineWorker::Impl {
     bool dense_due = false;
     try {
       std::lock_guard publication(job.publication());
-      if (!job.refinement_due() || dense_waits_for_turn(q)) {
+      if (!job.refinement_due() || dense_busy(q)) {
         lock.lock();
         return;
       }
       service::Increment refined = job.run_refine([&] {
         std::lock_guard guard(mutex);
-        return stopping || (give_way && (!q.pending.empty() || q.dense_turn));
+        return stopping ||
+               (give_way && (!q.pending.empty() || dense_busy_locked(q)));
       });
       if (!refined.ops.empty()) commit(site, job, refined, std::nullopt);
       dense_due = job.dense_due();
@@ -568,9 +569,16 @@ struct EngineWorker::Impl {
     if (!waiting) changed.notify_all();
   }
 
-  bool dense_waits_for_turn(const SiteQueue& q) {
+  // The site's dense lane has work (queued, sweeping, or waiting to
+  // publish). The refinement then waits: the new photos' cloud comes before
+  // the old photos' last millimetres, and every refined pose would only
+  // add maps to re-fuse. It resumes when the lane ends (refine_wanted).
+  bool dense_busy(const SiteQueue& q) {
     std::lock_guard guard(mutex);
-    return q.dense_turn;
+    return dense_busy_locked(q);
+  }
+  static bool dense_busy_locked(const SiteQueue& q) {
+    return q.dense_turn || q.dense_running || q.dense_queued;
   }
 
   // Calls make() and appends its time to the increment's summary.
