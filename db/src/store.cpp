@@ -11,6 +11,7 @@
 
 #include "arscout/db/path.h"
 #include "backends.h"
+#include "sha256.h"
 
 namespace arscout::db {
 namespace {
@@ -142,7 +143,14 @@ WriteResult Store::remove(const std::string& path,
   return write(WriteOp::remove(path, expected));
 }
 
+// Bytes in hand are hashed first: a blob stored already is not written
+// again (the engine stores its state in parts, most unchanged from one
+// increment to the next). Should garbage collection take it before the
+// document that refers to it is written, that write fails with
+// kUnknownBlob and is retried.
 std::string Store::put_blob(std::string_view bytes) {
+  std::string sha = internal::sha256_hex(bytes);
+  if (blob_info(sha)) return sha;
   ViewBuffer buffer(bytes);
   std::istream in(&buffer);
   return put_blob(in);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <iomanip>
 #include <sstream>
 #include <stdexcept>
 
@@ -9,6 +10,7 @@
 #include "arscout/db/store.h"
 #include "arscout/engine/ply.h"
 #include "capture_document.h"
+#include "state_parts.h"
 
 namespace arscout::engine::service {
 namespace {
@@ -109,7 +111,7 @@ void SiteJob::restore() {
   features_.clear();
   pending_features_.clear();
   pending_removed_features_.clear();
-  if (state && state->blobs.count("state")) {
+  if (state && !state->blobs.empty()) {
     // Of the state read above: a commit in between changes its version,
     // and this job's next write, fenced on that version, fails and retries.
     if (auto restored = load_site_reconstruction(
@@ -206,6 +208,7 @@ Increment SiteJob::run(const std::vector<Work>& work) {
   report.dense_points = dense_points_;
   report.total_s = seconds_since(start);
 
+  const auto writes_start = Clock::now();
   Increment increment;
   std::vector<db::WriteOp> ops;
   // Capture statuses that changed since they were last published.
@@ -229,7 +232,8 @@ Increment SiteJob::run(const std::vector<Work>& work) {
     ops.push_back(model_op(model, captures, report));
     increment.model_written = true;
   }
-  add_state_ops(model, report.added, &ops);
+  const size_t state_bytes = add_state_ops(model, report.added, &ops);
+  const double writes_s = seconds_since(writes_start);
 
   pending_model_version_ = model_version_ + (publish_model ? 1 : 0);
   std::ostringstream summary;
@@ -241,7 +245,10 @@ Increment SiteJob::run(const std::vector<Work>& work) {
           << model.points.size() << " points";
   if (publish_model) summary << ", model v" << pending_model_version_;
   if (dense_due_) summary << ", dense to follow";
-  summary << " (" << static_cast<int>(report.total_s * 1000) << " ms)";
+  summary << " (" << static_cast<int>(report.total_s * 1000)
+          << " ms; its writes, with a state of " << std::fixed
+          << std::setprecision(1) << state_bytes / 1e6 << " MB, in "
+          << static_cast<int>(writes_s * 1000) << " ms)";
   increment.summary = summary.str();
   increment.ops = std::move(ops);
   return increment;
@@ -250,9 +257,9 @@ Increment SiteJob::run(const std::vector<Work>& work) {
 // The engine state, so that a restart needs no recomputation: each
 // capture's features once, under features/ (fixed once extracted, most of
 // the bytes), and the rest as one blob per increment.
-void SiteJob::add_state_ops(const Model& model,
-                            const std::vector<std::string>& added,
-                            std::vector<db::WriteOp>* ops) {
+size_t SiteJob::add_state_ops(const Model& model,
+                              const std::vector<std::string>& added,
+                              std::vector<db::WriteOp>* ops) {
   pending_features_.clear();
   pending_removed_features_ = features_;
   for (const std::string& capture : sparse_->captures_with_features()) {
@@ -280,9 +287,15 @@ void SiteJob::add_state_ops(const Model& model,
                             {"through_seq", pending_through_seq_},
                             {"dense_due", dense_due_ || dense_in_flight_}},
                        engine_version_);
-  state.blobs = db::BlobRefs{
-      {"state", store_.put_blob(sparse_->serialize(/*features_apart=*/true))}};
+  // In parts: the store writes only those whose bytes are new.
+  const std::string bytes = sparse_->serialize(/*features_apart=*/true);
+  const std::vector<std::string_view> parts = cut_state_parts(bytes);
+  db::BlobRefs refs;
+  for (size_t i = 0; i < parts.size(); ++i)
+    refs[state_part_name(i)] = store_.put_blob(parts[i]);
+  state.blobs = std::move(refs);
   ops->push_back(std::move(state));
+  return bytes.size();
 }
 
 bool SiteJob::refinement_due() const {

@@ -130,8 +130,10 @@ class SiteJob {
   void restore();
   // `added`: captures new in this batch, whose features are written even
   // when a capture of that id had some stored (withdrawn and sent again).
-  void add_state_ops(const Model& model, const std::vector<std::string>& added,
-                     std::vector<db::WriteOp>* ops);
+  // Returns the size of the state blob.
+  size_t add_state_ops(const Model& model,
+                       const std::vector<std::string>& added,
+                       std::vector<db::WriteOp>* ops);
   // `new_cloud`: the tiles a dense phase publishes; otherwise the last
   // published ones stay.
   db::WriteOp model_op(const Model& model,

@@ -6,6 +6,7 @@
 #include "arscout/db/path.h"
 #include "arscout/db/store.h"
 #include "arscout/engine/service.h"
+#include "state_parts.h"
 
 namespace arscout::engine {
 
@@ -26,10 +27,12 @@ std::optional<Reconstruction> load_site_reconstruction(
     for (const auto& [capture, blob] : features)
       stored_features->insert(capture);
   }
-  if (!state || !state->blobs.count("state")) return std::nullopt;
+  if (!state) return std::nullopt;
+  const std::optional<std::string> bytes =
+      service::read_state_bytes(store, *state);
+  if (!bytes) return std::nullopt;
   return Reconstruction::restore(
-      store.get_blob(state->blobs.at("state")), std::move(options),
-      [&](const std::string& capture) {
+      *bytes, std::move(options), [&](const std::string& capture) {
         auto it = features.find(capture);
         if (it == features.end())
           throw std::runtime_error("the engine state of site " + site +

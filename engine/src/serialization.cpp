@@ -1,5 +1,6 @@
 #include "serialization.h"
 
+#include <algorithm>
 #include <bit>
 #include <cstring>
 #include <stdexcept>
@@ -316,8 +317,17 @@ std::string serialize_scene(const Scene& scene, bool features_apart) {
   w.size(scene.images.size());
   for (const SceneImage& image : scene.images)
     write_image(w, image, features_apart);
-  w.size(scene.pairs.size());
-  for (const auto& [key, pair] : scene.pairs) write_pair(w, key, pair);
+  // By the later image of each pair: a new image's pairs come last, so
+  // that the bytes of the older ones stay as they were (the service stores
+  // the state in parts, and writes only the changed ones).
+  std::vector<const std::pair<const std::pair<int, int>, ImagePair>*> pairs;
+  for (const auto& entry : scene.pairs) pairs.push_back(&entry);
+  std::stable_sort(pairs.begin(), pairs.end(), [](auto* a, auto* b) {
+    return std::max(a->first.first, a->first.second) <
+           std::max(b->first.first, b->first.second);
+  });
+  w.size(pairs.size());
+  for (const auto* entry : pairs) write_pair(w, entry->first, entry->second);
   w.size(scene.points.size());
   for (const auto& [id, point] : scene.points) {
     w.pod(id);

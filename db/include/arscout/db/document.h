@@ -17,7 +17,8 @@ using Json = nlohmann::json;
 // Attribute size limit: the compact JSON text of a document's attributes.
 inline constexpr std::size_t kMaxAttributesBytes = 1 << 20;  // 1 MiB
 inline constexpr std::size_t kMaxKindLength = 64;
-inline constexpr std::size_t kMaxBlobRefs = 64;
+// The engine keeps a site's state in up to 400 content-defined parts.
+inline constexpr std::size_t kMaxBlobRefs = 512;
 
 // Named references to blobs: name ([A-Za-z0-9._-], <= 64 chars) -> SHA-256 of
 // the blob's bytes as 64 lower-case hex digits. E.g. {"image": "9f86d0..."}.
