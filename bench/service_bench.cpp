@@ -210,14 +210,18 @@ std::vector<double> window(const std::vector<double>& v, int first, int last) {
 void print_latency(const char* what, const std::vector<double>& v) {
   const bench::WalkWindows w = bench::walk_windows(static_cast<int>(v.size()));
   const auto all = window(v, 1, static_cast<int>(v.size()));
+  std::printf("%s: %zu of %zu reached; p50 %.2f s, p95 %.2f s, max %.2f s",
+              what, all.size(), v.size(), percentile(all, .5),
+              percentile(all, .95), percentile(all, 1.0));
+  if (w.first_begin > w.first_end) {  // too short a walk for the windows
+    std::printf("\n");
+    return;
+  }
   const double early = percentile(window(v, w.first_begin, w.first_end), .95);
   const double late = percentile(window(v, w.last_begin, w.last_end), .95);
-  std::printf(
-      "%s: %zu of %zu reached; p50 %.2f s, p95 %.2f s, max %.2f s; p95 "
-      "photos %d-%d %.2f s, %d-%d %.2f s, ratio %.2f\n",
-      what, all.size(), v.size(), percentile(all, .5), percentile(all, .95),
-      percentile(all, 1.0), w.first_begin, w.first_end, early, w.last_begin,
-      w.last_end, late, late / early);
+  std::printf("; p95 photos %d-%d %.2f s, %d-%d %.2f s, ratio %.2f\n",
+              w.first_begin, w.first_end, early, w.last_begin, w.last_end,
+              late, late / early);
 }
 
 // The sparse cost of an increment by the photos folded into it, against k
