@@ -172,6 +172,59 @@ TEST(MatcherTest, RowCountsNotMultipleOfBlock) {
   EXPECT_EQ(match_descriptors(a, b, kRatio, 4), expected);
 }
 
+// The rule written out plainly (dot products in double, each pair alone),
+// against the blocked and vectorized scans, on rows whose counts leave
+// tails everywhere and with exact ties in both directions.
+std::vector<std::pair<int, int>> plain_matches(const cv::Mat& a,
+                                               const cv::Mat& b, double ratio) {
+  auto dot = [&](int i, int j) {
+    double sum = 0;
+    for (int k = 0; k < kDim; ++k)
+      sum += double{a.at<float>(i, k)} * b.at<float>(j, k);
+    return sum;
+  };
+  std::vector<int> best_row(b.rows, -1);
+  std::vector<double> best_dot(b.rows, -2);
+  std::vector<std::pair<int, int>> matches;
+  for (int i = 0; i < a.rows; ++i)
+    for (int j = 0; j < b.rows; ++j)
+      if (dot(i, j) > best_dot[j]) best_dot[j] = dot(i, j), best_row[j] = i;
+  for (int i = 0; i < a.rows; ++i) {
+    double first = -2, second = -2;
+    int index = -1;
+    for (int j = 0; j < b.rows; ++j) {
+      const double d = dot(i, j);
+      if (d > first) {
+        second = first, first = d, index = j;
+      } else if (d > second) {
+        second = d;
+      }
+    }
+    auto distance = [](double d) {
+      return std::sqrt(std::max(0.0, 2 - 2 * d));
+    };
+    if (index < 0 || best_row[index] != i) continue;
+    if (b.rows > 1 && distance(first) >= ratio * distance(second)) continue;
+    matches.emplace_back(i, index);
+  }
+  return matches;
+}
+
+TEST(MatcherTest, AgreesWithThePlainRule) {
+  MatchData data = make_match_data(8);
+  cv::Mat b = data.b.rowRange(0, 701).clone();  // 701: an 8-column tail
+  data.a.row(3).copyTo(b.row(700));  // b rows 700 and a partner: a tie
+  for (int rows : {1, 3, 9, 701}) {
+    const cv::Mat part = b.rowRange(0, rows);
+    EXPECT_EQ(match_descriptors(data.a, part, kRatio, 2),
+              plain_matches(data.a, part, kRatio))
+        << rows << " rows in b";
+    EXPECT_EQ(match_descriptors(part, data.a, kRatio, 1),
+              plain_matches(part, data.a, kRatio))
+        << rows << " rows in a";
+  }
+}
+
 TEST(MatcherTest, EmptyInputsGiveNoMatches) {
   const MatchData data = make_match_data(6);
   EXPECT_TRUE(match_descriptors(cv::Mat(), data.b, kRatio, 1).empty());
