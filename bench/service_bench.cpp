@@ -220,8 +220,8 @@ void print_latency(const char* what, const std::vector<double>& v) {
   const double early = percentile(window(v, w.first_begin, w.first_end), .95);
   const double late = percentile(window(v, w.last_begin, w.last_end), .95);
   std::printf("; p95 photos %d-%d %.2f s, %d-%d %.2f s, ratio %.2f\n",
-              w.first_begin, w.first_end, early, w.last_begin, w.last_end,
-              late, late / early);
+              w.first_begin, w.first_end, early, w.last_begin, w.last_end, late,
+              late / early);
 }
 
 // The sparse cost of an increment by the photos folded into it, against k

@@ -410,11 +410,11 @@ std::map<std::string, double> DenseReconstruction::Impl::follow_poses(
     const double depth = entry.median();
     const double allowed = tolerance(entry, depth);
     const Eigen::AngleAxisd turn(entry.map.R * entry.fused_R.transpose());
-    const double by = std::max(
-        {(centre_of(image) - entry.fused_centre).norm(),
-         std::abs(turn.angle()) * depth,
-         std::abs(entry.depth_scale - entry.fused_scale) * depth /
-             entry.depth_scale}) /
+    const double by =
+        std::max({(centre_of(image) - entry.fused_centre).norm(),
+                  std::abs(turn.angle()) * depth,
+                  std::abs(entry.depth_scale - entry.fused_scale) * depth /
+                      entry.depth_scale}) /
         allowed;
     if (by > 1) moved[id] = by;
   }
@@ -617,8 +617,7 @@ DenseUpdate DenseReconstruction::update(
   return update;
 }
 
-DenseUpdate update_until_settled(DenseReconstruction& dense,
-                                 const Model& model,
+DenseUpdate update_until_settled(DenseReconstruction& dense, const Model& model,
                                  const ImageSource& images) {
   DenseUpdate total = dense.update(model, images);
   while (total.deferred_maps > 0) {

@@ -90,7 +90,7 @@ struct DenseUpdate {
   // Moved maps left for a later update (DenseOptions::refuse_budget): the
   // cloud still shows them where their cameras were.
   size_t deferred_maps = 0;
-  size_t points = 0;        // in the fused cloud
+  size_t points = 0;  // in the fused cloud
   double sweep_s = 0;
   double filter_s = 0;
   double fusion_s = 0;
@@ -200,8 +200,7 @@ class DenseReconstruction {
 // batch run wants at its end. Each further round only re-fuses (the model
 // is the same), so it ends. The result is the first round's with the
 // counts and times of all rounds added and the last round's points.
-DenseUpdate update_until_settled(DenseReconstruction& dense,
-                                 const Model& model,
+DenseUpdate update_until_settled(DenseReconstruction& dense, const Model& model,
                                  const ImageSource& images);
 
 // One key view's depth map straight from a sparse model: the key and its
