@@ -256,7 +256,8 @@ Increment SiteJob::run(const std::vector<Work>& work) {
 
 // The engine state, so that a restart needs no recomputation: each
 // capture's features once, under features/ (fixed once extracted, most of
-// the bytes), and the rest as one blob per increment.
+// the bytes), and the rest in content-defined parts (state_parts.h), of
+// which the store writes only the new ones.
 size_t SiteJob::add_state_ops(const Model& model,
                               const std::vector<std::string>& added,
                               std::vector<db::WriteOp>* ops) {
@@ -287,7 +288,6 @@ size_t SiteJob::add_state_ops(const Model& model,
                             {"through_seq", pending_through_seq_},
                             {"dense_due", dense_due_ || dense_in_flight_}},
                        engine_version_);
-  // In parts: the store writes only those whose bytes are new.
   const std::string bytes = sparse_->serialize(/*features_apart=*/true);
   const std::vector<std::string_view> parts = cut_state_parts(bytes);
   db::BlobRefs refs;

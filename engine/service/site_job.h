@@ -130,7 +130,7 @@ class SiteJob {
   void restore();
   // `added`: captures new in this batch, whose features are written even
   // when a capture of that id had some stored (withdrawn and sent again).
-  // Returns the size of the state blob.
+  // Returns the size of the serialized state (all its parts).
   size_t add_state_ops(const Model& model,
                        const std::vector<std::string>& added,
                        std::vector<db::WriteOp>* ops);

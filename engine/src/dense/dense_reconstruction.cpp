@@ -622,7 +622,9 @@ DenseUpdate update_until_settled(DenseReconstruction& dense, const Model& model,
   DenseUpdate total = dense.update(model, images);
   while (total.deferred_maps > 0) {
     const DenseUpdate round = dense.update(model, images);
-    if (round.refused_maps == 0 && !round.refused) break;  // cannot happen
+    // Each round re-fuses what it leaves fewer of; should one re-fuse
+    // nothing, repeating it would never end.
+    if (round.refused_maps == 0 && !round.refused) break;
     total.refused = total.refused || round.refused;
     total.refused_maps += round.refused_maps;
     total.deferred_maps = round.deferred_maps;
