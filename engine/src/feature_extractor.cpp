@@ -6,6 +6,8 @@
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "keypoint_refinement.h"
+
 namespace arscout::engine {
 namespace {
 
@@ -52,6 +54,7 @@ Features extract_features(const cv::Mat& gray, const cv::Mat& color,
   Features features;
   if (keypoints.empty()) {
     features.descriptors = cv::Mat(0, 128, CV_32F);
+    features.patches = cv::Mat(0, kPatchSide * kPatchSide, CV_8U);
     return features;
   }
   const cv::Ptr<cv::SIFT> sift = cv::SIFT::create();
@@ -68,6 +71,7 @@ Features extract_features(const cv::Mat& gray, const cv::Mat& color,
     const cv::Vec3b bgr = color.at<cv::Vec3b>(y, x);
     features.colors.push_back({bgr[2], bgr[1], bgr[0]});
   }
+  features.patches = extract_patches(gray, features.keypoints);
   return features;
 }
 

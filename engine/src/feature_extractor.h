@@ -27,6 +27,8 @@ struct Features {
   std::vector<Eigen::Vector2d> keypoints;      // sub-pixel, image pixels
   cv::Mat descriptors;                         // CV_32F, one unit row each
   std::vector<std::array<uint8_t, 3>> colors;  // RGB at each keypoint
+  // The gray patch around each keypoint (keypoint_refinement.h).
+  cv::Mat patches;
 };
 
 // `gray` and `color` (BGR) are the same undistorted working image.

@@ -7,6 +7,7 @@
 
 #include "bundle_adjuster.h"
 #include "estimators.h"
+#include "keypoint_refinement.h"
 #include "loop_closure.h"
 
 #include <Eigen/Eigenvalues>
@@ -104,6 +105,7 @@ std::vector<int> IncrementalMapper::update() {
     registered.push_back(best);
     failed.clear();
     triangulate_image(best);
+    refine_keypoints(best);
     close_loops(best);
     adjust_local(best);
     geo_register();
@@ -264,6 +266,7 @@ bool IncrementalMapper::try_initial_pair(int a, int b, const ImagePair& pair) {
     reset_model();
     return false;
   }
+  refine_keypoints(b);
   adjust_global();
   // The model exists once a third image registers against it.
   scene_.initialized = true;
@@ -277,6 +280,7 @@ bool IncrementalMapper::try_initial_pair(int a, int b, const ImagePair& pair) {
     if (register_image(best)) {
       third = true;
       triangulate_image(best);
+      refine_keypoints(best);
       adjust_global();
     } else {
       failed.insert(best);
@@ -584,6 +588,44 @@ void IncrementalMapper::triangulate_image(int index) {
       }
     }
   }
+}
+
+// Once registered and triangulated, a new image's keypoints move onto the
+// spot their track's reference shows (keypoint_refinement.h), before any
+// adjustment sees them. Each image is refined once: its patches are those
+// of the detected keypoints.
+void IncrementalMapper::refine_keypoints(int index) {
+  StageClock clock(timings_.triangulation_s);
+  SceneImage& image = scene_.images[index];
+  if (image.patches.rows != static_cast<int>(image.keypoints.size()) ||
+      !image.refined_keypoints.empty())
+    return;
+  for (size_t k = 0; k < image.keypoints.size(); ++k) {
+    if (image.point_of[k] < 0) continue;
+    const auto reference = track_reference(image.point_of[k], index);
+    if (!reference) continue;
+    const auto shift = align_patch(
+        scene_.images[reference->image].patches.ptr<uchar>(reference->keypoint),
+        image.patches.ptr<uchar>(static_cast<int>(k)));
+    if (!shift) continue;
+    image.keypoints[k] += *shift;
+    image.refined_keypoints.emplace_back(static_cast<int>(k),
+                                         image.keypoints[k]);
+  }
+}
+
+// The observation of `point` the others align to: the one in the earliest
+// added image with patches other than `image`, whose keypoint was never moved
+// for this track.
+std::optional<Observation> IncrementalMapper::track_reference(int64_t point,
+                                                              int image) const {
+  std::optional<Observation> reference;
+  for (const Observation& obs : scene_.points.at(point).track) {
+    if (obs.image == image || scene_.images[obs.image].patches.empty())
+      continue;
+    if (!reference || obs.image < reference->image) reference = obs;
+  }
+  return reference;
 }
 
 std::vector<int> IncrementalMapper::covisible_images(int index,

@@ -66,6 +66,8 @@ class IncrementalMapper {
       int image, const Eigen::Quaterniond& q, const Eigen::Vector3d& centre,
       const std::vector<std::pair<int, int64_t>>& corr) const;
   void triangulate_image(int image);
+  void refine_keypoints(int image);
+  std::optional<Observation> track_reference(int64_t point, int image) const;
   void extend_track(int64_t point, Observation obs);
   void merge_tracks(int64_t a, int64_t b);
   bool triangulate_pair_match(Observation first, Observation second);

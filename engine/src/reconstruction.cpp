@@ -453,6 +453,7 @@ AddResult Reconstruction::add_capture(const CaptureInput& capture) {
   image.keypoints = std::move(features.keypoints);
   image.descriptors = features.descriptors;
   image.colors = std::move(features.colors);
+  image.patches = features.patches;
   image.point_of.assign(image.keypoints.size(), -1);
   impl_->set_gps(image, capture.gps);
   result.features = static_cast<int>(image.keypoints.size());
@@ -505,6 +506,8 @@ bool Reconstruction::remove_capture(const std::string& id) {
   image.keypoints.clear();
   image.descriptors = cv::Mat();
   image.colors.clear();
+  image.patches = cv::Mat();
+  image.refined_keypoints.clear();
   image.point_of.clear();
   StageTimings timings;
   IncrementalMapper mapper(scene, impl_->options, timings);

@@ -57,7 +57,15 @@ struct SceneImage {
   std::vector<Eigen::Vector2d> keypoints;
   cv::Mat descriptors;
   std::vector<std::array<uint8_t, 3>> colors;
+  // Gray patches around the detected keypoints, one CV_8U row each
+  // (keypoint_refinement.h); empty for images restored from states written
+  // before they were kept, whose keypoints then stay as detected.
+  cv::Mat patches;
   std::vector<int64_t> point_of;  // per keypoint, -1 for none
+  // Keypoints moved onto their track's reference by patch alignment, with
+  // their new positions (already in `keypoints`). Kept in the state
+  // because the features, stored apart once, hold the detected positions.
+  std::vector<std::pair<int, Eigen::Vector2d>> refined_keypoints;
   bool registered = false;
   CaptureStatus status = CaptureStatus::kPending;
   std::string reason;

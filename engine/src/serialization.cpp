@@ -6,13 +6,19 @@
 #include <stdexcept>
 #include <type_traits>
 
+#include "keypoint_refinement.h"
+
 namespace arscout::engine {
 namespace {
 
 constexpr char kMagic[8] = {'A', 'R', 'S', 'C', 'E', 'N', 'E', '1'};
 // Version 2 added the per-image flag for features kept apart.
-constexpr uint32_t kVersion = 2;
+// Version 3 adds the keypoint patches and the refined keypoints.
+constexpr uint32_t kVersion = 3;
 constexpr char kFeaturesMagic[8] = {'A', 'R', 'S', 'F', 'E', 'A', 'T', '1'};
+// Features with patches; the form written now.
+constexpr char kFeaturesMagic2[8] = {'A', 'R', 'S', 'F', 'E', 'A', 'T', '2'};
+constexpr int kPatchBytes = kPatchSide * kPatchSide;
 
 static_assert(std::endian::native == std::endian::little,
               "the state format is little-endian; add byte swapping here");
@@ -182,9 +188,27 @@ void write_features(Writer& w, const SceneImage& image) {
         image.descriptors.ptr<float>(0) + image.descriptors.total()));
   }
   w.vec(image.colors);
+  w.pod(image.patches.rows);
+  if (image.patches.rows > 0) {
+    w.vec(std::vector<uint8_t>(image.patches.data,
+                               image.patches.data + image.patches.total()));
+  }
 }
 
-void read_features(Reader& r, SceneImage& image) {
+cv::Mat read_patches(Reader& r) {
+  const int rows = r.pod<int>();
+  if (rows < 0) r.fail("patch count");
+  cv::Mat patches(0, kPatchBytes, CV_8U);
+  if (rows == 0) return patches;
+  const std::vector<uint8_t> values = r.vec<uint8_t>();
+  if (values.size() != static_cast<size_t>(rows) * kPatchBytes)
+    r.fail("patch size");
+  patches = cv::Mat(rows, kPatchBytes, CV_8U);
+  std::memcpy(patches.data, values.data(), values.size());
+  return patches;
+}
+
+void read_features(Reader& r, SceneImage& image, bool with_patches) {
   image.keypoints = r.points2();
   const int rows = r.pod<int>();
   if (rows < 0) r.fail("descriptor count");
@@ -199,17 +223,19 @@ void read_features(Reader& r, SceneImage& image) {
                 values.size() * sizeof(float));
   }
   image.colors = r.vec<std::array<uint8_t, 3>>();
+  image.patches = with_patches ? read_patches(r) : cv::Mat();
 }
 
 // An image's features from their own bytes (serialize_features).
 void attach_features(const std::string& bytes, SceneImage& image) {
   Reader r(bytes);
   const auto magic = r.pod<std::array<char, 8>>();
-  if (std::memcmp(magic.data(), kFeaturesMagic, 8) != 0)
+  const bool with_patches = std::memcmp(magic.data(), kFeaturesMagic2, 8) == 0;
+  if (!with_patches && std::memcmp(magic.data(), kFeaturesMagic, 8) != 0)
     r.fail("the features of " + image.id + " are not features");
   if (r.str() != image.id)
     r.fail("the features of " + image.id + " are another's");
-  read_features(r, image);
+  read_features(r, image, with_patches);
   if (!r.done()) r.fail("trailing bytes after the features of " + image.id);
 }
 
@@ -225,12 +251,32 @@ void write_image(Writer& w, const SceneImage& image, bool features_apart) {
   w.pod<uint8_t>(apart ? 0 : 1);
   if (!apart) write_features(w, image);
   w.vec(image.point_of);
+  w.size(image.refined_keypoints.size());
+  for (const auto& [keypoint, position] : image.refined_keypoints) {
+    w.pod(keypoint);
+    w.matrix(position);
+  }
   w.pod<uint8_t>(image.registered);
   w.pod(static_cast<int>(image.status));
   w.str(image.reason);
   w.pod(image.pose_inliers);
   w.matrix(image.q.coeffs());
   w.matrix(image.t);
+}
+
+// The refined positions overwrite the detected ones the features hold (and
+// rewrite the same bits where the features were written refined).
+void read_refined_keypoints(Reader& r, SceneImage& image) {
+  const size_t n = r.size();
+  image.refined_keypoints.reserve(n);
+  for (size_t i = 0; i < n; ++i) {
+    const int keypoint = r.pod<int>();
+    const Eigen::Vector2d position = r.matrix<Eigen::Vector2d>();
+    if (keypoint < 0 || keypoint >= static_cast<int>(image.keypoints.size()))
+      r.fail("refined keypoint of image " + image.id + " out of range");
+    image.keypoints[keypoint] = position;
+    image.refined_keypoints.emplace_back(keypoint, position);
+  }
 }
 
 SceneImage read_image(Reader& r, uint32_t version,
@@ -245,12 +291,13 @@ SceneImage read_image(Reader& r, uint32_t version,
   image.gps_enu = r.matrix<Eigen::Vector3d>();
   const bool inline_features = version < 2 || r.pod<uint8_t>() != 0;
   if (inline_features) {
-    read_features(r, image);
+    read_features(r, image, version >= 3);
   } else {
     if (!features) r.fail("the features of " + image.id + " are kept apart");
     attach_features(features(image.id), image);
   }
   image.point_of = r.vec<int64_t>();
+  if (version >= 3) read_refined_keypoints(r, image);
   image.registered = r.pod<uint8_t>();
   const int status = r.pod<int>();
   if (status < static_cast<int>(CaptureStatus::kRegistered) ||
@@ -264,7 +311,9 @@ SceneImage read_image(Reader& r, uint32_t version,
   image.t = r.matrix<Eigen::Vector3d>();
   if (image.point_of.size() != image.keypoints.size() ||
       image.colors.size() != image.keypoints.size() ||
-      image.descriptors.rows != static_cast<int>(image.keypoints.size())) {
+      image.descriptors.rows != static_cast<int>(image.keypoints.size()) ||
+      (!image.patches.empty() &&
+       image.patches.rows != static_cast<int>(image.keypoints.size()))) {
     r.fail("per-keypoint arrays of image " + image.id + " differ in length");
   }
   return image;
@@ -296,7 +345,7 @@ void read_pair(Reader& r, Scene& scene) {
 
 std::string serialize_features(const SceneImage& image) {
   Writer w;
-  w.pod(kFeaturesMagic);
+  w.pod(kFeaturesMagic2);
   w.str(image.id);
   write_features(w, image);
   return w.take();

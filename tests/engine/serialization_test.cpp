@@ -3,6 +3,9 @@
 // std::runtime_error, never a crash or a scene that would crash later.
 #include "serialization.h"
 
+#include "keypoint_refinement.h"
+
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -82,6 +85,13 @@ void expect_identical(const SceneImage& a, const SceneImage& b) {
   }
   expect_identical(a.descriptors, b.descriptors);
   EXPECT_EQ(a.colors, b.colors);
+  expect_identical(a.patches, b.patches);
+  ASSERT_EQ(a.refined_keypoints.size(), b.refined_keypoints.size());
+  for (size_t k = 0; k < a.refined_keypoints.size(); ++k) {
+    EXPECT_EQ(a.refined_keypoints[k].first, b.refined_keypoints[k].first);
+    EXPECT_EQ(bits(a.refined_keypoints[k].second),
+              bits(b.refined_keypoints[k].second));
+  }
   EXPECT_EQ(a.point_of, b.point_of);
   EXPECT_EQ(a.registered, b.registered);
   EXPECT_EQ(a.status, b.status);
@@ -195,6 +205,18 @@ Scene make_rich_scene(int images, int points, int clutter) {
     pair.homography_ratio = 0.25 + i;
     scene.pairs[{i, i + 1}] = pair;
   }
+  // Patches for every image with keypoints, and two keypoints of the first
+  // image moved by refinement (the features kept apart hold them moved).
+  for (SceneImage& image : scene.images) {
+    image.patches = cv::Mat(static_cast<int>(image.keypoints.size()),
+                            kPatchSide * kPatchSide, CV_8U);
+    cv::randu(image.patches, 0, 256);
+  }
+  for (int k : {0, 2}) {
+    SceneImage& image = scene.images[0];
+    image.keypoints[k] += Eigen::Vector2d(0.125, -1.0 / 3.0);
+    image.refined_keypoints.emplace_back(k, image.keypoints[k]);
+  }
   scene.points.begin()->second.rgb = {255, 0, 128};
   scene.next_point_id += 17;  // ids of deleted points are never reused
   scene.enu_origin = Geodetic{47.3769, 8.5417, 408.25};
@@ -265,6 +287,24 @@ TEST(SerializationTest, FeaturesKeptApartRestoreBitExactly) {
   EXPECT_EQ(serialize_scene(restored), whole);
 }
 
+// Features stored before patches were kept (magic ARSFEAT1, no patch
+// count at the end) still attach, without patches.
+TEST(SerializationTest, FeaturesWithoutPatchesStillAttach) {
+  Scene scene = make_rich_scene(3, 20, 0);
+  for (SceneImage& image : scene.images) image.patches = cv::Mat();
+  const std::string bytes = serialize_scene(scene, true);
+  std::map<std::string, std::string> old;
+  for (const auto& [id, b] : features_by_id(scene)) {
+    ASSERT_EQ(b.substr(0, 8), "ARSFEAT2");
+    std::string v1 = b.substr(0, b.size() - 4);  // the patch count, 0
+    v1[7] = '1';
+    old[id] = v1;
+  }
+  const Scene restored = deserialize_scene(
+      bytes, [&](const std::string& id) { return old.at(id); });
+  expect_identical(scene, restored);
+}
+
 TEST(SerializationTest, FeaturesKeptApartMustBeGivenAndBeTheirs) {
   const Scene scene = make_rich_scene(3, 20, 0);
   const std::string bytes = serialize_scene(scene, true);
@@ -290,14 +330,11 @@ TEST(SerializationTest, FeaturesKeptApartMustBeGivenAndBeTheirs) {
       std::runtime_error);
 }
 
-// Version 1 wrote every image's features inline without the flag byte that
-// version 2 puts before them; such states still restore.
-TEST(SerializationTest, VersionOneStatesStillRestore) {
-  Scene scene = make_rich_scene(3, 20, 0);
-  scene.pairs.clear();
-  scene.points.clear();
-  for (SceneImage& image : scene.images)
-    std::fill(image.point_of.begin(), image.point_of.end(), -1);
+// A scene without patches or refined keypoints as an older version wrote
+// it: version 2 had neither the patch count in an image's features nor the
+// refined keypoints after its point ids; version 1 had, besides, no flag
+// byte before the features (they were always inline).
+std::string as_older_version(const Scene& scene, int version) {
   // Where each image's record starts: the first at its id (a length, then
   // the bytes), the others as far on as the records before them take.
   auto first_images = [&](size_t k) {
@@ -305,26 +342,47 @@ TEST(SerializationTest, VersionOneStatesStillRestore) {
     part.images.resize(k);
     return serialize_scene(part).size();
   };
-  std::string v1 = serialize_scene(scene);
+  std::string bytes = serialize_scene(scene);
   const std::string& id0 = scene.images[0].id;
   std::string id0_record(8, '\0');
   id0_record[0] = static_cast<char>(id0.size());
-  const size_t first_record = v1.find(id0_record + id0);
-  ASSERT_NE(first_record, std::string::npos);
-  std::vector<size_t> flags;
+  const size_t first_record = bytes.find(id0_record + id0);
+  EXPECT_NE(first_record, std::string::npos);
+  std::vector<std::pair<size_t, size_t>> cuts;  // offset, length
   for (size_t k = 0; k < scene.images.size(); ++k) {
     const SceneImage& image = scene.images[k];
     const size_t record = first_record + first_images(k) - first_images(0);
     const size_t fix = image.gps ? 1 + 8 + 8 + 1 + 8 + 8 + 8 : 1;
-    flags.push_back(record + 8 + image.id.size() + 4 + 1 + 4 + 4 + fix + 24);
+    const size_t flag = record + 8 + image.id.size() + 4 + 1 + 4 + 4 + fix + 24;
+    const size_t n = image.keypoints.size();
+    const size_t rows = static_cast<size_t>(image.descriptors.rows);
+    const size_t patch_count = flag + 1 + (8 + 16 * n) + 4 +
+                               (rows > 0 ? 8 + 512 * rows : 0) + (8 + 3 * n);
+    const size_t refined = patch_count + 4 + 8 + 8 * image.point_of.size();
+    cuts.push_back({refined, 8});
+    cuts.push_back({patch_count, 4});
+    if (version == 1) cuts.push_back({flag, 1});
   }
-  for (auto it = flags.rbegin(); it != flags.rend(); ++it) {
-    ASSERT_EQ(v1[*it], 1);  // inline
-    v1.erase(*it, 1);
+  std::sort(cuts.rbegin(), cuts.rend());
+  for (const auto& [offset, length] : cuts) bytes.erase(offset, length);
+  bytes[8] = static_cast<char>(version);  // the version after the magic
+  return bytes;
+}
+
+TEST(SerializationTest, VersionOneAndTwoStatesStillRestore) {
+  Scene scene = make_rich_scene(3, 20, 0);
+  scene.pairs.clear();
+  scene.points.clear();
+  for (SceneImage& image : scene.images) {
+    std::fill(image.point_of.begin(), image.point_of.end(), -1);
+    image.patches = cv::Mat();
+    image.refined_keypoints.clear();
   }
-  v1[8] = 1;  // the version after the magic
-  const Scene restored = deserialize_scene(v1);
-  expect_identical(scene, restored);
+  for (int version : {1, 2}) {
+    SCOPED_TRACE("version " + std::to_string(version));
+    const Scene restored = deserialize_scene(as_older_version(scene, version));
+    expect_identical(scene, restored);
+  }
 }
 
 TEST(SerializationTest, TruncatedBytesThrow) {

@@ -1,0 +1,185 @@
+#include "keypoint_refinement.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+namespace arscout::engine {
+namespace {
+
+constexpr int kCentre = kPatchSide / 2;
+constexpr int kHalfWindow = 3;
+constexpr int kWindow = (2 * kHalfWindow + 1) * (2 * kHalfWindow + 1);
+constexpr double kMaxShift = 1.5;
+constexpr double kMinCorrelation = 0.8;
+constexpr int kIterations = 30;
+// Shift change, pixels, below which the alignment has converged (the
+// patches are 8-bit, finer steps are noise).
+constexpr double kConverged = 0.01;
+
+double pixel(const cv::Mat& gray, int x, int y) {
+  return gray.at<uchar>(std::clamp(y, 0, gray.rows - 1),
+                        std::clamp(x, 0, gray.cols - 1));
+}
+
+// Keys' cubic convolution weights (a = -0.5) for the four samples around a
+// point `f` past the second: bilinear sampling would blur each patch by an
+// amount that depends on its keypoint's fraction, a bias of a few hundredths
+// of a pixel in the alignment.
+std::array<double, 4> cubic_weights(double f) {
+  auto w = [](double d) {
+    d = std::abs(d);
+    if (d < 1) return (1.5 * d - 2.5) * d * d + 1;
+    if (d < 2) return ((-0.5 * d + 2.5) * d - 4) * d + 2;
+    return 0.0;
+  };
+  return {w(1 + f), w(f), w(1 - f), w(2 - f)};
+}
+
+double bicubic(const cv::Mat& gray, double x, double y) {
+  const int x0 = static_cast<int>(std::floor(x));
+  const int y0 = static_cast<int>(std::floor(y));
+  const auto wx = cubic_weights(x - x0);
+  const auto wy = cubic_weights(y - y0);
+  double value = 0;
+  for (int j = 0; j < 4; ++j) {
+    double row = 0;
+    for (int i = 0; i < 4; ++i)
+      row += wx[i] * pixel(gray, x0 - 1 + i, y0 - 1 + j);
+    value += wy[j] * row;
+  }
+  return value;
+}
+
+// A stored patch as numbers, with bilinear samples of it and of its
+// central-difference gradient.
+class Patch {
+ public:
+  explicit Patch(const uchar* values) {
+    for (int i = 0; i < kPatchSide * kPatchSide; ++i) v_[i] = values[i];
+  }
+  double at(int x, int y) const { return v_[y * kPatchSide + x]; }
+  // Value and gradient at (x, y), which must lie in [1, kPatchSide - 2].
+  Eigen::Vector3d sample(double x, double y) const {
+    const int x0 = static_cast<int>(std::floor(x));
+    const int y0 = static_cast<int>(std::floor(y));
+    const double fx = x - x0;
+    const double fy = y - y0;
+    Eigen::Vector3d out = Eigen::Vector3d::Zero();
+    const double weights[4] = {(1 - fx) * (1 - fy), fx * (1 - fy),
+                               (1 - fx) * fy, fx * fy};
+    const int xs[4] = {x0, x0 + 1, x0, x0 + 1};
+    const int ys[4] = {y0, y0, y0 + 1, y0 + 1};
+    for (int k = 0; k < 4; ++k) {
+      const int px = std::clamp(xs[k], 1, kPatchSide - 2);
+      const int py = std::clamp(ys[k], 1, kPatchSide - 2);
+      out +=
+          weights[k] * Eigen::Vector3d(at(px, py),
+                                       0.5 * (at(px + 1, py) - at(px - 1, py)),
+                                       0.5 * (at(px, py + 1) - at(px, py - 1)));
+    }
+    return out;
+  }
+
+ private:
+  std::array<double, kPatchSide * kPatchSide> v_{};
+};
+
+// The reference window and the target's samples at `shift`.
+struct Windows {
+  std::array<double, kWindow> reference{};
+  std::array<Eigen::Vector3d, kWindow> target{};
+};
+
+Windows sample_windows(const Patch& reference, const Patch& target,
+                       const Eigen::Vector2d& shift) {
+  Windows w;
+  int i = 0;
+  for (int v = -kHalfWindow; v <= kHalfWindow; ++v) {
+    for (int u = -kHalfWindow; u <= kHalfWindow; ++u, ++i) {
+      w.reference[i] = reference.at(kCentre + u, kCentre + v);
+      w.target[i] =
+          target.sample(kCentre + u + shift.x(), kCentre + v + shift.y());
+    }
+  }
+  return w;
+}
+
+double correlation(const Windows& w) {
+  double sr = 0, st = 0, srr = 0, stt = 0, srt = 0;
+  for (int i = 0; i < kWindow; ++i) {
+    const double r = w.reference[i];
+    const double t = w.target[i].x();
+    sr += r, st += t, srr += r * r, stt += t * t, srt += r * t;
+  }
+  const double n = kWindow;
+  const double var_r = srr - sr * sr / n;
+  const double var_t = stt - st * st / n;
+  if (var_r <= 1e-9 || var_t <= 1e-9) return 0;
+  return (srt - sr * st / n) / std::sqrt(var_r * var_t);
+}
+
+// One Gauss-Newton step on (shift x, shift y, gain, bias); false when the
+// window has too little texture to fix a shift.
+bool gauss_newton_step(const Windows& w, Eigen::Vector4d& params) {
+  Eigen::Matrix4d H = Eigen::Matrix4d::Zero();
+  Eigen::Vector4d g = Eigen::Vector4d::Zero();
+  for (int i = 0; i < kWindow; ++i) {
+    const Eigen::Vector3d& t = w.target[i];
+    const double e = t.x() - params[2] * w.reference[i] - params[3];
+    const Eigen::Vector4d J(t.y(), t.z(), -w.reference[i], -1);
+    H += J * J.transpose();
+    g += J * e;
+  }
+  const Eigen::LDLT<Eigen::Matrix4d> solver(H);
+  if (solver.info() != Eigen::Success || !solver.isPositive()) return false;
+  const Eigen::Vector4d step = -solver.solve(g);
+  if (!step.allFinite()) return false;
+  params += step;
+  return true;
+}
+
+}  // namespace
+
+cv::Mat extract_patches(const cv::Mat& gray,
+                        const std::vector<Eigen::Vector2d>& keypoints) {
+  cv::Mat patches(static_cast<int>(keypoints.size()), kPatchSide * kPatchSide,
+                  CV_8U);
+  for (size_t k = 0; k < keypoints.size(); ++k) {
+    uchar* row = patches.ptr<uchar>(static_cast<int>(k));
+    for (int y = 0; y < kPatchSide; ++y) {
+      for (int x = 0; x < kPatchSide; ++x) {
+        const double value = bicubic(gray, keypoints[k].x() + x - kCentre,
+                                     keypoints[k].y() + y - kCentre);
+        row[y * kPatchSide + x] =
+            static_cast<uchar>(std::clamp(std::lround(value), 0L, 255L));
+      }
+    }
+  }
+  return patches;
+}
+
+std::optional<Eigen::Vector2d> align_patch(const uchar* reference,
+                                           const uchar* target) {
+  const Patch ref(reference);
+  const Patch tgt(target);
+  Eigen::Vector4d params(0, 0, 1, 0);  // shift x, shift y, gain, bias
+  bool converged = false;
+  for (int it = 0; it < kIterations && !converged; ++it) {
+    const Eigen::Vector2d before = params.head<2>();
+    if (!gauss_newton_step(sample_windows(ref, tgt, before), params))
+      return std::nullopt;
+    if (params.head<2>().norm() > kMaxShift + 0.5) return std::nullopt;
+    converged = (params.head<2>() - before).norm() < kConverged;
+  }
+  const Eigen::Vector2d shift = params.head<2>();
+  if (!converged || shift.norm() > kMaxShift ||
+      correlation(sample_windows(ref, tgt, shift)) < kMinCorrelation) {
+    return std::nullopt;
+  }
+  return shift;
+}
+
+}  // namespace arscout::engine
