@@ -12,8 +12,16 @@ namespace {
 constexpr int kCentre = kPatchSide / 2;
 constexpr int kHalfWindow = 3;
 constexpr int kWindow = (2 * kHalfWindow + 1) * (2 * kHalfWindow + 1);
-constexpr double kMaxShift = 1.5;
-constexpr double kMinCorrelation = 0.8;
+// Harris peaks of one spot seen from two places differ by up to a few
+// pixels; beyond 3 px the patches rarely show the same spot. On the block
+// walk's tracks (150 photos) 13 px patches, 1.5 px and 0.8 leave the true
+// poses' median residual at 0.115 px (73 % of observations moved); 17 px,
+// 3 px and 0.7 at 0.077 px (87 % moved).
+constexpr double kMaxShift = 3.0;
+constexpr double kMinCorrelation = 0.7;
+// How far the window may move while iterating and stay inside the patch
+// with a pixel to spare for the gradient.
+constexpr double kMaxSearch = kCentre - kHalfWindow - 1;
 constexpr int kIterations = 30;
 // Shift change, pixels, below which the alignment has converged (the
 // patches are 8-bit, finer steps are noise).
@@ -171,7 +179,7 @@ std::optional<Eigen::Vector2d> align_patch(const uchar* reference,
     const Eigen::Vector2d before = params.head<2>();
     if (!gauss_newton_step(sample_windows(ref, tgt, before), params))
       return std::nullopt;
-    if (params.head<2>().norm() > kMaxShift + 0.5) return std::nullopt;
+    if (params.head<2>().norm() > kMaxSearch) return std::nullopt;
     converged = (params.head<2>() - before).norm() < kConverged;
   }
   const Eigen::Vector2d shift = params.head<2>();
