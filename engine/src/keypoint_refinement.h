@@ -23,8 +23,8 @@
 namespace arscout::engine {
 
 // Side of the stored patch, pixels: the 7 x 7 window, the largest shift
-// searched (4 px) and one pixel for gradients on each side.
-constexpr int kPatchSide = 17;
+// searched (2 px) and one pixel for gradients on each side.
+constexpr int kPatchSide = 13;
 
 // The patch around each keypoint of `gray` (CV_8U), sampled bilinearly so
 // that its centre is the keypoint itself: one CV_8U row of kPatchSide^2
@@ -36,7 +36,7 @@ cv::Mat extract_patches(const cv::Mat& gray,
 // onto the spot the keypoint of `reference` shows: where the target
 // patch's window matches the reference window best under a change of gain
 // and bias. Empty when the alignment does not converge, moves more than
-// 3 px or leaves a poor match (normalised cross-correlation below 0.7):
+// 1.5 px or leaves a poor match (normalised cross-correlation below 0.8):
 // the keypoint then stays where the detector put it.
 std::optional<Eigen::Vector2d> align_patch(const uchar* reference,
                                            const uchar* target);
