@@ -29,15 +29,23 @@ constexpr int kIterations = 30;
 // patches are 8-bit, finer steps are noise).
 constexpr double kConverged = 0.01;
 
-// A stored patch as numbers, with bilinear samples of it and of its
-// central-difference gradient.
+// A stored patch as numbers, with its central-difference gradient
+// (computed once: an alignment samples the patch up to 30 times), and
+// bilinear samples of both.
 class Patch {
  public:
   explicit Patch(const uchar* values) {
-    for (int i = 0; i < kPatchSide * kPatchSide; ++i) v_[i] = values[i];
+    for (int i = 0; i < kPixels; ++i) value_[i] = values[i];
+    for (int y = 1; y + 1 < kPatchSide; ++y) {
+      for (int x = 1; x + 1 < kPatchSide; ++x) {
+        gradient_[index(x, y)] = {0.5 * (at(x + 1, y) - at(x - 1, y)),
+                                  0.5 * (at(x, y + 1) - at(x, y - 1))};
+      }
+    }
   }
-  double at(int x, int y) const { return v_[y * kPatchSide + x]; }
-  // Value and gradient at (x, y), which must lie in [1, kPatchSide - 2].
+  double at(int x, int y) const { return value_[index(x, y)]; }
+  // Value and gradient at (x, y); pixels outside [1, kPatchSide - 2] are
+  // clamped into it.
   Eigen::Vector3d sample(double x, double y) const {
     const int x0 = static_cast<int>(std::floor(x));
     const int y0 = static_cast<int>(std::floor(y));
@@ -49,18 +57,20 @@ class Patch {
     const int xs[4] = {x0, x0 + 1, x0, x0 + 1};
     const int ys[4] = {y0, y0, y0 + 1, y0 + 1};
     for (int k = 0; k < 4; ++k) {
-      const int px = std::clamp(xs[k], 1, kPatchSide - 2);
-      const int py = std::clamp(ys[k], 1, kPatchSide - 2);
-      out +=
-          weights[k] * Eigen::Vector3d(at(px, py),
-                                       0.5 * (at(px + 1, py) - at(px - 1, py)),
-                                       0.5 * (at(px, py + 1) - at(px, py - 1)));
+      const int i = index(std::clamp(xs[k], 1, kPatchSide - 2),
+                          std::clamp(ys[k], 1, kPatchSide - 2));
+      out += weights[k] *
+             Eigen::Vector3d(value_[i], gradient_[i][0], gradient_[i][1]);
     }
     return out;
   }
 
  private:
-  std::array<double, kPatchSide * kPatchSide> v_{};
+  static constexpr int kPixels = kPatchSide * kPatchSide;
+  static int index(int x, int y) { return y * kPatchSide + x; }
+
+  std::array<double, kPixels> value_{};
+  std::array<std::array<double, 2>, kPixels> gradient_{};
 };
 
 // The reference window and the target's samples at `shift`.

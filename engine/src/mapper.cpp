@@ -615,8 +615,7 @@ void IncrementalMapper::refine_keypoints(int index) {
 }
 
 // The observation of `point` the others align to: the one in the earliest
-// added image with patches other than `image`, whose keypoint was never moved
-// for this track.
+// added image with patches, other than `image` itself.
 std::optional<Observation> IncrementalMapper::track_reference(int64_t point,
                                                               int image) const {
   std::optional<Observation> reference;

@@ -179,51 +179,42 @@ std::optional<GeoFix> read_fix(Reader& r) {
   return fix;
 }
 
-void write_features(Writer& w, const SceneImage& image) {
-  w.points2(image.keypoints);
-  w.pod(image.descriptors.rows);
-  if (image.descriptors.rows > 0) {
-    w.vec(std::vector<float>(
-        image.descriptors.ptr<float>(0),
-        image.descriptors.ptr<float>(0) + image.descriptors.total()));
-  }
-  w.vec(image.colors);
-  w.pod(image.patches.rows);
-  if (image.patches.rows > 0) {
-    w.vec(std::vector<uint8_t>(image.patches.data,
-                               image.patches.data + image.patches.total()));
-  }
+// A matrix as its row count, then (when it has rows) all its values.
+template <typename T>
+void write_rows(Writer& w, const cv::Mat& m) {
+  w.pod(m.rows);
+  if (m.rows > 0) w.vec(std::vector<T>(m.ptr<T>(0), m.ptr<T>(0) + m.total()));
 }
 
-cv::Mat read_patches(Reader& r) {
+// The inverse of write_rows for a matrix of `cols` columns of `type`;
+// `what` names it in errors.
+template <typename T>
+cv::Mat read_rows(Reader& r, int cols, int type, const std::string& what) {
   const int rows = r.pod<int>();
-  if (rows < 0) r.fail("patch count");
-  cv::Mat patches(0, kPatchBytes, CV_8U);
-  if (rows == 0) return patches;
-  const std::vector<uint8_t> values = r.vec<uint8_t>();
-  if (values.size() != static_cast<size_t>(rows) * kPatchBytes)
-    r.fail("patch size");
-  patches = cv::Mat(rows, kPatchBytes, CV_8U);
-  std::memcpy(patches.data, values.data(), values.size());
-  return patches;
+  if (rows < 0) r.fail(what + " count");
+  if (rows == 0) return cv::Mat(0, cols, type);
+  // Read (and so bound by the input's length) before allocating.
+  const std::vector<T> values = r.vec<T>();
+  if (values.size() != static_cast<size_t>(rows) * cols) r.fail(what + " size");
+  cv::Mat m(rows, cols, type);
+  std::memcpy(m.ptr<T>(0), values.data(), values.size() * sizeof(T));
+  return m;
+}
+
+void write_features(Writer& w, const SceneImage& image) {
+  w.points2(image.keypoints);
+  write_rows<float>(w, image.descriptors);
+  w.vec(image.colors);
+  write_rows<uint8_t>(w, image.patches);
 }
 
 void read_features(Reader& r, SceneImage& image, bool with_patches) {
   image.keypoints = r.points2();
-  const int rows = r.pod<int>();
-  if (rows < 0) r.fail("descriptor count");
-  image.descriptors = cv::Mat(0, 128, CV_32F);
-  if (rows > 0) {
-    // Read (and so bound by the input's length) before allocating.
-    const std::vector<float> values = r.vec<float>();
-    if (values.size() != static_cast<size_t>(rows) * 128)
-      r.fail("descriptor size");
-    image.descriptors = cv::Mat(rows, 128, CV_32F);
-    std::memcpy(image.descriptors.ptr<float>(0), values.data(),
-                values.size() * sizeof(float));
-  }
+  image.descriptors = read_rows<float>(r, 128, CV_32F, "descriptor");
   image.colors = r.vec<std::array<uint8_t, 3>>();
-  image.patches = with_patches ? read_patches(r) : cv::Mat();
+  image.patches = with_patches
+                      ? read_rows<uint8_t>(r, kPatchBytes, CV_8U, "patch")
+                      : cv::Mat();
 }
 
 // An image's features from their own bytes (serialize_features).
