@@ -6,6 +6,7 @@
 //
 //   service_bench [--scene DIR] [--scouts 1] [--interval 2] [--views N]
 //                 [--db URL] [--no-dense] [--per-capture]
+//                 [--dense-new-coverage S] [--dense-long-side PX]
 //
 // DIR holds images/*.jpg, images/K.txt and gps.csv: a Strecha scene
 // (fountain-P11 by default) or a rendered block walk (`arscout render-site
@@ -69,6 +70,7 @@ struct Options {
   bool no_dense = false;
   bool per_capture = false;
   double new_coverage = 0;  // DenseOptions::new_coverage_share
+  int dense_long_side = arscout::engine::DenseOptions{}.long_side;
 };
 
 struct Photo {
@@ -282,9 +284,9 @@ void print_report(arscout::db::Store& store, const Options& o,
   std::printf("\n%s", bench::machine_summary().c_str());
   std::printf(
       "%zu photos from %s, %d scout(s), one every %.1f s each, "
-      "dense %s\n",
+      "dense %s (long side %d px, new coverage %.2f)\n",
       photos.size(), o.scene.c_str(), o.scouts, o.interval_s,
-      o.no_dense ? "off" : "on");
+      o.no_dense ? "off" : "on", o.dense_long_side, o.new_coverage);
   print_latency("to a model registering it", registered);
   if (!o.no_dense) {
     print_latency("to its dense cloud", dense);
@@ -313,6 +315,7 @@ void run(const Options& o) {
   arscout::engine::WorkerOptions options;
   options.dense = !o.no_dense;
   options.dense_options.new_coverage_share = o.new_coverage;
+  options.dense_options.long_side = o.dense_long_side;
   options.progress = [](const std::string& line) {
     std::fprintf(stderr, "  %s\n", line.c_str());
   };
@@ -353,6 +356,11 @@ int main(int argc, char** argv) {
   app.add_option("--dense-new-coverage", o.new_coverage,
                  "as arscout serve's (0: off)")
       ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--dense-long-side", o.dense_long_side,
+                 "as arscout serve's: dense working resolution, long side in "
+                 "px")
+      ->capture_default_str()
+      ->check(CLI::Range(100, 10000));
   CLI11_PARSE(app, argc, argv);
   if (o.url.empty()) {
     const fs::path dir = fs::temp_directory_path() / "arscout_service_bench";

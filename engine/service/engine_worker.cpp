@@ -506,11 +506,12 @@ struct EngineWorker::Impl {
     if (!task) return {};
     // OpenCV's shared pool runs at full priority, and while a sweep holds
     // it the sparse lane's own parallel calls (SIFT) run serially: the
-    // sweep takes the pool only while the sparse lane is idle.
-    {
+    // sweep takes the pool only while the sparse lane is idle, asked again
+    // every quarter sweep or so (a photo may arrive at any moment).
+    task->parallel = [this, &q] {
       std::lock_guard guard(mutex);
-      task->parallel = !q.running && q.pending.empty();
-    }
+      return !q.running && q.pending.empty();
+    };
     job.compute_dense(*task);
     set_dense_turn(q, true);  // a refinement gives way too
     std::lock_guard publication(job.publication());

@@ -79,12 +79,27 @@ std::string SiteJob::image_bytes(const std::string& capture) {
   return store_.get_blob(sha);
 }
 
+// The dense options of this site's lane. A dense lane publishes after every
+// few sweeps, and sweeps a new view before re-fusing old maps that moved,
+// so each photo's part of the cloud shows sooner; deterministic runs keep
+// the options as given (their dense phase settles every update).
+DenseOptions SiteJob::lane_dense_options() const {
+  constexpr int kLaneSweepBudget = 2;
+  constexpr int kLaneRefuseBudgetSweeping = 2;
+  DenseOptions options = options_.dense_options;
+  if (options_.reconstruction.deterministic) return options;
+  if (options.sweep_budget == 0) options.sweep_budget = kLaneSweepBudget;
+  if (options.refuse_budget_sweeping < 0)
+    options.refuse_budget_sweeping = kLaneRefuseBudgetSweeping;
+  return options;
+}
+
 void SiteJob::restore() {
   sparse_ = std::make_unique<Reconstruction>(options_.reconstruction);
   ++generation_;
   dense_.reset();
   if (options_.dense)
-    dense_ = std::make_shared<DenseReconstruction>(options_.dense_options);
+    dense_ = std::make_shared<DenseReconstruction>(lane_dense_options());
   dense_tiles_.clear();
   dense_points_ = 0;
   dense_views_.clear();
@@ -407,9 +422,10 @@ Increment SiteJob::finish_dense(DenseTask& task) {
   report.dense = task.update;
   report.dense_points = task.update.points;
   report.total_s = task.seconds;
-  // Moved maps left for later: the lane runs again, and the cloud is
-  // published as pending until then.
-  if (task.update.deferred_maps > 0) dense_due_ = true;
+  // Moved maps or views left for later: the lane runs again, and the
+  // cloud is published as pending until then.
+  if (task.update.deferred_maps > 0 || task.update.deferred_views > 0)
+    dense_due_ = true;
   // The sparse model of now: the sparse lane may have moved on meanwhile.
   const Model model = sparse_->model();
   const bool publish_model = !model.images.empty() || model_version_ > 0;
@@ -458,6 +474,9 @@ std::string SiteJob::dense_summary(const DenseTask& task,
             << (update.refused_maps == 1 ? "" : "s") << " re-fused";
   if (update.deferred_maps > 0)
     summary << ", " << update.deferred_maps << " left for later";
+  if (update.deferred_views > 0)
+    summary << ", " << update.deferred_views << " view"
+            << (update.deferred_views == 1 ? "" : "s") << " to sweep next";
   summary << ", " << update.new_depth_maps.size() << " new depth map"
           << (update.new_depth_maps.size() == 1 ? "" : "s");
   if (!update.covered.empty())

@@ -48,9 +48,10 @@ struct DenseTask {
   std::uint64_t generation = 0;  // of the job state it was taken from
   Model model;
   std::vector<std::string> added, withdrawn;
-  // Sweeps over OpenCV's threads (DenseReconstruction::set_parallel); the
-  // worker clears it while the site's sparse lane is busy.
-  bool parallel = true;
+  // Whether to sweep over OpenCV's threads now, asked as the work goes
+  // (DenseReconstruction::set_parallel): the worker says no while the
+  // site's sparse lane is busy. Empty: parallel throughout.
+  std::function<bool()> parallel;
   // Re-fuse every moved map before publishing (update_until_settled): the
   // one-step run_dense() of deterministic runs. A lane instead leaves the
   // rest to its next phase (DenseOptions::refuse_budget).
@@ -128,6 +129,7 @@ class SiteJob {
 
  private:
   void restore();
+  DenseOptions lane_dense_options() const;
   // `added`: captures new in this batch, whose features are written even
   // when a capture of that id had some stored (withdrawn and sent again).
   // Returns the size of the serialized state (all its parts).

@@ -804,5 +804,59 @@ TEST_F(DensePersistence, MovedMapsBeyondTheBudgetWaitForLaterUpdates) {
   expect_same_cloud(dense.points(), before);
 }
 
+TEST_F(DensePersistence, ViewsBeyondTheSweepBudgetWaitForLaterUpdates) {
+  DenseOptions options = small_dense_options();
+  options.sweep_budget = 2;
+  DenseReconstruction dense(options);
+  const DenseUpdate first = dense.update(*model_, street_images());
+  EXPECT_EQ(first.new_depth_maps.size(), 2u);
+  EXPECT_GT(first.deferred_views, 0u);
+  EXPECT_EQ(first.new_depth_maps.size() + first.covered.size() +
+                first.skipped.size() + first.deferred_views,
+            model_->images.size());
+  const DenseUpdate settled =
+      update_until_settled(dense, *model_, street_images());
+  EXPECT_EQ(settled.deferred_views, 0u);
+  EXPECT_GT(settled.new_depth_maps.size(), 0u);
+  // Every view has its map or is covered by others', as in one update.
+  const auto judged = [](const DenseReconstruction& d) {
+    std::set<std::string> ids;
+    for (const std::string& id : d.depth_map_ids()) ids.insert(id);
+    for (const std::string& id : d.covered_ids()) ids.insert(id);
+    return ids;
+  };
+  EXPECT_EQ(judged(dense), judged(*original_));
+  EXPECT_GT(dense.points().size(), 0u);
+}
+
+TEST_F(DensePersistence, MovedMapsWaitWhileANewViewIsSwept) {
+  const std::vector<std::string> ids = original_->depth_map_ids();
+  ASSERT_GE(ids.size(), 4u);
+  // All maps but the last swept: its view is new to the restored object.
+  std::vector<std::string> blobs(blobs_->begin(), blobs_->end() - 1);
+  DenseOptions options = small_dense_options();
+  options.refuse_budget = 0;  // no limit while nothing is swept
+  options.refuse_budget_sweeping = 1;
+  DenseReconstruction dense(options);
+  dense.restore_depth_maps(blobs, *model_, street_images());
+  const double voxel = dense.voxel_size();
+  Model moved = *model_;
+  int shifted = 0;
+  for (ModelImage& image : moved.images) {
+    if (image.id == ids.back() || image.id == ids.front() || shifted == 2)
+      continue;
+    shift_camera(image, (3 + 3 * shifted++) * voxel);
+  }
+  ASSERT_EQ(shifted, 2);
+  const DenseUpdate sweeping = dense.update(moved, street_images());
+  EXPECT_EQ(sweeping.new_depth_maps, std::vector<std::string>{ids.back()});
+  EXPECT_EQ(sweeping.refused_maps, 1u);
+  EXPECT_EQ(sweeping.deferred_maps, 1u);
+  const DenseUpdate after = dense.update(moved, street_images());
+  EXPECT_TRUE(after.new_depth_maps.empty());
+  EXPECT_EQ(after.refused_maps, 1u);
+  EXPECT_EQ(after.deferred_maps, 0u);
+}
+
 }  // namespace
 }  // namespace arscout::engine

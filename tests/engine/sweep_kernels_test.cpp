@@ -160,7 +160,16 @@ TEST(SweepKernels, SweepIsTheSameOnOneThreadAndOnSeveral) {
   PlaneSweepOptions serial;
   serial.parallel = false;
   const DepthMap here = sweep_planes(views[1], neighbours, serial);
+  // Asked before each group of strips (PlaneSweepOptions::keep_parallel),
+  // answering yes and no in turn: the same map, and it was asked.
+  PlaneSweepOptions asked;
+  int questions = 0;
+  asked.keep_parallel = [&questions] { return ++questions % 2 == 0; };
+  const DepthMap mixed = sweep_planes(views[1], neighbours, asked);
   cv::setNumThreads(threads);
+  EXPECT_GE(questions, 2);
+  EXPECT_EQ(cv::norm(mixed.depth, several.depth, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(mixed.score, several.score, cv::NORM_INF), 0);
   EXPECT_GT(one.coverage(), 0.5);
   EXPECT_EQ(cv::norm(one.depth, several.depth, cv::NORM_INF), 0);
   EXPECT_EQ(cv::norm(one.score, several.score, cv::NORM_INF), 0);

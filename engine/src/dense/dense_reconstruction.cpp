@@ -273,6 +273,15 @@ struct DenseReconstruction::Impl {
   std::set<std::string> dirty;
   // Registered views judged not to be key views (DenseUpdate::covered).
   std::set<std::string> covered;
+  // DenseReconstruction::set_parallel's question, or empty.
+  std::function<bool()> parallel_while;
+
+  // The agreement checks' options of this moment.
+  ConsistencyOptions consistency() const {
+    ConsistencyOptions o = options.consistency;
+    if (parallel_while) o.parallel = parallel_while();
+    return o;
+  }
 
   bool drop_withdrawn(const std::map<std::string, int>& index);
   std::map<std::string, double> follow_poses(
@@ -280,7 +289,11 @@ struct DenseReconstruction::Impl {
       const Covisibility& covisibility);
   void follow_scale(Entry& entry, const std::vector<const ModelPoint*>& points);
   std::set<std::string> within_budget(
-      const std::map<std::string, double>& moved) const;
+      const std::map<std::string, double>& moved, bool sweeping) const;
+  void sweep_new_views(const Model& model, const ImageSource& images,
+                       const Covisibility& covisibility,
+                       const std::function<void(const std::string&)>& progress,
+                       DenseUpdate* update);
   double tolerance(const Entry& entry, double depth) const;
   bool redundant(const Model& model, int image,
                  const Covisibility& covisibility) const;
@@ -426,13 +439,15 @@ std::map<std::string, double> DenseReconstruction::Impl::follow_poses(
 // were and stay moved (their fusion pose is unchanged), so a later update
 // takes them.
 std::set<std::string> DenseReconstruction::Impl::within_budget(
-    const std::map<std::string, double>& moved) const {
+    const std::map<std::string, double>& moved, bool sweeping) const {
   std::vector<std::pair<double, std::string>> farthest;
   for (const auto& [id, by] : moved) farthest.emplace_back(by, id);
   std::sort(farthest.begin(), farthest.end(), std::greater<>());
-  if (options.refuse_budget > 0 &&
-      farthest.size() > static_cast<size_t>(options.refuse_budget))
-    farthest.resize(options.refuse_budget);
+  const int budget = sweeping && options.refuse_budget_sweeping >= 0
+                         ? options.refuse_budget_sweeping
+                         : options.refuse_budget;
+  if (budget > 0 && farthest.size() > static_cast<size_t>(budget))
+    farthest.resize(budget);
   std::set<std::string> chosen;
   for (const auto& [by, id] : farthest) chosen.insert(id);
   return chosen;
@@ -473,6 +488,35 @@ void DenseReconstruction::Impl::sweep(const Model& model, int key,
   update->new_depth_maps.push_back(id);
 }
 
+// Sweeps the registered views that have no map and are key views, in the
+// model's order (the order of registration), at most sweep_budget of them;
+// the views past the budget are counted in deferred_views and judged by a
+// later update.
+void DenseReconstruction::Impl::sweep_new_views(
+    const Model& model, const ImageSource& images,
+    const Covisibility& covisibility,
+    const std::function<void(const std::string&)>& progress,
+    DenseUpdate* update) {
+  for (size_t i = 0; i < model.images.size(); ++i) {
+    const std::string& id = model.images[i].id;
+    if (entries.count(id) || covered.count(id)) continue;
+    if (options.sweep_budget > 0 &&
+        update->new_depth_maps.size() >=
+            static_cast<size_t>(options.sweep_budget)) {
+      ++update->deferred_views;
+      continue;
+    }
+    if (redundant(model, static_cast<int>(i), covisibility) ||
+        measured_already(model, static_cast<int>(i), covisibility)) {
+      covered.insert(id);
+      update->covered.push_back(id);
+      continue;
+    }
+    if (progress) progress(id);
+    sweep(model, static_cast<int>(i), images, covisibility, update);
+  }
+}
+
 void DenseReconstruction::Impl::filter(const std::string& id,
                                        const Model& model,
                                        const std::map<std::string, int>& index,
@@ -486,14 +530,12 @@ void DenseReconstruction::Impl::filter(const std::string& id,
     ++partners;
     dirty.insert(id);
     dirty.insert(other->first);
-    cv::bitwise_or(
-        entry.agreed,
-        agreement_mask(entry.map, other->second.map, options.consistency),
-        entry.agreed);
-    cv::bitwise_or(
-        other->second.agreed,
-        agreement_mask(other->second.map, entry.map, options.consistency),
-        other->second.agreed);
+    cv::bitwise_or(entry.agreed,
+                   agreement_mask(entry.map, other->second.map, consistency()),
+                   entry.agreed);
+    cv::bitwise_or(other->second.agreed,
+                   agreement_mask(other->second.map, entry.map, consistency()),
+                   other->second.agreed);
   }
 }
 
@@ -587,18 +629,7 @@ DenseUpdate DenseReconstruction::update(
   const std::map<std::string, double> moved =
       impl_->follow_poses(model, index, covisibility);
   auto start = Clock::now();
-  for (size_t i = 0; i < model.images.size(); ++i) {
-    const std::string& id = model.images[i].id;
-    if (impl_->entries.count(id) || impl_->covered.count(id)) continue;
-    if (impl_->redundant(model, static_cast<int>(i), covisibility) ||
-        impl_->measured_already(model, static_cast<int>(i), covisibility)) {
-      impl_->covered.insert(id);
-      update.covered.push_back(id);
-      continue;
-    }
-    if (progress) progress(id);
-    impl_->sweep(model, static_cast<int>(i), images, covisibility, &update);
-  }
+  impl_->sweep_new_views(model, images, covisibility, progress, &update);
   update.sweep_s = seconds_since(start);
   start = Clock::now();
   // A withdrawn map no longer vouches for anyone: check every pair again.
@@ -609,7 +640,8 @@ DenseUpdate DenseReconstruction::update(
     impl_->filter(id, model, index, covisibility);
   update.filter_s = seconds_since(start);
   start = Clock::now();
-  const std::set<std::string> refuse = impl_->within_budget(moved);
+  const std::set<std::string> refuse =
+      impl_->within_budget(moved, !update.new_depth_maps.empty());
   update.refused = impl_->fuse(withdrawn, refuse, &update);
   update.deferred_maps = update.refused ? 0 : moved.size() - refuse.size();
   update.fusion_s = seconds_since(start);
@@ -620,11 +652,21 @@ DenseUpdate DenseReconstruction::update(
 DenseUpdate update_until_settled(DenseReconstruction& dense, const Model& model,
                                  const ImageSource& images) {
   DenseUpdate total = dense.update(model, images);
-  while (total.deferred_maps > 0) {
+  while (total.deferred_maps > 0 || total.deferred_views > 0) {
     const DenseUpdate round = dense.update(model, images);
-    // Each round re-fuses what it leaves fewer of; should one re-fuse
-    // nothing, repeating it would never end.
-    if (round.refused_maps == 0 && !round.refused) break;
+    // Each round sweeps or re-fuses what it leaves fewer of; should one do
+    // neither, repeating it would never end.
+    if (round.refused_maps == 0 && !round.refused &&
+        round.new_depth_maps.empty() && round.covered.empty())
+      break;
+    total.new_depth_maps.insert(total.new_depth_maps.end(),
+                                round.new_depth_maps.begin(),
+                                round.new_depth_maps.end());
+    total.skipped = round.skipped;
+    total.covered.insert(total.covered.end(), round.covered.begin(),
+                         round.covered.end());
+    total.deferred_views = round.deferred_views;
+    total.sweep_s += round.sweep_s;
     total.refused = total.refused || round.refused;
     total.refused_maps += round.refused_maps;
     total.deferred_maps = round.deferred_maps;
@@ -757,8 +799,17 @@ const DepthMap* DenseReconstruction::raw_depth_map(
   return it == impl_->entries.end() ? nullptr : &it->second.map;
 }
 
+void DenseReconstruction::set_parallel(std::function<bool()> while_true) {
+  impl_->options.sweep.parallel = true;
+  impl_->options.consistency.parallel = true;
+  impl_->options.sweep.keep_parallel = while_true;
+  impl_->parallel_while = std::move(while_true);
+}
+
 void DenseReconstruction::set_parallel(bool parallel) {
   impl_->options.sweep.parallel = parallel;
+  impl_->options.sweep.keep_parallel = nullptr;
+  impl_->parallel_while = nullptr;
   impl_->options.consistency.parallel = parallel;
 }
 

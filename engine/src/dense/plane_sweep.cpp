@@ -442,10 +442,20 @@ DepthMap sweep_planes(const DenseView& key,
       strip.finish(directions, &map);
     }
   };
-  if (options.parallel)
-    cv::parallel_for_(cv::Range(0, strips), sweep_strips);
-  else
+  if (!options.parallel) {
     sweep_strips(cv::Range(0, strips));
+  } else if (!options.keep_parallel) {
+    cv::parallel_for_(cv::Range(0, strips), sweep_strips);
+  } else {
+    const int group = std::max(1, cv::getNumThreads());
+    for (int s = 0; s < strips; s += group) {
+      const cv::Range range(s, std::min(strips, s + group));
+      if (options.keep_parallel())
+        cv::parallel_for_(range, sweep_strips);
+      else
+        sweep_strips(range);
+    }
+  }
   return map;
 }
 

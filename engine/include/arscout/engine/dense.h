@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -55,6 +56,12 @@ struct PlaneSweepOptions {
   // pool would otherwise run the sweep at full priority and leave the other
   // work's own parallel calls to run serially.
   bool parallel = true;
+  // When set (and `parallel`), asked before each group of strips (one per
+  // thread, a quarter of a sweep or so): false sweeps that group on the
+  // calling thread. A caller whose latency-critical work may start at any
+  // moment hands the pool back within a fraction of a sweep instead of
+  // after the whole sweep. The map is the same either way.
+  std::function<bool()> keep_parallel;
 };
 
 // A photo ready for the sweep: undistorted, at the dense working

@@ -77,6 +77,18 @@ struct DenseOptions {
   // apart it halves the sweeps (bench/RESULTS.md), which a service that
   // must keep up with several scouts may want (`--dense-new-coverage`).
   double new_coverage_share = 0;
+  // At most this many key views are swept per update, the earliest
+  // registered first; the others wait for the next update
+  // (DenseUpdate::deferred_views). An update publishes nothing before it
+  // ends, so one that sweeps a backlog of 8 views at once shows the first
+  // of them as late as the last. 0: no limit (the default; the service's
+  // dense lanes sweep 2 per phase, docs/service.md).
+  int sweep_budget = 0;
+  // The moved maps re-fused per update while the update also sweeps
+  // (refuse_budget applies when it sweeps nothing): a new view's part of
+  // the cloud goes before keeping old maps within a quarter voxel of their
+  // cameras. Negative: refuse_budget always (the default).
+  int refuse_budget_sweeping = -1;
 };
 
 struct DenseUpdate {
@@ -90,6 +102,8 @@ struct DenseUpdate {
   // Moved maps left for a later update (DenseOptions::refuse_budget): the
   // cloud still shows them where their cameras were.
   size_t deferred_maps = 0;
+  // Key views left for a later update (DenseOptions::sweep_budget).
+  size_t deferred_views = 0;
   size_t points = 0;  // in the fused cloud
   double sweep_s = 0;
   double filter_s = 0;
@@ -119,6 +133,11 @@ class DenseReconstruction {
   // ConsistencyOptions::parallel): a caller beside latency-critical work
   // keeps them on its own thread while that work is busy.
   void set_parallel(bool parallel);
+  // The same, asked again as the work goes (before each sweep's group of
+  // strips, PlaneSweepOptions::keep_parallel, and before each agreement
+  // check): a caller beside work that may start at any moment. Empty:
+  // parallel throughout.
+  void set_parallel(std::function<bool()> while_true);
 
   std::vector<ColoredPoint> points() const;
   // The stored maps, filtered: only pixels another map agrees with.
