@@ -71,6 +71,10 @@ struct Options {
   bool per_capture = false;
   double new_coverage = 0;  // DenseOptions::new_coverage_share
   int dense_long_side = arscout::engine::DenseOptions{}.long_side;
+  // DenseOptions::sweep_budget and refuse_budget_sweeping (0 and -1: the
+  // service's lane defaults).
+  int sweep_budget = 0;
+  int refuse_budget_sweeping = -1;
 };
 
 struct Photo {
@@ -316,6 +320,8 @@ void run(const Options& o) {
   options.dense = !o.no_dense;
   options.dense_options.new_coverage_share = o.new_coverage;
   options.dense_options.long_side = o.dense_long_side;
+  options.dense_options.sweep_budget = o.sweep_budget;
+  options.dense_options.refuse_budget_sweeping = o.refuse_budget_sweeping;
   options.progress = [](const std::string& line) {
     std::fprintf(stderr, "  %s\n", line.c_str());
   };
@@ -361,6 +367,13 @@ int main(int argc, char** argv) {
                  "px")
       ->capture_default_str()
       ->check(CLI::Range(100, 10000));
+  app.add_option("--sweep-budget", o.sweep_budget,
+                 "views swept per dense phase (0: the lane's default, 2)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--refuse-budget-sweeping", o.refuse_budget_sweeping,
+                 "moved maps re-fused by a dense phase that also sweeps "
+                 "(-1: the lane's default, 2)")
+      ->check(CLI::Range(-1, 1000));
   CLI11_PARSE(app, argc, argv);
   if (o.url.empty()) {
     const fs::path dir = fs::temp_directory_path() / "arscout_service_bench";
