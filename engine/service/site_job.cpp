@@ -374,12 +374,14 @@ std::optional<DenseTask> SiteJob::begin_dense() {
 void SiteJob::compute_dense(DenseTask& task) {
   const auto start = Clock::now();
   DenseReconstruction& dense = *task.dense;
-  dense.set_parallel(task.parallel);
+  dense.set_parallel_while(task.parallel);
   const ImageSource images = [this](const std::string& c) {
     return image_bytes(c);
   };
   task.update = task.settle ? update_until_settled(dense, task.model, images)
                             : dense.update(task.model, images);
+  // The question is this phase's (it reads the worker's queue of now).
+  dense.set_parallel_while(nullptr);
   for (const std::string& map : task.update.new_depth_maps)
     task.map_blobs[map] = store_.put_blob(dense.serialize_depth_map(map));
   task.kept_maps = dense.depth_map_ids();

@@ -49,7 +49,7 @@ struct DenseTask {
   Model model;
   std::vector<std::string> added, withdrawn;
   // Whether to sweep over OpenCV's threads now, asked as the work goes
-  // (DenseReconstruction::set_parallel): the worker says no while the
+  // (DenseReconstruction::set_parallel_while): the worker says no while the
   // site's sparse lane is busy. Empty: parallel throughout.
   std::function<bool()> parallel;
   // Re-fuse every moved map before publishing (update_until_settled): the

@@ -273,7 +273,7 @@ struct DenseReconstruction::Impl {
   std::set<std::string> dirty;
   // Registered views judged not to be key views (DenseUpdate::covered).
   std::set<std::string> covered;
-  // DenseReconstruction::set_parallel's question, or empty.
+  // DenseReconstruction::set_parallel_while's question, or empty.
   std::function<bool()> parallel_while;
 
   // The agreement checks' options of this moment.
@@ -799,7 +799,7 @@ const DepthMap* DenseReconstruction::raw_depth_map(
   return it == impl_->entries.end() ? nullptr : &it->second.map;
 }
 
-void DenseReconstruction::set_parallel(std::function<bool()> while_true) {
+void DenseReconstruction::set_parallel_while(std::function<bool()> while_true) {
   impl_->options.sweep.parallel = true;
   impl_->options.consistency.parallel = true;
   impl_->options.sweep.keep_parallel = while_true;

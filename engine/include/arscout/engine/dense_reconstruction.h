@@ -137,7 +137,7 @@ class DenseReconstruction {
   // strips, PlaneSweepOptions::keep_parallel, and before each agreement
   // check): a caller beside work that may start at any moment. Empty:
   // parallel throughout.
-  void set_parallel(std::function<bool()> while_true);
+  void set_parallel_while(std::function<bool()> while_true);
 
   std::vector<ColoredPoint> points() const;
   // The stored maps, filtered: only pixels another map agrees with.
