@@ -273,13 +273,11 @@ struct DenseReconstruction::Impl {
   std::set<std::string> dirty;
   // Registered views judged not to be key views (DenseUpdate::covered).
   std::set<std::string> covered;
-  // DenseReconstruction::set_parallel_while's question, or empty.
-  std::function<bool()> parallel_while;
-
-  // The agreement checks' options of this moment.
+  // The agreement checks' options of this moment: they ask the sweep's
+  // question (DenseReconstruction::set_parallel_while) too.
   ConsistencyOptions consistency() const {
     ConsistencyOptions o = options.consistency;
-    if (parallel_while) o.parallel = parallel_while();
+    if (options.sweep.keep_parallel) o.parallel = options.sweep.keep_parallel();
     return o;
   }
 
@@ -802,14 +800,12 @@ const DepthMap* DenseReconstruction::raw_depth_map(
 void DenseReconstruction::set_parallel_while(std::function<bool()> while_true) {
   impl_->options.sweep.parallel = true;
   impl_->options.consistency.parallel = true;
-  impl_->options.sweep.keep_parallel = while_true;
-  impl_->parallel_while = std::move(while_true);
+  impl_->options.sweep.keep_parallel = std::move(while_true);
 }
 
 void DenseReconstruction::set_parallel(bool parallel) {
   impl_->options.sweep.parallel = parallel;
   impl_->options.sweep.keep_parallel = nullptr;
-  impl_->parallel_while = nullptr;
   impl_->options.consistency.parallel = parallel;
 }
 
