@@ -187,6 +187,15 @@ void print_dense_progress(const engine::DenseUpdate& u) {
 
 void print_refine(const engine::RefineResult& r) {
   if (!r.ran) return;
+  if (!r.registered.empty()) {
+    std::cout << std::fixed << std::setprecision(2)
+              << "      waiting registered: " << r.registered.size() << " (";
+    for (size_t i = 0; i < r.registered.size(); ++i)
+      std::cout << (i ? " " : "") << r.registered[i];
+    std::cout << "), " << r.seconds << " s"
+              << (r.converged ? "" : " (given way)") << std::endl;
+    return;
+  }
   std::cout << std::fixed << std::setprecision(2)
             << "      refine: " << r.images << " images, " << r.iterations
             << " iterations, " << r.seconds << " s"
@@ -206,10 +215,14 @@ void refine_between_photos(engine::Reconstruction& site, double budget_s) {
   }));
 }
 
-// Before the outputs: the last photo's refinement, to the end.
+// Before the outputs: the captures still waiting, then the last photo's
+// refinement, to the end (at most 10 rounds of the adjustment).
 void refine_to_convergence(engine::Reconstruction& site) {
-  for (int round = 0; round < 10 && site.refinement_due(); ++round)
-    print_refine(site.refine());
+  for (int round = 0; round < 10 && site.refinement_due();) {
+    const engine::RefineResult result = site.refine();
+    print_refine(result);
+    if (result.registered.empty()) ++round;
+  }
 }
 
 // Photos by capture id (the file name) for the dense stage, which decodes
@@ -356,6 +369,12 @@ void add_reconstruct_command(CLI::App& app) {
                   "0 turns loop closing off")
       ->capture_default_str()
       ->check(CLI::Range(0, 20));
+  cmd->add_option("--max-registrations", args.options.max_registrations_per_update,
+                  "captures one photo's increment registers at most (the "
+                  "rest of those a loop frees wait for the refinement); 0: "
+                  "no limit")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 100000));
   cmd->add_option("--refine-intrinsics", args.options.refine_intrinsics,
                   "auto (uncalibrated cameras only), on or off")
       ->capture_default_str()

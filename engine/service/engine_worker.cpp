@@ -540,15 +540,24 @@ struct EngineWorker::Impl {
         lock.lock();
         return;
       }
-      service::Increment refined = job.run_refine([&] {
-        std::lock_guard guard(mutex);
-        return stopping ||
-               (give_way && (!q.pending.empty() || dense_busy_locked(q)));
-      });
-      if (!refined.ops.empty()) commit(site, job, refined, std::nullopt);
+      service::Increment refined;
+      int written = 0;
+      // Registered waiting captures make the adjustment due: a
+      // deterministic run does it at once (the order must not depend on
+      // arrivals), the others after new work and the views' cloud.
+      do {
+        refined = job.run_refine([&] {
+          std::lock_guard guard(mutex);
+          return stopping ||
+                 (give_way && (!q.pending.empty() || dense_busy_locked(q)));
+        });
+        if (!refined.ops.empty()) commit(site, job, refined, std::nullopt);
+        written += refined.model_written ? 1 : 0;
+      } while (refined.refine_again && !give_way);
       dense_due = job.dense_due();
       lock.lock();
-      stats.increments += refined.model_written ? 1 : 0;
+      stats.increments += written;
+      if (refined.refine_again && !dense_due) q.refine_wanted = true;
     } catch (const std::exception& e) {
       if (lock.owns_lock()) lock.unlock();
       reset(job);

@@ -226,21 +226,8 @@ Increment SiteJob::run(const std::vector<Work>& work) {
   const auto writes_start = Clock::now();
   Increment increment;
   std::vector<db::WriteOp> ops;
-  // Capture statuses that changed since they were last published.
   const std::vector<CaptureState> captures = sparse_->captures();
-  for (const CaptureState& c : captures) {
-    const std::string status = published_status(c.status);
-    const std::string key = status + "\n" + c.reason;
-    if (statuses_.count(c.id) && statuses_.at(c.id) == key) continue;
-    pending_statuses_[c.id] = key;
-  }
-  for (const auto& [capture, key] : pending_statuses_) {
-    const size_t cut = key.find('\n');
-    ops.push_back(db::WriteOp::patch(
-        "/captures/" + capture, Json{{"site", id_},
-                                     {"status", key.substr(0, cut)},
-                                     {"status_reason", key.substr(cut + 1)}}));
-  }
+  add_status_ops(captures, &ops);
   const bool publish_model =
       changed && (!model.images.empty() || model_version_ > 0);
   if (publish_model) {
@@ -267,6 +254,24 @@ Increment SiteJob::run(const std::vector<Work>& work) {
   increment.summary = summary.str();
   increment.ops = std::move(ops);
   return increment;
+}
+
+// The capture statuses that changed since they were last published.
+void SiteJob::add_status_ops(const std::vector<CaptureState>& captures,
+                             std::vector<db::WriteOp>* ops) {
+  for (const CaptureState& c : captures) {
+    const std::string status = published_status(c.status);
+    const std::string key = status + "\n" + c.reason;
+    if (statuses_.count(c.id) && statuses_.at(c.id) == key) continue;
+    pending_statuses_[c.id] = key;
+  }
+  for (const auto& [capture, key] : pending_statuses_) {
+    const size_t cut = key.find('\n');
+    ops->push_back(db::WriteOp::patch(
+        "/captures/" + capture, Json{{"site", id_},
+                                     {"status", key.substr(0, cut)},
+                                     {"status_reason", key.substr(cut + 1)}}));
+  }
 }
 
 // The engine state, so that a restart needs no recomputation: each
@@ -326,21 +331,36 @@ Increment SiteJob::run_refine(const std::function<bool()>& stop) {
   pending_through_seq_ = through_seq_;
   const RefineResult refined = sparse_->refine(stop);
   if (!refined.ran) return increment;
-  // The depth maps follow the moved cameras in the next dense phase.
-  if (dense_) dense_due_ = true;
+  // The depth maps follow the moved cameras in the next dense phase, and
+  // captures registered here (waiting ones, Reconstruction::refine) get
+  // their views.
+  if (dense_) {
+    dense_due_ = true;
+    for (const std::string& c : refined.registered) dense_added_.push_back(c);
+  }
   const Model model = sparse_->model();
   IncrementReport report;
   report.dense_points = dense_points_;
   report.total_s = refined.seconds;
-  increment.ops.push_back(model_op(model, sparse_->captures(), report));
+  const std::vector<CaptureState> captures = sparse_->captures();
+  add_status_ops(captures, &increment.ops);
+  increment.ops.push_back(model_op(model, captures, report));
   add_state_ops(model, {}, &increment.ops);
   increment.model_written = true;
+  increment.refine_again =
+      !refined.registered.empty() && sparse_->refinement_due();
   pending_model_version_ = model_version_ + 1;
   std::ostringstream summary;
-  summary << "site " << id_ << ": global refinement of " << refined.images
-          << " key views, " << refined.iterations << " iterations"
-          << (refined.converged ? "" : " (gave way to new work)") << ", model v"
-          << pending_model_version_ << " ("
+  summary << "site " << id_ << ": ";
+  if (refined.registered.empty()) {
+    summary << "global refinement of " << refined.images << " key views, "
+            << refined.iterations << " iterations";
+  } else {
+    summary << "registered " << refined.registered.size()
+            << " waiting captures";
+  }
+  summary << (refined.converged ? "" : " (gave way to new work)")
+          << ", model v" << pending_model_version_ << " ("
           << static_cast<int>(refined.seconds * 1000) << " ms)";
   increment.summary = summary.str();
   return increment;

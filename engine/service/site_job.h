@@ -71,6 +71,9 @@ struct Increment {
   std::vector<db::WriteOp> ops;  // blobs they name are stored already
   std::string summary;           // one line for the progress log
   bool model_written = false;
+  // A refinement that registered waiting captures: the global adjustment
+  // they make due is the next call's.
+  bool refine_again = false;
 };
 
 class SiteJob {
@@ -133,6 +136,8 @@ class SiteJob {
   // `added`: captures new in this batch, whose features are written even
   // when a capture of that id had some stored (withdrawn and sent again).
   // Returns the size of the serialized state (all its parts).
+  void add_status_ops(const std::vector<CaptureState>& captures,
+                      std::vector<db::WriteOp>* ops);
   size_t add_state_ops(const Model& model,
                        const std::vector<std::string>& added,
                        std::vector<db::WriteOp>* ops);

@@ -83,10 +83,24 @@ std::vector<int> IncrementalMapper::update() {
         registered.push_back(static_cast<int>(i));
     }
   }
-  // Register the image with the most 2D-3D correspondences first; a
-  // registration adds points, which may let an image that failed succeed.
+  register_by_points(registered, options_.max_registrations_per_update, {});
+  return registered;
+}
+
+// Registers the image with the most 2D-3D correspondences first; a
+// registration adds points, which may let an image that failed succeed.
+// Stops when `registered` holds `limit` (0: no limit), or when `stop` says
+// so, leaving a backlog for refine().
+void IncrementalMapper::register_by_points(std::vector<int>& registered,
+                                           int limit,
+                                           const std::function<bool()>& stop) {
   std::set<int> failed;
   for (;;) {
+    if ((limit > 0 && static_cast<int>(registered.size()) >= limit) ||
+        (stop && stop())) {
+      scene_.registration_backlog = true;
+      return;
+    }
     size_t best_count = 0;
     const int best = next_image(failed, &best_count);
     if (best < 0) break;
@@ -104,18 +118,24 @@ std::vector<int> IncrementalMapper::update() {
     }
     registered.push_back(best);
     failed.clear();
-    triangulate_image(best);
-    refine_keypoints(best);
-    close_loops(best);
-    adjust_local(best);
-    geo_register();
-    if (global_inline() &&
-        scene_.registered_count() >=
-            options_.global_ba_growth * scene_.registered_at_last_global_ba) {
-      adjust_global();
-    }
+    extend_model(best);
   }
-  return registered;
+  scene_.registration_backlog = false;
+}
+
+// What follows a registration: the image's points, its keypoints moved
+// onto their tracks, a loop it may close, the adjustments.
+void IncrementalMapper::extend_model(int index) {
+  triangulate_image(index);
+  refine_keypoints(index);
+  close_loops(index);
+  adjust_local(index);
+  geo_register();
+  if (global_inline() &&
+      scene_.registered_count() >=
+          options_.global_ba_growth * scene_.registered_at_last_global_ba) {
+    adjust_global();
+  }
 }
 
 // After a loop closure moved the chain onto the old captures, the new
@@ -139,13 +159,35 @@ bool IncrementalMapper::global_inline() const {
 
 bool IncrementalMapper::refinement_due() const {
   return scene_.initialized &&
-         scene_.registered_count() != scene_.registered_at_last_global_ba;
+         (scene_.registration_backlog ||
+          scene_.registered_count() != scene_.registered_at_last_global_ba);
+}
+
+// The captures add_capture left waiting at its limit, registered between
+// captures; true when there were any.
+bool IncrementalMapper::catch_up(const std::function<bool()>& stop,
+                                 RefineResult& result) {
+  if (!scene_.registration_backlog) return false;
+  std::vector<int> registered;
+  register_by_points(registered, 0, stop);
+  for (int index : registered)
+    result.registered.push_back(scene_.images[index].id);
+  result.ran = !registered.empty();
+  result.converged = !scene_.registration_backlog;
+  return result.ran;
 }
 
 RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   RefineResult result;
   if (!refinement_due()) return result;
   const auto start = std::chrono::steady_clock::now();
+  if (catch_up(stop, result)) {
+    result.seconds = std::chrono::duration<double>(
+                         std::chrono::steady_clock::now() - start)
+                         .count();
+    return result;
+  }
+  if (!refinement_due()) return result;
   result.ran = true;
   BundleOptions ba = bundle_options(kGlobalIterations);
   ba.function_tolerance = kRefineTolerance;

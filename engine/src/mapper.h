@@ -43,6 +43,10 @@ class IncrementalMapper {
   int next_image(const std::set<int>& failed, size_t* count) const;
   bool initialize();
   bool try_initial_pair(int a, int b, const ImagePair& pair);
+  void register_by_points(std::vector<int>& registered, int limit,
+                          const std::function<bool()>& stop);
+  void extend_model(int image);
+  bool catch_up(const std::function<bool()>& stop, RefineResult& result);
   bool register_image(int image);
   bool register_from_pair(int image);
   void second_opinion(int image);

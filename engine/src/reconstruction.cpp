@@ -566,6 +566,7 @@ Reconstruction Reconstruction::restore(
     const std::function<std::string(const std::string&)>& features) {
   Reconstruction result(std::move(options));
   result.impl_->scene = deserialize_scene(bytes, features);
+  result.impl_->scene.registration_backlog = true;
   return result;
 }
 

@@ -99,6 +99,10 @@ struct Scene {
   // Refinement rounds that ended on their iteration cap since the model
   // last settled (not serialized: a restored scene starts counting again).
   int unsettled_refine_rounds = 0;
+  // add_capture stopped at its registration limit, so captures may be
+  // waiting that the model's points would register now (not serialized: a
+  // restored scene looks once).
+  bool registration_backlog = false;
   // Gauge for models without GPS: the first pose is held fixed, and one
   // coordinate of the second image's position fixes the scale.
   int reference_image = -1;

@@ -10,6 +10,10 @@
 //
 //         refine: 120 images, 3 iterations, 1.95 s (given way)
 //
+// or the captures an increment left waiting at its limit, registered there:
+//
+//         waiting registered: 2 (a.jpg b.jpg), 0.41 s
+//
 // A photo's "sparse increment" is the `total` of its line; the refinement
 // is not part of it. The scale bench and the block walk test judge how the
 // increments grow along a walk with these.
@@ -58,6 +62,7 @@ struct ProgressLog {
   std::vector<PhotoProgress> photos;  // in log order
   std::vector<RefineProgress> refines;
   int registered = -1;  // from the final "registered N images" line; -1
+  int waiting_registered = 0;  // summed over "waiting registered:" lines
 
   double refine_seconds() const;
 };

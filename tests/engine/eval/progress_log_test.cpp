@@ -110,6 +110,9 @@ TEST(ProgressLog, ReadsAWholeLogAndItsWindows) {
         << "  pairs 1  inliers 10  reproj 0.100 px  | decode 0.00 total " << n
         << ".00 s\n";
     if (n == 2) log << "      refine: 2 images, 3 iterations, 0.50 s\n";
+    if (n == 3)
+      log << "      waiting registered: 2 (a.jpg b.jpg), 0.41 s (given way)\n"
+          << "      waiting registered: 1 (c.jpg), 0.20 s\n";
   }
   log << "[5/5] 0004.jpg  rejected (cannot decode image)\n"
       << "added 5 images in 10.50 s\n"
@@ -122,6 +125,7 @@ TEST(ProgressLog, ReadsAWholeLogAndItsWindows) {
   EXPECT_EQ(parsed.refines[1].after_photo, 5);
   EXPECT_DOUBLE_EQ(parsed.refine_seconds(), 0.75);
   EXPECT_EQ(parsed.registered, 4);
+  EXPECT_EQ(parsed.waiting_registered, 3);
   EXPECT_EQ(ev::increments(parsed, 2, 5), (std::vector<double>{2, 3, 4}));
   EXPECT_TRUE(ev::increments(parsed, 6, 9).empty());
 }

@@ -78,6 +78,13 @@ struct ReconstructionOptions {
   // global adjustment is left to refine(), off the latency path.
   int inline_global_ba_images = 30;
   double global_ba_growth = 1.1;
+  // Captures one add_capture registers at most: the new one and those
+  // waiting that its points let register, most 2D-3D matches first. A
+  // photo that closes a loop can free a long wait (on the 150-photo block
+  // walk, 80 photos behind a gap in the walk); the rest of them are
+  // registered by refine(), between captures, so that no increment costs
+  // more than this many registrations. 0: no limit.
+  int max_registrations_per_update = 8;
   int threads = 2;
   // Fixed seeds and single-threaded solvers: the same inputs give
   // bit-identical output, also across serialize/restore.
@@ -174,6 +181,9 @@ struct RefineResult {
   int iterations = 0;
   int images = 0;
   double seconds = 0;
+  // Waiting captures this call registered (ids, in order); when any, the
+  // call did only that, and the global adjustment is due next.
+  std::vector<std::string> registered;
 };
 
 struct CaptureState {
@@ -205,6 +215,9 @@ class Reconstruction {
   // progress made so far (each accepted iteration lowers the cost), so a
   // caller can run it between captures and give way to a new one. Does
   // nothing when nothing was registered since the last complete run.
+  // Captures that add_capture left waiting beyond
+  // `max_registrations_per_update` come first: refine() registers them,
+  // asking `stop` after each, and returns; the adjustment is the next call's.
   RefineResult refine(const std::function<bool()>& stop = {});
   // True when refine() has work to do.
   bool refinement_due() const;
