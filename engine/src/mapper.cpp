@@ -89,14 +89,16 @@ std::vector<int> IncrementalMapper::update() {
 
 // Registers the image with the most 2D-3D correspondences first; a
 // registration adds points, which may let an image that failed succeed.
-// Stops when `registered` holds `limit` (0: no limit), or when `stop` says
-// so, leaving a backlog for refine().
+// Stops after `limit` registrations (0: no limit; the initial model's, in
+// `registered` already, do not count), or when `stop` says so, leaving a
+// backlog for refine().
 void IncrementalMapper::register_by_points(std::vector<int>& registered,
                                            int limit,
                                            const std::function<bool()>& stop) {
   std::set<int> failed;
+  const size_t before = registered.size();
   for (;;) {
-    if ((limit > 0 && static_cast<int>(registered.size()) >= limit) ||
+    if ((limit > 0 && registered.size() - before >= static_cast<size_t>(limit)) ||
         (stop && stop())) {
       scene_.registration_backlog = true;
       return;
@@ -164,7 +166,8 @@ bool IncrementalMapper::refinement_due() const {
 }
 
 // The captures add_capture left waiting at its limit, registered between
-// captures; true when there were any.
+// captures; true when that was this call's work: it registered some, or
+// `stop` ended it with some left (the adjustment must not start then).
 bool IncrementalMapper::catch_up(const std::function<bool()>& stop,
                                  RefineResult& result) {
   if (!scene_.registration_backlog) return false;
@@ -174,7 +177,7 @@ bool IncrementalMapper::catch_up(const std::function<bool()>& stop,
     result.registered.push_back(scene_.images[index].id);
   result.ran = !registered.empty();
   result.converged = !scene_.registration_backlog;
-  return result.ran;
+  return result.ran || scene_.registration_backlog;
 }
 
 RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
