@@ -369,7 +369,8 @@ void add_reconstruct_command(CLI::App& app) {
                   "0 turns loop closing off")
       ->capture_default_str()
       ->check(CLI::Range(0, 20));
-  cmd->add_option("--max-registrations", args.options.max_registrations_per_update,
+  cmd->add_option("--max-registrations",
+                  args.options.max_registrations_per_update,
                   "captures one photo's increment registers at most (the "
                   "rest of those a loop frees wait for the refinement); 0: "
                   "no limit")

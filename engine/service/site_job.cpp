@@ -359,8 +359,8 @@ Increment SiteJob::run_refine(const std::function<bool()>& stop) {
     summary << "registered " << refined.registered.size()
             << " waiting captures";
   }
-  summary << (refined.converged ? "" : " (gave way to new work)")
-          << ", model v" << pending_model_version_ << " ("
+  summary << (refined.converged ? "" : " (gave way to new work)") << ", model v"
+          << pending_model_version_ << " ("
           << static_cast<int>(refined.seconds * 1000) << " ms)";
   increment.summary = summary.str();
   return increment;

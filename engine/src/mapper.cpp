@@ -98,7 +98,8 @@ void IncrementalMapper::register_by_points(std::vector<int>& registered,
   std::set<int> failed;
   const size_t before = registered.size();
   for (;;) {
-    if ((limit > 0 && registered.size() - before >= static_cast<size_t>(limit)) ||
+    if ((limit > 0 &&
+         registered.size() - before >= static_cast<size_t>(limit)) ||
         (stop && stop())) {
       scene_.registration_backlog = true;
       return;
@@ -185,9 +186,9 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   if (!refinement_due()) return result;
   const auto start = std::chrono::steady_clock::now();
   if (catch_up(stop, result)) {
-    result.seconds = std::chrono::duration<double>(
-                         std::chrono::steady_clock::now() - start)
-                         .count();
+    result.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+            .count();
     return result;
   }
   if (!refinement_due()) return result;

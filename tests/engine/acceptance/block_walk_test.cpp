@@ -103,9 +103,9 @@ std::string prefixed(char group, int index) {
   return name.str();
 }
 
-void reorder_walk(const std::string& from, const std::string& to,
-                  const std::vector<std::pair<char, std::pair<int, int>>>&
-                      groups) {
+void reorder_walk(
+    const std::string& from, const std::string& to,
+    const std::vector<std::pair<char, std::pair<int, int>>>& groups) {
   namespace fs = std::filesystem;
   fs::create_directories(to + "/images");
   fs::create_directories(to + "/gt_dense_cameras");
@@ -117,8 +117,7 @@ void reorder_walk(const std::string& from, const std::string& to,
       old_name << std::setw(4) << std::setfill('0') << i << ".jpg";
       const std::string name = prefixed(group, i);
       renamed[old_name.str()] = name;
-      fs::copy_file(from + "/images/" + old_name.str(),
-                    to + "/images/" + name);
+      fs::copy_file(from + "/images/" + old_name.str(), to + "/images/" + name);
       fs::copy_file(from + "/gt_dense_cameras/" + old_name.str() + ".camera",
                     to + "/gt_dense_cameras/" + name + ".camera");
     }
@@ -148,13 +147,14 @@ TEST(BlockWalk, PhotosAWalkFreesAtOnceWaitBeyondTheIncrementsLimit) {
   std::cout << "block walk out of order in " << work << std::endl;
   const std::string rendered = work + "/rendered";
   const std::string site = work + "/site";
-  run_cli({"render-site", "--scene", "block", "--views", "40", "--width",
-           "640", "--height", "480", "--seed", "11", "--out", rendered},
+  run_cli({"render-site", "--scene", "block", "--views", "40", "--width", "640",
+           "--height", "480", "--seed", "11", "--out", rendered},
           work + "/render.log");
   if (HasFatalFailure()) return;
   // The far side of the block (photos 16-25) before the way there.
-  reorder_walk(rendered, site,
-               {{'a', {0, 7}}, {'b', {16, 25}}, {'c', {8, 15}}, {'d', {26, 39}}});
+  reorder_walk(
+      rendered, site,
+      {{'a', {0, 7}}, {'b', {16, 25}}, {'c', {8, 15}}, {'d', {26, 39}}});
   constexpr int kLimit = 3;
   eval::PoseComparison poses[2];
   for (const int limit : {kLimit, 0}) {
@@ -177,9 +177,8 @@ TEST(BlockWalk, PhotosAWalkFreesAtOnceWaitBeyondTheIncrementsLimit) {
     std::cout << "block walk out of order, limit " << limit << ": at most "
               << most << " registered by one increment, "
               << log.waiting_registered << " by the refinement; " << p.matched
-              << "/40 registered, centre error median "
-              << p.median_centre_error << " m, max " << p.max_centre_error
-              << " m" << std::endl;
+              << "/40 registered, centre error median " << p.median_centre_error
+              << " m, max " << p.max_centre_error << " m" << std::endl;
     EXPECT_EQ(p.matched, 40);
     if (limit) {
       EXPECT_LE(most, static_cast<size_t>(kLimit));
@@ -189,8 +188,7 @@ TEST(BlockWalk, PhotosAWalkFreesAtOnceWaitBeyondTheIncrementsLimit) {
       EXPECT_EQ(log.waiting_registered, 0);
     }
   }
-  EXPECT_NEAR(poses[0].median_centre_error, poses[1].median_centre_error,
-              0.01);
+  EXPECT_NEAR(poses[0].median_centre_error, poses[1].median_centre_error, 0.01);
   EXPECT_LE(poses[0].max_centre_error, poses[1].max_centre_error + 0.02);
   if (!HasFailure()) std::filesystem::remove_all(work);
 }

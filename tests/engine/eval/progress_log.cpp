@@ -141,8 +141,8 @@ ProgressLog parse_progress_log(std::istream& in, const std::string& path) {
         log.refines.push_back(*refine);
       } else if (starts_with(trim(line), "waiting registered: ")) {
         int count = 0;
-        if (std::sscanf(trim(line).c_str(), "waiting registered: %d",
-                        &count) != 1)
+        if (std::sscanf(trim(line).c_str(), "waiting registered: %d", &count) !=
+            1)
           throw std::runtime_error("bad waiting line");
         log.waiting_registered += count;
       } else if (starts_with(line, "registered ")) {

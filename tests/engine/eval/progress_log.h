@@ -61,7 +61,7 @@ struct RefineProgress {
 struct ProgressLog {
   std::vector<PhotoProgress> photos;  // in log order
   std::vector<RefineProgress> refines;
-  int registered = -1;  // from the final "registered N images" line; -1
+  int registered = -1;         // from the final "registered N images" line; -1
   int waiting_registered = 0;  // summed over "waiting registered:" lines
 
   double refine_seconds() const;

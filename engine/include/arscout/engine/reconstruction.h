@@ -80,10 +80,10 @@ struct ReconstructionOptions {
   double global_ba_growth = 1.1;
   // Captures one add_capture registers at most by absolute pose (the
   // initial model's aside): the new one and those waiting that its points
-  // let register, most 2D-3D matches first. A photo that closes a loop can free a long wait (on the 150-photo block
-  // walk, 80 photos behind a gap in the walk); the rest of them are
-  // registered by refine(), between captures, so that no increment costs
-  // more than this many registrations. 0: no limit.
+  // let register, most 2D-3D matches first. A photo that closes a loop can free
+  // a long wait (on the 150-photo block walk, 80 photos behind a gap in the
+  // walk); the rest of them are registered by refine(), between captures, so
+  // that no increment costs more than this many registrations. 0: no limit.
   int max_registrations_per_update = 8;
   int threads = 2;
   // Fixed seeds and single-threaded solvers: the same inputs give
