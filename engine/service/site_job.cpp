@@ -331,9 +331,9 @@ Increment SiteJob::run_refine(const std::function<bool()>& stop) {
   pending_through_seq_ = through_seq_;
   const RefineResult refined = sparse_->refine(stop);
   if (!refined.ran) return increment;
-  // The depth maps follow the moved cameras in the next dense phase, and
-  // captures registered here (waiting ones, Reconstruction::refine) get
-  // their views.
+  // The depth maps follow the moved cameras in the next dense phase, whose
+  // report names the waiting captures registered here (Reconstruction::
+  // refine) among those it adds.
   if (dense_) {
     dense_due_ = true;
     for (const std::string& c : refined.registered) dense_added_.push_back(c);

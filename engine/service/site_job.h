@@ -133,11 +133,12 @@ class SiteJob {
  private:
   void restore();
   DenseOptions lane_dense_options() const;
+  // Patches of the captures whose status changed since last published.
+  void add_status_ops(const std::vector<CaptureState>& captures,
+                      std::vector<db::WriteOp>* ops);
   // `added`: captures new in this batch, whose features are written even
   // when a capture of that id had some stored (withdrawn and sent again).
   // Returns the size of the serialized state (all its parts).
-  void add_status_ops(const std::vector<CaptureState>& captures,
-                      std::vector<db::WriteOp>* ops);
   size_t add_state_ops(const Model& model,
                        const std::vector<std::string>& added,
                        std::vector<db::WriteOp>* ops);

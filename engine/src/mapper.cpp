@@ -191,7 +191,7 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
             .count();
     return result;
   }
-  if (!refinement_due()) return result;
+  if (!refinement_due()) return result;  // the backlog was all it had
   result.ran = true;
   BundleOptions ba = bundle_options(kGlobalIterations);
   ba.function_tolerance = kRefineTolerance;

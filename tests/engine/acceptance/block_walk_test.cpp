@@ -92,17 +92,18 @@ TEST(BlockWalk, SixtyPhotosRegisterAccuratelyAtAFlatIncrementCost) {
   if (!HasFailure()) std::filesystem::remove_all(work);
 }
 
+// A rendered photo's name: 0007.jpg.
+std::string photo_name(int index) {
+  std::ostringstream name;
+  name << std::setw(4) << std::setfill('0') << index << ".jpg";
+  return name.str();
+}
+
 // The walk's photos renamed so that file-name order feeds the groups in the
 // order given (each a range of indices, named with its letter), so that a
 // later stretch of the walk can come before the way to it: it waits, seeing
 // nothing the model has, until the way reaches it. Fixes and truths follow
 // the new names.
-std::string prefixed(char group, int index) {
-  std::ostringstream name;
-  name << group << std::setw(4) << std::setfill('0') << index << ".jpg";
-  return name.str();
-}
-
 void reorder_walk(
     const std::string& from, const std::string& to,
     const std::vector<std::pair<char, std::pair<int, int>>>& groups) {
@@ -113,12 +114,11 @@ void reorder_walk(
   std::map<std::string, std::string> renamed;
   for (const auto& [group, range] : groups) {
     for (int i = range.first; i <= range.second; ++i) {
-      std::ostringstream old_name;
-      old_name << std::setw(4) << std::setfill('0') << i << ".jpg";
-      const std::string name = prefixed(group, i);
-      renamed[old_name.str()] = name;
-      fs::copy_file(from + "/images/" + old_name.str(), to + "/images/" + name);
-      fs::copy_file(from + "/gt_dense_cameras/" + old_name.str() + ".camera",
+      const std::string old_name = photo_name(i);
+      const std::string name = group + old_name;
+      renamed[old_name] = name;
+      fs::copy_file(from + "/images/" + old_name, to + "/images/" + name);
+      fs::copy_file(from + "/gt_dense_cameras/" + old_name + ".camera",
                     to + "/gt_dense_cameras/" + name + ".camera");
     }
   }

@@ -139,10 +139,10 @@ ProgressLog parse_progress_log(std::istream& in, const std::string& path) {
       } else if (auto refine = parse_refine_line(line)) {
         refine->after_photo = log.photos.empty() ? 0 : log.photos.back().number;
         log.refines.push_back(*refine);
-      } else if (starts_with(trim(line), "waiting registered: ")) {
+      } else if (const std::string text = trim(line);
+                 starts_with(text, "waiting registered: ")) {
         int count = 0;
-        if (std::sscanf(trim(line).c_str(), "waiting registered: %d", &count) !=
-            1)
+        if (std::sscanf(text.c_str(), "waiting registered: %d", &count) != 1)
           throw std::runtime_error("bad waiting line");
         log.waiting_registered += count;
       } else if (starts_with(line, "registered ")) {
