@@ -75,6 +75,7 @@ struct Options {
   // service's lane defaults).
   int sweep_budget = 0;
   int refuse_budget_sweeping = -1;
+  int catch_up_backlog = -1;  // DenseOptions::catch_up_backlog
 };
 
 struct Photo {
@@ -322,6 +323,7 @@ void run(const Options& o) {
   options.dense_options.long_side = o.dense_long_side;
   options.dense_options.sweep_budget = o.sweep_budget;
   options.dense_options.refuse_budget_sweeping = o.refuse_budget_sweeping;
+  options.dense_options.catch_up_backlog = o.catch_up_backlog;
   options.progress = [](const std::string& line) {
     std::fprintf(stderr, "  %s\n", line.c_str());
   };
@@ -373,6 +375,11 @@ int main(int argc, char** argv) {
   app.add_option("--refuse-budget-sweeping", o.refuse_budget_sweeping,
                  "moved maps re-fused by a dense phase that also sweeps "
                  "(-1: the lane's default, 2)")
+      ->check(CLI::Range(-1, 1000));
+  app.add_option("--dense-catch-up", o.catch_up_backlog,
+                 "as arscout serve's: views waiting beyond which a dense "
+                 "phase sweeps with planes twice as far apart (-1: the "
+                 "lane's default, 2; 0: never)")
       ->check(CLI::Range(-1, 1000));
   CLI11_PARSE(app, argc, argv);
   if (o.url.empty()) {

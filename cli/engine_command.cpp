@@ -48,6 +48,12 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
                   "clouds: docs/dense.md)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--dense-catch-up", o->dense_options.catch_up_backlog,
+                  "when more photos than this wait for their depth map, "
+                  "sweep with planes twice as far apart until the dense "
+                  "lane has caught up (-1: the default, 2; 0: never)")
+      ->capture_default_str()
+      ->check(CLI::Range(-1, 1000));
   cmd->add_flag("--deterministic", o->reconstruction.deterministic,
                 "fixed seeds, single-threaded solvers and one capture per "
                 "increment: the same feed gives the same models");

@@ -86,11 +86,14 @@ std::string SiteJob::image_bytes(const std::string& capture) {
 DenseOptions SiteJob::lane_dense_options() const {
   constexpr int kLaneSweepBudget = 2;
   constexpr int kLaneRefuseBudgetSweeping = 2;
+  constexpr int kLaneCatchUpBacklog = 2;
   DenseOptions options = options_.dense_options;
   if (options_.reconstruction.deterministic) return options;
   if (options.sweep_budget == 0) options.sweep_budget = kLaneSweepBudget;
   if (options.refuse_budget_sweeping < 0)
     options.refuse_budget_sweeping = kLaneRefuseBudgetSweeping;
+  if (options.catch_up_backlog < 0)
+    options.catch_up_backlog = kLaneCatchUpBacklog;
   return options;
 }
 

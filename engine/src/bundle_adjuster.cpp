@@ -235,8 +235,10 @@ class ProblemBuilder {
         options_.pixel_sigma > 0
             ? options_.pixel_sigma
             : estimate_pixel_sigma(std::move(residual_norms_), points_.size());
-    loss_->Reset(reprojection_loss(options_.loss_scale_px, pixel_sigma_),
-                 ceres::TAKE_OWNERSHIP);
+    const double scale = options_.loss_scale_sigmas > 0
+                             ? options_.loss_scale_sigmas * pixel_sigma_
+                             : options_.loss_scale_px;
+    loss_->Reset(reprojection_loss(scale, pixel_sigma_), ceres::TAKE_OWNERSHIP);
   }
 
   void add_gps_priors() {

@@ -18,6 +18,12 @@ struct BundleOptions {
   bool gps_priors = false;       // scene is in ENU and fixes pull the centres
   double upright_sigma_deg = 0;  // > 0: camera x axes held horizontal (ENU)
   double loss_scale_px = 1.0;    // Cauchy loss scale
+  // > 0: the Cauchy scale is this many keypoint deviations (the pixel_sigma
+  // in use) instead of loss_scale_px. A long walk's keypoints are a
+  // mixture: most good to a tenth of a pixel, some several times worse; a
+  // loss that keeps full weight up to 1 px lets the worse ones bend the
+  // model (docs/engine.md, "The loss scale follows the keypoints").
+  double loss_scale_sigmas = 0;
   // Standard deviation of a keypoint's position (working pixels): the
   // reprojection errors are weighted by 1 / sigma^2 against the GPS and
   // upright priors, which are in units of their own deviations. With the

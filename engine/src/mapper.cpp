@@ -49,6 +49,8 @@ constexpr int kGlobalTrack = 25;
 // would stop (400-photo walk: 4.8 -> 2.9 cm; docs/engine.md).
 constexpr double kRefineTolerance = 1e-10;
 constexpr int kRefineRounds = 6;
+// The global refinement's Cauchy scale, in keypoint deviations.
+constexpr double kRefineLossSigmas = 1.5;
 
 Eigen::Matrix<double, 3, 4> pose_matrix(const SceneImage& image) {
   Eigen::Matrix<double, 3, 4> P;
@@ -195,6 +197,7 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   result.ran = true;
   BundleOptions ba = bundle_options(kGlobalIterations);
   ba.function_tolerance = kRefineTolerance;
+  ba.loss_scale_sigmas = kRefineLossSigmas;
   ba.stop = stop;
   ba.max_track_observations = kGlobalTrack;
   const std::vector<int> keys = key_views();

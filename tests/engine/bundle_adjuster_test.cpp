@@ -331,6 +331,48 @@ TEST(BundleAdjusterTest, FeaturesWeighedByTheirOwnNoiseHoldTheShape) {
   EXPECT_LT(held, 0.7 * bent);  // 0.024 against 0.047 m with this seed
 }
 
+// Keypoints as a long walk's: most good to 0.1 px, a quarter of them off by
+// 0.8 px more (those a patch alignment could not move onto their track).
+Scene mixed_noise_scene(const synthetic::Truth& truth, std::mt19937& rng) {
+  Scene scene = synthetic::make_scene(truth, 0.1, 0, rng);
+  std::bernoulli_distribution worse(0.25);
+  for (auto& [id, point] : scene.points)
+    for (const Observation& obs : point.track)
+      if (worse(rng))
+        scene.images[obs.image].keypoints[obs.keypoint] +=
+            synthetic::gaussian2(rng, 0.8);
+  return scene;
+}
+
+TEST(BundleAdjusterTest, LossScaledToTheKeypointsHoldsTheShapeOfMixedNoise) {
+  double at_one_px = 0, at_sigmas = 0;
+  for (unsigned seed : {61u, 62u, 63u}) {
+    std::mt19937 rng(seed);
+    const synthetic::Truth truth =
+        synthetic::make_truth({.images = 16, .arc_deg = 90, .points = 60}, rng);
+    Scene wide = mixed_noise_scene(truth, rng);
+    perturb(wide, wide.reference_image, 0.1, 0.05, 0.05, rng);
+    BundleOptions options;
+    options.max_iterations = 200;
+    options.function_tolerance = 1e-12;
+    options.pixel_sigma = 0;
+    adjust_bundle(wide, {}, true, options);
+    // As the engine's refinement does, from the adjusted model, whose
+    // residuals tell the keypoints' deviation.
+    Scene scaled = wide;
+    options.loss_scale_sigmas = 1.5;
+    const BundleReport report = adjust_bundle(scaled, {}, true, options);
+    // The median residual follows the good majority.
+    EXPECT_LT(report.pixel_sigma, 0.3);
+    at_one_px += shape_error(wide, truth).max_centre_m;
+    at_sigmas += shape_error(scaled, truth).max_centre_m;
+  }
+  std::cout << "largest centre error, mean of three scenes: " << at_one_px / 3
+            << " m with a 1 px loss, " << at_sigmas / 3
+            << " m with 1.5 keypoint deviations\n";
+  EXPECT_LT(at_sigmas, 0.7 * at_one_px);
+}
+
 TEST(BundleAdjusterTest, RefinesWrongFocalLength) {
   std::mt19937 rng(54);
   GpsScene g = make_gps_scene(rng);

@@ -983,6 +983,59 @@ TEST(DenseStagesReconstruction, AViewTheMapsMeasureAlreadyIsNoKeyView) {
   EXPECT_NE(dense.raw_depth_map("again"), nullptr);
 }
 
+// Per filtered map: the share of its depths within 2 % of their distance
+// from the street's surfaces.
+std::map<std::string, double> share_on_site(const DenseReconstruction& dense) {
+  const Eigen::Vector3d centre = street()[2].view.centre();
+  std::map<std::string, double> shares;
+  for (const DepthMap& map : dense.filtered_depth_maps()) {
+    int near = 0, measured = 0;
+    for (int y = 0; y < map.depth.rows; ++y)
+      for (int x = 0; x < map.depth.cols; ++x) {
+        const float z = map.depth.at<float>(y, x);
+        if (z <= 0) continue;
+        const Eigen::Vector3d X = map.unproject(x, y, z);
+        ++measured;
+        near += distance_to_site(X) < 0.02 * (X - centre).norm();
+      }
+    shares[map.id] = measured > 1000 ? static_cast<double>(near) / measured : 0;
+  }
+  return shares;
+}
+
+TEST(DenseStagesReconstruction, ALaneBehindSweepsCoarserUntilItCatchesUp) {
+  const SparseTruth truth = sparse_truth(300, 17);
+  const Model all5 = build_model(truth, {0, 1, 2, 3, 4});
+  DenseOptions options = small_dense_options();
+  options.sweep = PlaneSweepOptions{};  // planes a pixel apart, as served
+  options.sweep_budget = 1;
+  options.catch_up_backlog = 2;
+  DenseReconstruction dense(options);
+  // Five views wait; each update sweeps one. While more than two wait the
+  // sweep is coarse, then full again.
+  std::vector<size_t> caught_up;
+  for (int update = 0; update < 5; ++update) {
+    const DenseUpdate u = dense.update(all5, street_images());
+    ASSERT_EQ(u.new_depth_maps.size(), 1u);
+    caught_up.push_back(u.caught_up_maps);
+  }
+  EXPECT_EQ(caught_up, (std::vector<size_t>{1, 1, 1, 0, 0}));
+  // The coarse maps' planes are half as many, and their depths about as
+  // good as those of the same views swept at full resolution of depth.
+  EXPECT_EQ(catch_up_sweep(options.sweep).plane_step_px, 2);
+  EXPECT_EQ(catch_up_sweep(options.sweep).min_planes, 24);
+  options.catch_up_backlog = 0;
+  DenseReconstruction full(options);
+  for (int update = 0; update < 5; ++update) full.update(all5, street_images());
+  const std::map<std::string, double> coarse_share = share_on_site(dense);
+  const std::map<std::string, double> full_share = share_on_site(full);
+  for (const std::string id : {"view0", "view1", "view2"}) {
+    std::cout << id << ": " << coarse_share.at(id) << " of the depths on the "
+              << "street coarse, " << full_share.at(id) << " full\n";
+    EXPECT_GT(coarse_share.at(id), full_share.at(id) - 0.03) << id;
+  }
+}
+
 TEST(DenseStagesReconstruction, FusedCloudRoundTripsThroughPly) {
   const SparseTruth truth = sparse_truth(300, 17);
   DenseReconstruction dense(small_dense_options());

@@ -215,6 +215,14 @@ double sparse_depth_ratio(const DepthMap& map, const cv::Mat& depth,
 
 }  // namespace
 
+PlaneSweepOptions catch_up_sweep(const PlaneSweepOptions& sweep) {
+  PlaneSweepOptions coarse = sweep;
+  coarse.plane_step_px = 2 * sweep.plane_step_px;
+  coarse.min_planes = std::max(1, sweep.min_planes / 2);
+  coarse.max_planes = std::max(coarse.min_planes, sweep.max_planes / 2);
+  return coarse;
+}
+
 struct DenseReconstruction::Impl {
   struct Entry {
     DepthMap map;      // as swept; R, t follow the model
@@ -273,6 +281,9 @@ struct DenseReconstruction::Impl {
   std::set<std::string> dirty;
   // Registered views judged not to be key views (DenseUpdate::covered).
   std::set<std::string> covered;
+  // Key views the last update found no neighbour for (DenseUpdate::skipped):
+  // tried again by every update, but not a backlog to catch up on.
+  std::set<std::string> unswept;
   // The agreement checks' options of this moment: they ask the sweep's
   // question (DenseReconstruction::set_parallel_while) too.
   ConsistencyOptions consistency() const {
@@ -298,7 +309,9 @@ struct DenseReconstruction::Impl {
   bool measured_already(const Model& model, int image,
                         const Covisibility& covisibility) const;
   void sweep(const Model& model, int key, const ImageSource& images,
-             const Covisibility& covisibility, DenseUpdate* update);
+             const Covisibility& covisibility,
+             const PlaneSweepOptions& sweep_options, DenseUpdate* update);
+  size_t waiting_views(const Model& model) const;
   void filter(const std::string& id, const Model& model,
               const std::map<std::string, int>& index,
               const Covisibility& covisibility);
@@ -454,14 +467,17 @@ std::set<std::string> DenseReconstruction::Impl::within_budget(
 void DenseReconstruction::Impl::sweep(const Model& model, int key,
                                       const ImageSource& images,
                                       const Covisibility& covisibility,
+                                      const PlaneSweepOptions& sweep_options,
                                       DenseUpdate* update) {
   const std::vector<int> neighbour_indices =
       choose_neighbours(covisibility, key, options);
   const std::string& id = model.images[key].id;
   if (neighbour_indices.empty()) {
     update->skipped.push_back(id);
+    unswept.insert(id);
     return;
   }
+  unswept.erase(id);
   const DenseView key_view =
       cache.get(model, key, images, covisibility, options.long_side);
   std::vector<DenseView> neighbour_views;
@@ -471,7 +487,7 @@ void DenseReconstruction::Impl::sweep(const Model& model, int key,
   std::vector<const DenseView*> neighbours;
   for (const DenseView& v : neighbour_views) neighbours.push_back(&v);
   Entry entry;
-  entry.map = sweep_planes(key_view, neighbours, options.sweep);
+  entry.map = sweep_planes(key_view, neighbours, sweep_options);
   entry.swept_R = entry.map.R;
   entry.swept_t = entry.map.t;
   entry.sparse_ratio = sparse_depth_ratio(entry.map, entry.map.depth,
@@ -486,15 +502,31 @@ void DenseReconstruction::Impl::sweep(const Model& model, int key,
   update->new_depth_maps.push_back(id);
 }
 
+// Registered views that have no map, were not judged covered and did not
+// lack neighbours last time: an upper bound of the sweeps still to do.
+size_t DenseReconstruction::Impl::waiting_views(const Model& model) const {
+  size_t waiting = 0;
+  for (const ModelImage& image : model.images)
+    waiting += !entries.count(image.id) && !covered.count(image.id) &&
+               !unswept.count(image.id);
+  return waiting;
+}
+
 // Sweeps the registered views that have no map and are key views, in the
 // model's order (the order of registration), at most sweep_budget of them;
 // the views past the budget are counted in deferred_views and judged by a
-// later update.
+// later update. Behind by more than catch_up_backlog views, it sweeps with
+// catch_up_sweep.
 void DenseReconstruction::Impl::sweep_new_views(
     const Model& model, const ImageSource& images,
     const Covisibility& covisibility,
     const std::function<void(const std::string&)>& progress,
     DenseUpdate* update) {
+  const bool catching_up =
+      options.catch_up_backlog > 0 &&
+      waiting_views(model) > static_cast<size_t>(options.catch_up_backlog);
+  const PlaneSweepOptions sweep_options =
+      catching_up ? catch_up_sweep(options.sweep) : options.sweep;
   for (size_t i = 0; i < model.images.size(); ++i) {
     const std::string& id = model.images[i].id;
     if (entries.count(id) || covered.count(id)) continue;
@@ -511,7 +543,11 @@ void DenseReconstruction::Impl::sweep_new_views(
       continue;
     }
     if (progress) progress(id);
-    sweep(model, static_cast<int>(i), images, covisibility, update);
+    const size_t swept = update->new_depth_maps.size();
+    sweep(model, static_cast<int>(i), images, covisibility, sweep_options,
+          update);
+    if (catching_up)
+      update->caught_up_maps += update->new_depth_maps.size() - swept;
   }
 }
 
@@ -664,6 +700,7 @@ DenseUpdate update_until_settled(DenseReconstruction& dense, const Model& model,
     total.covered.insert(total.covered.end(), round.covered.begin(),
                          round.covered.end());
     total.deferred_views = round.deferred_views;
+    total.caught_up_maps += round.caught_up_maps;
     total.sweep_s += round.sweep_s;
     total.refused = total.refused || round.refused;
     total.refused_maps += round.refused_maps;

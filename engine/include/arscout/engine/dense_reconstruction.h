@@ -84,6 +84,16 @@ struct DenseOptions {
   // of them as late as the last. 0: no limit (the default; the service's
   // dense lanes sweep 2 per phase, docs/service.md).
   int sweep_budget = 0;
+  // Keeping up under load: when more than this many registered views wait
+  // for a sweep at the start of an update (views without a map not judged
+  // covered, the one about to be swept included), the update sweeps with
+  // catch_up_sweep(sweep): planes twice as far apart, so a lane that fell
+  // behind a run of views that all bring new coverage sweeps them in about
+  // two thirds of the time and catches up. Depths keep their sub-plane
+  // refinement; the map's format and fusion are the same. 0 or less: never
+  // (-1, the default, lets the service's dense lanes use 2,
+  // docs/service.md).
+  int catch_up_backlog = -1;
   // The moved maps re-fused per update while the update also sweeps
   // (refuse_budget applies when it sweeps nothing): a new view's part of
   // the cloud goes before keeping old maps within a quarter voxel of their
@@ -91,9 +101,15 @@ struct DenseOptions {
   int refuse_budget_sweeping = -1;
 };
 
+// The sweep options of an update that catches up (catch_up_backlog):
+// `sweep` with plane_step_px doubled and min_planes and max_planes halved.
+PlaneSweepOptions catch_up_sweep(const PlaneSweepOptions& sweep);
+
 struct DenseUpdate {
   std::vector<std::string> new_depth_maps;  // key views swept this time
-  std::vector<std::string> skipped;         // registered, but no neighbour
+  // Of those, the ones swept with catch_up_sweep: the update caught up.
+  size_t caught_up_maps = 0;
+  std::vector<std::string> skipped;  // registered, but no neighbour
   // Registered, not key views: others' maps cover what they see
   // (DenseOptions::redundant_share). Judged once, again after a withdrawal.
   std::vector<std::string> covered;
