@@ -3,15 +3,16 @@
 // second, and the time of one depth map at about 1 MP with 128 planes.
 //
 //   dense_bench [--width 1224] [--height 816] [--planes 128] [--repeat 5]
-//               [--threads 2] [--auto] [--cuda]
+//               [--threads 2] [--auto [--catch-up]] [--cuda]
 //
 // One evaluation is one key pixel scored against one neighbour on one
 // plane. The key view is the middle of three converging street cameras and
 // sweeps against the other two. By default it sweeps --planes
 // fronto-parallel planes only, so the count is exact; --auto uses the
 // default options instead (scene directions, plane count from the
-// baseline) and reports the count they chose. Each sweep is timed --repeat
-// times; the table gives the median and the fastest.
+// baseline) and reports the count they chose; --catch-up, with --auto, the
+// options a dense lane that fell behind sweeps with (catch_up_sweep). Each
+// sweep is timed --repeat times; the table gives the median and the fastest.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -25,6 +26,7 @@
 #include <opencv2/core/utility.hpp>
 
 #include "arscout/engine/dense.h"
+#include "arscout/engine/dense_reconstruction.h"
 #include "arscout/engine/synthetic_site.h"
 
 namespace {
@@ -80,7 +82,7 @@ double seconds_since(Clock::time_point start) {
 int main(int argc, char** argv) {
   CLI::App app{"Plane-sweep throughput on a rendered street scene"};
   int width = 1224, height = 816, planes = 128, repeat = 5, threads = 2;
-  bool automatic = false, cuda = false;
+  bool automatic = false, catch_up = false, cuda = false;
   app.add_option("--width", width, "key image width")
       ->check(CLI::PositiveNumber);
   app.add_option("--height", height, "key image height")
@@ -93,6 +95,9 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   app.add_flag("--auto", automatic,
                "default options: scene directions, planes from the baseline");
+  app.add_flag("--catch-up", catch_up,
+               "with --auto: planes twice as far apart, as a dense lane "
+               "that fell behind sweeps");
   app.add_flag("--cuda", cuda, "the CUDA path (when built with ARSCOUT_CUDA)");
   CLI11_PARSE(app, argc, argv);
   cv::setNumThreads(threads);
@@ -107,6 +112,8 @@ int main(int argc, char** argv) {
   if (!automatic) {
     options.max_scene_directions = 0;
     options.min_planes = options.max_planes = planes;
+  } else if (catch_up) {
+    options = arscout::engine::catch_up_sweep(options);
   }
   long long plane_count = 0;
   for (const auto& d :

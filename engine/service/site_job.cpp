@@ -504,6 +504,8 @@ std::string SiteJob::dense_summary(const DenseTask& task,
             << (update.deferred_views == 1 ? "" : "s") << " to sweep next";
   summary << ", " << update.new_depth_maps.size() << " new depth map"
           << (update.new_depth_maps.size() == 1 ? "" : "s");
+  if (update.caught_up_maps > 0)
+    summary << " (" << update.caught_up_maps << " coarse, catching up)";
   if (!update.covered.empty())
     summary << ", " << update.covered.size() << " covered by the key views";
   summary << ")";

@@ -170,8 +170,17 @@ class ProblemBuilder {
     choose_fixed_images();
   }
 
-  void build() {
+  // False when BundleOptions::stop asked to end while the problem was
+  // being built (asked every kPointsPerStopCheck points): on a large
+  // model building it takes longer than an iteration, and a capture
+  // arriving meanwhile would wait for all of it.
+  bool build() {
+    constexpr size_t kPointsPerStopCheck = 4096;
+    size_t added = 0;
     for (int64_t id : points_) {
+      if (options_.stop && ++added % kPointsPerStopCheck == 0 &&
+          options_.stop())
+        return false;
       ScenePoint& point = scene_.points.at(id);
       const std::vector<Observation> kept = kept_observations(point);
       for (const Observation& obs : kept) add_observation(point, obs);
@@ -184,6 +193,7 @@ class ProblemBuilder {
       add_upright_priors();
     hold_gauge();
     hold_cameras();
+    return true;
   }
 
   ceres::Problem& problem() { return problem_; }
@@ -528,11 +538,12 @@ BundleReport adjust_bundle(Scene& scene, const std::vector<int>& free_images,
                            bool global, const BundleOptions& options) {
   ProblemBuilder builder(scene, options);
   builder.select(free_images, global);
-  builder.build();
+  const bool built = builder.build();
   BundleReport report;
   report.images = builder.image_count();
   report.points = builder.point_count();
-  if (report.points == 0) return report;
+  report.stopped = !built;
+  if (!built || report.points == 0) return report;
   ceres::Solver::Options solver;
   solver.linear_solver_type =
       report.images <= 60 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;

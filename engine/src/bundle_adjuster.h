@@ -53,8 +53,10 @@ struct BundleOptions {
   // Local adjustments only: points held where they are, so only the free
   // poses move (motion-only adjustment).
   bool points_fixed = false;
-  // Asked after every iteration; true ends the solve there, keeping the
-  // progress made (the last accepted iterate).
+  // Asked while the problem is built and after every iteration; true ends
+  // the adjustment there, keeping the progress made (the last accepted
+  // iterate; nothing moved when it ends before the first iteration,
+  // BundleReport::iterations 0).
   std::function<bool()> stop;
 };
 

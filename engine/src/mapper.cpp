@@ -15,15 +15,16 @@
 namespace arscout::engine {
 namespace {
 
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
 class StageClock {
  public:
   explicit StageClock(double& total)
       : total_(total), start_(std::chrono::steady_clock::now()) {}
-  ~StageClock() {
-    total_ +=
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_)
-            .count();
-  }
+  ~StageClock() { total_ += seconds_since(start_); }
 
  private:
   double& total_;
@@ -188,9 +189,7 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   if (!refinement_due()) return result;
   const auto start = std::chrono::steady_clock::now();
   if (catch_up(stop, result)) {
-    result.seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-            .count();
+    result.seconds = seconds_since(start);
     return result;
   }
   if (!refinement_due()) return result;  // the backlog was all it had
@@ -207,6 +206,11 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   result.iterations = report.iterations;
   result.images = report.images;
   result.converged = !report.stopped;
+  // Stopped before its first iteration: no pose moved, nothing to follow.
+  if (report.iterations == 0) {
+    result.seconds = seconds_since(start);
+    return result;
+  }
   std::vector<int> all;
   for (size_t i = 0; i < scene_.images.size(); ++i) {
     if (!scene_.images[i].registered) continue;
@@ -225,9 +229,7 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
     scene_.registered_at_last_global_ba = scene_.registered_count();
     scene_.unsettled_refine_rounds = 0;
   }
-  result.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-          .count();
+  result.seconds = seconds_since(start);
   return result;
 }
 

@@ -373,6 +373,31 @@ TEST(BundleAdjusterTest, LossScaledToTheKeypointsHoldsTheShapeOfMixedNoise) {
   EXPECT_LT(at_sigmas, 0.7 * at_one_px);
 }
 
+TEST(BundleAdjusterTest, AStopWhileBuildingEndsBeforeAnythingMoves) {
+  std::mt19937 rng(64);
+  const synthetic::Truth truth =
+      synthetic::make_truth({.images = 6, .points = 9000}, rng);
+  Scene scene = synthetic::make_scene(truth, 0.3, 0, rng);
+  perturb(scene, scene.reference_image, 0.2, 0.05, 0.02, rng);
+  const Scene before = scene;
+  int asked = 0;
+  BundleOptions options;
+  options.stop = [&asked] { return ++asked >= 2; };  // a capture arrives
+  const BundleReport report = adjust_bundle(scene, {}, true, options);
+  EXPECT_TRUE(report.stopped);
+  EXPECT_EQ(report.iterations, 0);
+  EXPECT_EQ(asked, 2);  // asked while building, every 4096 points
+  for (size_t i = 0; i < scene.images.size(); ++i) {
+    EXPECT_EQ(scene.images[i].q.coeffs(), before.images[i].q.coeffs());
+    EXPECT_EQ(scene.images[i].t, before.images[i].t);
+  }
+  for (const auto& [id, point] : scene.points)
+    EXPECT_EQ(point.xyz, before.points.at(id).xyz);
+  // Not stopped, the same adjustment runs its iterations.
+  options.stop = [] { return false; };
+  EXPECT_GT(adjust_bundle(scene, {}, true, options).iterations, 1);
+}
+
 TEST(BundleAdjusterTest, RefinesWrongFocalLength) {
   std::mt19937 rng(54);
   GpsScene g = make_gps_scene(rng);

@@ -85,11 +85,13 @@ struct DenseOptions {
   // dense lanes sweep 2 per phase, docs/service.md).
   int sweep_budget = 0;
   // Keeping up under load: when more than this many registered views wait
-  // for a sweep at the start of an update (views without a map not judged
-  // covered, the one about to be swept included), the update sweeps with
+  // for a sweep at the start of an update (views without a map, not judged
+  // covered and not left without a neighbour last time, the one about to
+  // be swept included), the update sweeps with
   // catch_up_sweep(sweep): planes twice as far apart, so a lane that fell
-  // behind a run of views that all bring new coverage sweeps them in about
-  // two thirds of the time and catches up. Depths keep their sub-plane
+  // behind a run of views that all bring new coverage sweeps them in a
+  // little over half the time (bench/dense_bench --auto --catch-up) and
+  // catches up. Depths keep their sub-plane
   // refinement; the map's format and fusion are the same. 0 or less: never
   // (-1, the default, lets the service's dense lanes use 2,
   // docs/service.md).
