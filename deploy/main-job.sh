@@ -45,7 +45,7 @@ done
 planner=$("$bin" token create --db "$db" --role planner --name planner)
 echo "== server at $url (log: $work/server.log); engine lines follow"
 echo "== planners: open $url/ in a browser while it runs, token $planner"
-tail -f "$work/server.log" --pid "$server_pid" | sed -n 's/^/   engine  /p' &
+tail -f "$work/server.log" --pid "$server_pid" | sed -un 's/^/   engine  /p' &
 
 fountain="$data/strecha/fountain-P11"
 lund="$data/opensfm/lund"
@@ -54,10 +54,10 @@ if [ -d "$fountain/images" ] && [ -d "$lund/images" ]; then
   "$bin" scout --server "$url" --token "$alice" --scout-name alice \
     --dir "$fountain/images" --gps-csv "$fountain/gps.csv" \
     --camera fountain-p11 --camera-k "$fountain/images/K.txt" \
-    --interval 2 | sed 's/^/   alice   /' &
+    --interval 2 | sed -u 's/^/   alice   /' &
   scout_a=$!
   "$bin" scout --server "$url" --token "$bob" --scout-name bob \
-    --dir "$lund/images" --interval 1 | sed 's/^/   bob     /' &
+    --dir "$lund/images" --interval 1 | sed -u 's/^/   bob     /' &
   scout_b=$!
   wait "$scout_a"
   wait "$scout_b"
@@ -67,7 +67,7 @@ else
   "$bin" scout --server "$url" --token "$alice" --scout-name alice \
     --dir "$work/synthetic/images" --gps-csv "$work/synthetic/gps.csv" \
     --camera synthetic --camera-k "$work/synthetic/images/K.txt" \
-    --interval 1 | sed 's/^/   alice   /'
+    --interval 1 | sed -u 's/^/   alice   /'
 fi
 
 echo "== uploads done; waiting for the engine to finish"
