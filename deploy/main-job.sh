@@ -32,6 +32,8 @@ echo "== arscout main job: server + engine on $db"
 alice=$("$bin" token create --db "$db" --role scout --name alice)
 bob=$("$bin" token create --db "$db" --role scout --name bob)
 
+# Created before the server starts: the loop below reads it at once.
+: > "$work/server.log"
 "$bin" serve --db "$db" --listen 127.0.0.1:0 --with-engine \
   > "$work/server.log" 2>&1 &
 server_pid=$!

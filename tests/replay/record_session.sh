@@ -49,6 +49,8 @@ done
 db="sqlite:$out/arscout.db"
 "$bin" token create --db "$db" --role scout --name alice > "$out/scout.token"
 
+# Created before the server starts: the loop below reads it at once.
+: > "$out/server.log"
 "$bin" serve --db "$db" --listen 127.0.0.1:0 > "$out/server.log" 2>&1 &
 server=$!
 trap 'kill $server 2>/dev/null || true' EXIT
