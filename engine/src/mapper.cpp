@@ -9,16 +9,12 @@
 #include "estimators.h"
 #include "keypoint_refinement.h"
 #include "loop_closure.h"
+#include "stopwatch.h"
 
 #include <Eigen/Eigenvalues>
 
 namespace arscout::engine {
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-      .count();
-}
 
 class StageClock {
  public:

@@ -14,14 +14,10 @@
 #include "model_builder.h"
 #include "scene.h"
 #include "serialization.h"
+#include "stopwatch.h"
 
 namespace arscout::engine {
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-      .count();
-}
 
 // Two-view verification is strict: its inliers seed every track.
 constexpr double kEssentialThresholdPx = 1.0;

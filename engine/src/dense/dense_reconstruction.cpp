@@ -14,15 +14,12 @@
 #include "dense/map_fusion.h"
 #include "dense/view_coverage.h"
 #include "image_loader.h"
+#include "stopwatch.h"
 
 namespace arscout::engine {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 Eigen::Matrix3d rotation_of(const ModelImage& image) {
   const auto& q = image.qvec;
@@ -308,7 +305,7 @@ struct DenseReconstruction::Impl {
                  const Covisibility& covisibility) const;
   bool measured_already(const Model& model, int image,
                         const Covisibility& covisibility) const;
-  void sweep(const Model& model, int key, const ImageSource& images,
+  bool sweep(const Model& model, int key, const ImageSource& images,
              const Covisibility& covisibility,
              const PlaneSweepOptions& sweep_options, DenseUpdate* update);
   size_t waiting_views(const Model& model) const;
@@ -464,7 +461,8 @@ std::set<std::string> DenseReconstruction::Impl::within_budget(
   return chosen;
 }
 
-void DenseReconstruction::Impl::sweep(const Model& model, int key,
+// Sweeps `key`'s depth map; false when it has no neighbour to sweep with.
+bool DenseReconstruction::Impl::sweep(const Model& model, int key,
                                       const ImageSource& images,
                                       const Covisibility& covisibility,
                                       const PlaneSweepOptions& sweep_options,
@@ -475,7 +473,7 @@ void DenseReconstruction::Impl::sweep(const Model& model, int key,
   if (neighbour_indices.empty()) {
     update->skipped.push_back(id);
     unswept.insert(id);
-    return;
+    return false;
   }
   unswept.erase(id);
   const DenseView key_view =
@@ -500,6 +498,7 @@ void DenseReconstruction::Impl::sweep(const Model& model, int key,
   entries[id] = std::move(entry);
   order.push_back(id);
   update->new_depth_maps.push_back(id);
+  return true;
 }
 
 // Registered views that have no map, were not judged covered and did not
@@ -543,11 +542,10 @@ void DenseReconstruction::Impl::sweep_new_views(
       continue;
     }
     if (progress) progress(id);
-    const size_t swept = update->new_depth_maps.size();
-    sweep(model, static_cast<int>(i), images, covisibility, sweep_options,
-          update);
-    if (catching_up)
-      update->caught_up_maps += update->new_depth_maps.size() - swept;
+    if (sweep(model, static_cast<int>(i), images, covisibility, sweep_options,
+              update) &&
+        catching_up)
+      ++update->caught_up_maps;
   }
 }
 

@@ -87,13 +87,12 @@ struct DenseOptions {
   // Keeping up under load: when more than this many registered views wait
   // for a sweep at the start of an update (views without a map, not judged
   // covered and not left without a neighbour last time, the one about to
-  // be swept included), the update sweeps with
-  // catch_up_sweep(sweep): planes twice as far apart, so a lane that fell
-  // behind a run of views that all bring new coverage sweeps them in a
-  // little over half the time (bench/dense_bench --auto --catch-up) and
-  // catches up. Depths keep their sub-plane
-  // refinement; the map's format and fusion are the same. 0 or less: never
-  // (-1, the default, lets the service's dense lanes use 2,
+  // be swept included), the update sweeps with catch_up_sweep(sweep):
+  // planes twice as far apart, so a lane that fell behind a run of views
+  // that all bring new coverage sweeps them in a little over half the time
+  // (bench/dense_bench --auto --catch-up) and catches up. Depths keep their
+  // sub-plane refinement; the map's format and fusion are the same. 0 or
+  // less: never (-1, the default, lets the service's dense lanes use 2,
   // docs/service.md).
   int catch_up_backlog = -1;
   // The moved maps re-fused per update while the update also sweeps
