@@ -17,6 +17,7 @@ std::string content_type_of(const fs::path& file) {
       {".mjs", "text/javascript; charset=utf-8"},
       {".css", "text/css; charset=utf-8"},
       {".json", "application/json"},
+      {".webmanifest", "application/manifest+json"},
       {".map", "application/json"},
       {".png", "image/png"},
       {".jpg", "image/jpeg"},
@@ -55,6 +56,17 @@ HttpResponse not_found(const std::string& path) {
   return HttpResponse::error(404, "not_found", "no file " + path);
 }
 
+// A folder with a page, named without its slash (/scout): the browser is
+// sent to /scout/, so the page's relative links resolve inside it.
+HttpResponse to_folder(const std::string& path) {
+  HttpResponse r;
+  r.status = 301;
+  r.content_type = "text/plain; charset=utf-8";
+  r.headers.emplace_back("Location", path + "/");
+  r.body = "moved to " + path + "/\n";
+  return r;
+}
+
 }  // namespace
 
 std::optional<HttpResponse> serve_static(const std::vector<StaticMount>& mounts,
@@ -74,6 +86,7 @@ std::optional<HttpResponse> serve_static(const std::vector<StaticMount>& mounts,
   const fs::path root = fs::canonical(mount->directory, ec);
   if (ec) return not_found(req.path);
   const fs::path file = fs::canonical(root / relative, ec);
+  if (!ec && fs::is_regular_file(file / "index.html")) return to_folder(req.path);
   if (ec || !fs::is_regular_file(file)) return not_found(req.path);
   // A symbolic link must not lead out of the mounted folder.
   auto [r, f] = std::mismatch(root.begin(), root.end(), file.begin());

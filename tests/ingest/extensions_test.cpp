@@ -39,6 +39,8 @@ class ExtensionsTest : public ::testing::Test {
     root_ = testing::make_temp_dir("web");
     write_text(root_ / "web/index.html", "<html>viewer</html>");
     write_text(root_ / "web/app.js", "export const x = 1;");
+    write_text(root_ / "web/scout/index.html", "<html>scout</html>");
+    write_text(root_ / "web/scout/manifest.webmanifest", "{}");
     write_text(root_ / "web/node_modules/three/build/three.module.js", "//3");
     write_text(root_ / "secret.txt", "not for the web");
     fs::create_symlink(root_ / "secret.txt", root_ / "web/leak.txt");
@@ -79,6 +81,14 @@ TEST_F(ExtensionsTest, StaticFilesNeedNoTokenAndStayInsideTheirFolder) {
        {"/../secret.txt", "/vendor/three/../../../secret.txt", "/./app.js",
         "/leak.txt", "/missing.js", "/node_modules"})
     EXPECT_EQ(api_->handle(get(outside)).status, 404) << outside;
+  // A folder with a page, named without its slash, sends the browser in.
+  HttpResponse folder = api_->handle(get("/scout"));
+  EXPECT_EQ(folder.status, 301);
+  ASSERT_FALSE(folder.headers.empty());
+  EXPECT_EQ(folder.headers[0].second, "/scout/");
+  EXPECT_EQ(api_->handle(get("/scout/")).body, "<html>scout</html>");
+  EXPECT_EQ(api_->handle(get("/scout/manifest.webmanifest")).content_type,
+            "application/manifest+json");
   HttpRequest post = get("/app.js");
   post.method = "POST";
   EXPECT_EQ(api_->handle(post).status, 405);

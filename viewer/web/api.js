@@ -58,13 +58,16 @@ export class ApiClient {
   /**
    * @param {object} options
    * @param {() => void} options.onUnauthorized called on every 401
+   * @param {{get: () => string}} [options.tokens] where the token is kept
+   *   (the viewer's tab-long tokenStore unless given)
    */
-  constructor({ onUnauthorized }) {
+  constructor({ onUnauthorized, tokens = tokenStore }) {
     this.onUnauthorized = onUnauthorized;
+    this.tokens = tokens;
   }
 
   get token() {
-    return tokenStore.get();
+    return this.tokens.get();
   }
 
   /** fetch() with the bearer token; throws on 401 and on other errors. */

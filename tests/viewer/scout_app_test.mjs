@@ -1,0 +1,362 @@
+#!/usr/bin/env node
+// End-to-end test of the scout app (viewer/web/scout) in headless Chromium
+// with a phone's viewport and touch, against `arscout serve --with-engine`:
+//
+// - alice takes fountain-P11's 11 photos through a fake rear camera (a
+//   canvas stream in place of getUserMedia showing each photo at full
+//   size) with the geolocation set to each photo's gps.csv fix; the
+//   network is cut for shots 4-7 and the page reloaded while offline (the
+//   service worker serves the app, IndexedDB keeps the queue);
+// - back online, every photo is stored exactly once (11 capture documents
+//   created, once each), at least 9 are registered with the app's
+//   estimated camera, the status bar shows the fix and its accuracy;
+// - a registered photo shows the model drawn over it; withdrawing it from
+//   the app removes it from the next model version;
+// - bob, on a second page with his own token, takes a photo: each page's
+//   site map shows both scouts' cameras;
+// - a photo the server refuses (422) is shown refused with the server's
+//   message and leaves the queue; a revoked token stops the queue with a
+//   clear message and keeps the photo on the phone.
+//
+// Settings (environment): SERVER, ALICE_TOKEN, BOB_TOKEN, ADMIN_TOKEN,
+// SCENE (fountain-P11 folder), CHROMIUM, SCREENSHOTS (a folder: the capture
+// and see-through screens as PNG), TIMEOUT_S (engine waits, default 420).
+
+import { createRequire } from 'node:module';
+import { fileURLToPath } from 'node:url';
+import crypto from 'node:crypto';
+import fs from 'node:fs';
+import path from 'node:path';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+const requireFromViewer = createRequire(path.resolve(here, '../../viewer/web/package.json'));
+const { chromium } = requireFromViewer('playwright-core');
+
+const started = Date.now();
+const log = (m) => console.log(`[${((Date.now() - started) / 1000).toFixed(1).padStart(6)}s] ${m}`);
+class TestFailure extends Error {}
+const fail = (m) => {
+  throw new TestFailure(m);
+};
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+const env = process.env;
+for (const key of ['SERVER', 'ALICE_TOKEN', 'BOB_TOKEN', 'ADMIN_TOKEN', 'SCENE']) {
+  if (!env[key]) {
+    console.error(`scout_app_test: ${key} is not set`);
+    process.exit(2);
+  }
+}
+const server = env.SERVER.replace(/\/+$/, '');
+const timeoutMs = 1000 * Number(env.TIMEOUT_S || 420);
+
+/** gps.csv rows by image name. */
+function readFixes(scene) {
+  const lines = fs.readFileSync(path.join(scene, 'gps.csv'), 'utf8').trim().split('\n').slice(1);
+  const fixes = new Map();
+  for (const line of lines) {
+    const [name, lat, lon, alt, hAcc, vAcc] = line.split(',');
+    fixes.set(name, { lat: +lat, lon: +lon, alt: +alt, hAcc: +hAcc, vAcc: +vAcc });
+  }
+  return fixes;
+}
+
+async function api(token, url, init = {}) {
+  const response = await fetch(server + url, {
+    ...init,
+    headers: { Authorization: `Bearer ${token}`, ...(init.headers || {}) },
+  });
+  if (!response.ok) fail(`${init.method || 'GET'} ${url}: HTTP ${response.status} ${await response.text()}`);
+  return response.json();
+}
+
+async function until(what, probe, ms = timeoutMs, every = 1000) {
+  const end = Date.now() + ms;
+  for (;;) {
+    const value = await probe();
+    if (value) return value;
+    if (Date.now() > end) fail(`timed out waiting for ${what}`);
+    await sleep(every);
+  }
+}
+
+// ---- the fakes a page starts with -------------------------------------------
+
+/**
+ * In the page before any script: getUserMedia returns a canvas stream at
+ * the photo's full size, and geolocation answers with the fix the test
+ * sets, altitude included, as a phone's GPS does.
+ */
+function installFakes() {
+  const fake = { watchers: new Map(), nextWatch: 1, fix: null, image: null, frames: 0 };
+  window.__fake = fake;
+  const canvas = document.createElement('canvas');
+  canvas.width = 3072;
+  canvas.height = 2048;
+  const g = canvas.getContext('2d');
+  const paint = () => {
+    if (fake.image) g.drawImage(fake.image, 0, 0, canvas.width, canvas.height);
+    else g.fillRect(0, 0, canvas.width, canvas.height);
+    fake.frames++;
+  };
+  setInterval(paint, 100);
+  fake.showPhoto = async (base64) => {
+    const bytes = Uint8Array.from(atob(base64), (c) => c.charCodeAt(0));
+    fake.image = await createImageBitmap(new Blob([bytes], { type: 'image/jpeg' }));
+    paint();
+  };
+  navigator.mediaDevices.getUserMedia = async () => {
+    paint();
+    return canvas.captureStream(10);
+  };
+  const position = () => ({
+    timestamp: Date.now(),
+    coords: {
+      latitude: fake.fix.lat, longitude: fake.fix.lon, altitude: fake.fix.alt,
+      accuracy: fake.fix.hAcc, altitudeAccuracy: fake.fix.vAcc, heading: null, speed: null,
+    },
+  });
+  fake.setFix = (fix) => {
+    fake.fix = fix;
+    for (const ok of fake.watchers.values()) ok(position());
+  };
+  const geolocation = {
+    watchPosition(ok) {
+      const id = fake.nextWatch++;
+      fake.watchers.set(id, ok);
+      if (fake.fix) setTimeout(() => ok(position()), 0);
+      return id;
+    },
+    clearWatch(id) {
+      fake.watchers.delete(id);
+    },
+    getCurrentPosition(ok) {
+      if (fake.fix) setTimeout(() => ok(position()), 0);
+    },
+  };
+  Object.defineProperty(navigator, 'geolocation', { value: geolocation, configurable: true });
+}
+
+async function openScout(browser, token, name) {
+  const context = await browser.newContext({
+    viewport: { width: 390, height: 844 },
+    deviceScaleFactor: 2,
+    isMobile: true,
+    hasTouch: true,
+  });
+  await context.addInitScript(installFakes);
+  const page = await context.newPage();
+  page.on('console', (m) => {
+    if (m.type() === 'error') console.log(`  [${name} console] ${m.text()}`);
+  });
+  page.on('pageerror', (e) => console.log(`  [${name} page error] ${e.message}`));
+  await page.goto(`${server}/scout/#token=${encodeURIComponent(token)}`);
+  await page.waitForSelector('body[data-ready="true"]');
+  if (page.url().includes('token=')) fail('the token stayed in the address');
+  // The service worker must hold the app before the network is cut.
+  await page.evaluate(async () => {
+    await navigator.serviceWorker.ready;
+  });
+  await page.waitForFunction(() => navigator.serviceWorker.controller !== null);
+  return { context, page, name };
+}
+
+/** Shows a photo on the fake camera, sets the fix, waits for frames, shoots. */
+async function shoot(scout, imagePath, fix) {
+  const { page } = scout;
+  if ((await page.getAttribute('body', 'data-view')) !== 'capture') {
+    await page.tap('#tabs button[data-view="capture"]');
+  }
+  const base64 = fs.readFileSync(imagePath).toString('base64');
+  await page.evaluate((b) => window.__fake.showPhoto(b), base64);
+  await page.evaluate((f) => window.__fake.setFix(f), fix);
+  const frames = await page.evaluate(() => window.__fake.frames);
+  await page.waitForFunction((n) => window.__fake.frames >= n + 5, frames);
+  await page.waitForFunction(() => document.getElementById('live').videoWidth === 3072);
+  const before = await page.locator('#photos li').count();
+  await page.tap('#shutter');
+  await page.waitForFunction((n) => document.querySelectorAll('#photos li').length > n, before);
+}
+
+const queueCounts = (page) =>
+  page.evaluate(() => ({ ...document.getElementById('queue-counts').dataset }));
+
+// ---- the steps ----------------------------------------------------------------
+
+/**
+ * Every photo taken is on the phone (waiting, sending or sent), none lost,
+ * and the `offlineShots` taken without a network are all still unsent.
+ */
+async function checkQueueHolds(page, shots, offlineShots, when) {
+  const c = await queueCounts(page);
+  const held = Number(c.waiting) + Number(c.sending) + Number(c.sent);
+  const unsent = Number(c.waiting) + Number(c.sending);
+  if (held !== shots || unsent < offlineShots) {
+    fail(`${when}: the queue holds ${JSON.stringify(c)}; expected ${shots} photos, at least ${offlineShots} unsent`);
+  }
+}
+
+async function captureWalk(alice, scene, fixes) {
+  const names = [...fixes.keys()].sort();
+  for (let i = 0; i < names.length; i++) {
+    const shot = i + 1;
+    if (shot === 4) {
+      log('network cut (shots 4-7)');
+      await alice.context.setOffline(true);
+    }
+    await shoot(alice, path.join(scene, 'images', names[i]), fixes.get(names[i]));
+    log(`shot ${shot}: ${names[i]}`);
+    if (shot === 5) {
+      log('reload while offline');
+      await alice.page.reload();
+      await alice.page.waitForSelector('body[data-ready="true"]');
+      await checkQueueHolds(alice.page, shot, 2, 'after the offline reload');
+    }
+    if (shot === 7) {
+      await checkQueueHolds(alice.page, shot, 4, 'offline');
+      const connection = await alice.page.textContent('#connection');
+      if (connection !== 'offline') fail(`the status bar says "${connection}" while offline`);
+      log('offline: shots 4-7 wait on the phone; network back');
+      await alice.context.setOffline(false);
+    }
+  }
+  await alice.page.waitForFunction(() => document.getElementById('queue-counts').dataset.sent === '11', null,
+    { timeout: 120000 });
+  log('all 11 sent');
+}
+
+async function checkStoredOnce(adminToken) {
+  const docs = await api(adminToken, '/v1/docs/captures?depth=1');
+  const captures = docs.documents.filter((d) => /^\/captures\/[^/]+$/.test(d.path));
+  const changes = await api(adminToken, '/v1/changes?since=0&pattern=/captures/*&limit=10000');
+  const created = changes.changes.filter((c) => c.version === 1);
+  const alices = captures.filter((d) => d.attrs.scout === 'alice');
+  if (alices.length !== 11) fail(`${alices.length} capture documents for alice, expected 11`);
+  const ids = new Set(created.map((c) => c.path));
+  if (created.length !== captures.length || ids.size !== created.length) {
+    fail(`${created.length} creations for ${captures.length} capture documents`);
+  }
+  log(`stored once: 11 capture documents, ${created.length} creations`);
+  return alices;
+}
+
+async function checkRegistered(alice, adminToken) {
+  await until('9 registered photos in the app', async () =>
+    (await alice.page.locator('#photos li[data-status="registered"]').count()) >= 9);
+  const site = await alice.page.textContent('#site-name');
+  const model = await api(adminToken, `/v1/docs/sites/${encodeURIComponent(site)}/model`);
+  const cameras = model.attrs.cameras.filter((c) => c.source === 'estimated' && /-3072x2048$/.test(c.id));
+  const registered = model.attrs.images.filter((im) => cameras.some((c) => c.id === im.camera));
+  if (registered.length < 9) fail(`${registered.length} images on the app's estimated camera, expected >= 9`);
+  const version = Number(await alice.page.getAttribute('#model-version', 'data-version'));
+  if (!version) fail('the status bar shows no model version');
+  log(`registered ${registered.length} with camera ${cameras[0].id} (estimated), model v${model.version}`);
+  return { site, model };
+}
+
+async function checkStatusBar(alice, fix) {
+  const text = await alice.page.textContent('#gps-fix');
+  if (!text.includes(fix.lat.toFixed(6)) || !text.includes(fix.lon.toFixed(6))) fail(`status bar fix "${text}"`);
+  const accuracy = await alice.page.textContent('#gps-accuracy');
+  if (!accuracy.includes(`±${fix.hAcc.toFixed(1)} m`)) fail(`status bar accuracy "${accuracy}"`);
+  log(`status bar: ${text} ${accuracy}`);
+}
+
+async function checkOverlayAndWithdraw(alice, adminToken, site, screenshots) {
+  const page = alice.page;
+  // Live see-through: the latest registered photo's overlay over the camera.
+  await page.waitForSelector('#live-overlay[data-capture]', { state: 'attached', timeout: 60000 });
+  await page.tap('#blend');
+  await page.waitForFunction(() => {
+    const img = document.getElementById('live-overlay');
+    return !img.hidden && img.complete && img.naturalWidth > 0;
+  });
+  log(`live view blends the overlay of ${await page.getAttribute('#live-overlay', 'data-capture')}`);
+  if (screenshots) await page.screenshot({ path: path.join(screenshots, 'scout-capture.png') });
+  await page.tap('#tabs button[data-view="photos"]');
+  const row = page.locator('#photos li[data-status="registered"]').first();
+  const id = await row.getAttribute('data-capture');
+  await row.tap();
+  await page.waitForFunction((c) => {
+    const img = document.getElementById('see-through-overlay');
+    return img.dataset.capture === c && !img.hidden && img.complete && img.naturalWidth > 0;
+  }, id, { timeout: 60000 });
+  if (screenshots) await page.screenshot({ path: path.join(screenshots, 'scout-see-through.png') });
+  log(`overlay shown for ${id}`);
+  const before = (await api(adminToken, `/v1/docs/sites/${encodeURIComponent(site)}/model`)).version;
+  await page.tap('#withdraw');
+  await page.waitForSelector(`#photos li[data-capture="${id}"][data-state="withdrawn"]`);
+  const model = await until('a model version without the withdrawn photo', async () => {
+    const m = await api(adminToken, `/v1/docs/sites/${encodeURIComponent(site)}/model`);
+    return m.version > before && !m.attrs.images.some((im) => im.id === id) ? m : null;
+  });
+  log(`withdrawn ${id}: model v${model.version} has ${model.attrs.images.length} images without it`);
+}
+
+async function checkTwoScouts(alice, bob, scene, fixes) {
+  await shoot(bob, path.join(scene, 'images', '0010.jpg'), fixes.get('0010.jpg'));
+  await until('bob\'s photo registered', async () =>
+    (await bob.page.locator('#photos li[data-status="registered"]').count()) >= 1);
+  for (const scout of [alice, bob]) {
+    await scout.page.tap('#tabs button[data-view="map"]');
+    await until(`${scout.name}'s map showing both scouts`, async () =>
+      (await scout.page.getAttribute('#site-map', 'data-scouts')) === 'alice,bob', 120000);
+  }
+  if (env.SCREENSHOTS) await alice.page.screenshot({ path: path.join(env.SCREENSHOTS, 'scout-map.png') });
+  log('both maps show alice\'s and bob\'s cameras');
+}
+
+async function checkRefusalAndRevocation(bob, scene, fixes, adminToken) {
+  const page = bob.page;
+  await shoot(bob, path.join(scene, 'images', '0009.jpg'), { ...fixes.get('0009.jpg'), lat: 95 });
+  const refused = page.locator('#photos li[data-state="refused"]');
+  await until('the refused photo', async () => (await refused.count()) === 1, 60000);
+  const label = await refused.first().locator('.photo-state').textContent();
+  if (!/refused by the server: .*lat/.test(label)) fail(`refused photo says "${label}"`);
+  log(`refused: ${label}`);
+  const hash = crypto.createHash('sha256').update(env.BOB_TOKEN).digest('hex');
+  await api(adminToken, `/v1/docs/auth/tokens/${hash}`, { method: 'DELETE' });
+  await shoot(bob, path.join(scene, 'images', '0008.jpg'), fixes.get('0008.jpg'));
+  await page.waitForSelector('#notice:not([hidden])', { timeout: 60000 });
+  const notice = (await page.textContent('#notice-text')).trim();
+  if (!notice.includes('no longer accepts this token')) fail(`revocation notice "${notice}"`);
+  const counts = await queueCounts(page);
+  if (counts.waiting !== '1') fail(`after revocation the queue holds ${JSON.stringify(counts)}`);
+  log(`revoked: "${notice}", the photo kept`);
+}
+
+async function main() {
+  const scene = env.SCENE;
+  const fixes = readFixes(scene);
+  const browser = await chromium.launch({
+    executablePath: env.CHROMIUM || '/usr/bin/chromium',
+    headless: true,
+    args: ['--no-sandbox'],
+  });
+  let alice;
+  let bob;
+  try {
+    alice = await openScout(browser, env.ALICE_TOKEN, 'alice');
+    await captureWalk(alice, scene, fixes);
+    await checkStoredOnce(env.ADMIN_TOKEN);
+    const { site } = await checkRegistered(alice, env.ADMIN_TOKEN);
+    await checkStatusBar(alice, fixes.get('0010.jpg'));
+    await checkOverlayAndWithdraw(alice, env.ADMIN_TOKEN, site, env.SCREENSHOTS);
+    bob = await openScout(browser, env.BOB_TOKEN, 'bob');
+    await checkTwoScouts(alice, bob, scene, fixes);
+    await checkRefusalAndRevocation(bob, scene, fixes, env.ADMIN_TOKEN);
+    log('PASS');
+  } catch (err) {
+    for (const s of [alice, bob]) {
+      if (s && env.SCREENSHOTS) await s.page.screenshot({ path: path.join(env.SCREENSHOTS, `${s.name}-failure.png`) }).catch(() => {});
+    }
+    throw err;
+  } finally {
+    await browser.close();
+  }
+}
+
+main().catch((err) => {
+  console.error(err instanceof TestFailure ? `FAIL: ${err.message}` : err);
+  process.exit(1);
+});

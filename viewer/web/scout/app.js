@@ -1,0 +1,466 @@
+// The scout app (docs/scout-app.md): capture, status bar, the upload queue,
+// feedback per photo, the see-through view and the site map, wired to the
+// API (docs/api.md). Every photo is kept on the phone (store.js) before it
+// is sent (uploader.js); the change feed (../live.js) brings the engine's
+// verdicts.
+
+import { ApiClient, healthz } from '../api.js';
+import { LiveFeed } from '../live.js';
+import { parsePly } from '../ply.js';
+import { debounce, serialized } from '../util.js';
+import { Camera } from './camera.js';
+import { describe } from './feedback.js';
+import { Position } from './position.js';
+import { SiteMap } from './site_map.js';
+import { PhotoStore } from './store.js';
+import { TOKEN_REJECTED, Uploader } from './uploader.js';
+
+const TOKEN_KEY = 'arscout.scout.token';
+// A phone's main camera: about 26 mm in 35 mm terms. The engine refines it
+// (source "estimated"); a camera calibrated with `arscout calibrate` under
+// the same id is used as it is.
+const PRIOR_FOCAL_35MM = 26;
+
+const $ = (id) => document.getElementById(id);
+
+/** The token lives in localStorage: typed (or scanned) once per device. */
+const tokens = {
+  get: () => localStorage.getItem(TOKEN_KEY) || '',
+  set: (t) => localStorage.setItem(TOKEN_KEY, t),
+};
+
+const state = {
+  photos: new Map(), // captureId -> record
+  site: '', // the site the scout's latest placed photo belongs to
+  model: null, // that site's model document
+  scout: '', // this token's scout name, learnt from the first upload
+  device: '',
+  objectUrls: new Map(), // captureId -> thumbnail URL
+  shown: '', // the photo in the see-through view
+};
+
+const api = new ApiClient({ tokens, onUnauthorized: () => tokenRejected(TOKEN_REJECTED) });
+const camera = new Camera($('live'));
+const position = new Position(() => renderStatus());
+const siteMap = new SiteMap($('site-map'));
+let store;
+let uploader;
+
+// ---- token -----------------------------------------------------------------
+
+/** A token in the address (the pairing QR code's #token=...) is taken once. */
+function tokenFromAddress() {
+  const hash = new URLSearchParams(location.hash.slice(1));
+  const token = hash.get('token');
+  if (!token) return;
+  tokens.set(token);
+  history.replaceState(null, '', location.pathname + location.search);
+}
+
+function askForToken(problem = '') {
+  const dialog = $('sign-in');
+  $('sign-in-problem').textContent = problem;
+  $('sign-in-problem').hidden = !problem;
+  if (!dialog.open) dialog.showModal();
+}
+
+/**
+ * The server refused the token: the queue stops and says so, but the
+ * camera keeps working (photos wait on the phone) until the scout asks
+ * for the sign-in form.
+ */
+function tokenRejected(message) {
+  if (!tokens.get()) {
+    askForToken();
+    return;
+  }
+  showNotice(message, { signIn: true });
+  if (uploader) uploader.halt(message);
+}
+
+function onTokenEntered() {
+  const token = $('token-input').value.trim();
+  if (!token) return;
+  tokens.set(token);
+  $('token-input').value = '';
+  hideNotice();
+  uploader.resume();
+  follow();
+}
+
+// ---- status bar and notices -------------------------------------------------
+
+function showNotice(text, { signIn = false } = {}) {
+  $('notice-text').textContent = text;
+  $('notice-sign-in').hidden = !signIn;
+  $('notice').hidden = false;
+}
+
+function hideNotice() {
+  $('notice').hidden = true;
+}
+
+function renderGps() {
+  const cell = $('gps-status');
+  const age = position.age();
+  if (!position.fix) {
+    cell.dataset.state = 'none';
+    $('gps-fix').textContent = position.problem || 'no fix';
+    $('gps-accuracy').textContent = '';
+    return;
+  }
+  const { lat, lon, hAcc } = position.fix;
+  cell.dataset.state = age > 30 ? 'stale' : hAcc <= 10 ? 'good' : 'poor';
+  $('gps-fix').textContent = `${lat.toFixed(6)}, ${lon.toFixed(6)}`;
+  $('gps-accuracy').textContent = `±${hAcc < 10 ? hAcc.toFixed(1) : Math.round(hAcc)} m · ${Math.round(age)} s ago`;
+  $('gps-accuracy').dataset.accuracy = String(hAcc);
+}
+
+function renderQueue() {
+  const counts = { waiting: 0, sending: 0, sent: 0, refused: 0 };
+  for (const p of state.photos.values()) if (p.state in counts) counts[p.state]++;
+  const el = $('queue-counts');
+  Object.assign(el.dataset, { waiting: counts.waiting, sending: counts.sending, sent: counts.sent });
+  const parts = [`${counts.waiting} waiting`];
+  if (counts.sending) parts.push('sending');
+  parts.push(`${counts.sent} sent`);
+  if (counts.refused) parts.push(`${counts.refused} refused`);
+  el.textContent = parts.join(' · ');
+  $('photo-badge').textContent = counts.waiting + counts.sending ? String(counts.waiting + counts.sending) : '';
+}
+
+function renderStatus() {
+  renderGps();
+  renderQueue();
+  $('site-name').textContent = state.site || 'none yet';
+  const version = state.model ? state.model.version : 0;
+  $('model-version').dataset.version = String(version);
+  $('model-version').textContent = version ? `model v${version}` : '';
+  siteMap.setSelf(position.fix, position.heading);
+  if (document.body.dataset.view === 'map') siteMap.draw();
+}
+
+function setConnection(feedState) {
+  const online = navigator.onLine ? feedState : 'offline';
+  $('connection').dataset.state = online;
+  $('connection').textContent = online;
+}
+
+// ---- photos list ------------------------------------------------------------
+
+async function thumbnailOf(photo) {
+  if (state.objectUrls.has(photo.captureId)) return state.objectUrls.get(photo.captureId);
+  let blob = photo.blob;
+  if (!blob && photo.state === 'sent') {
+    blob = await api.blob(`/v1/captures/${encodeURIComponent(photo.captureId)}/thumbnail.jpg?size=128`).catch(() => null);
+  }
+  if (!blob) return '';
+  const url = URL.createObjectURL(blob);
+  state.objectUrls.set(photo.captureId, url);
+  return url;
+}
+
+function photoRow(photo) {
+  let li = document.querySelector(`#photos li[data-capture="${photo.captureId}"]`);
+  if (!li) {
+    li = document.createElement('li');
+    li.dataset.capture = photo.captureId;
+    li.innerHTML = '<img alt=""><span class="photo-state"></span><span class="photo-id"></span>';
+    li.addEventListener('click', () => openSeeThrough(li.dataset.capture));
+    $('photos').prepend(li);
+    thumbnailOf(photo).then((url) => { if (url) li.querySelector('img').src = url; });
+  }
+  return li;
+}
+
+function renderPhoto(photo) {
+  state.photos.set(photo.captureId, photo);
+  const li = photoRow(photo);
+  const { label, tone } = describe(photo);
+  Object.assign(li.dataset, { state: photo.state, status: photo.status || '', tone });
+  li.querySelector('.photo-state').textContent = label;
+  li.querySelector('.photo-id').textContent = `${photo.captureId} · ${new Date(photo.takenAt).toLocaleTimeString()}`;
+  $('no-photos').hidden = state.photos.size > 0;
+  renderQueue();
+  if (state.shown === photo.captureId) renderSeeThroughCaption(photo);
+}
+
+// ---- capture ----------------------------------------------------------------
+
+function cameraIdFor(width, height) {
+  return `${state.device}-${width}x${height}`;
+}
+
+/** The camera document a photo names, created once with a prior focal length. */
+const ensuredCameras = new Set();
+async function ensureCamera(photo) {
+  const id = photo.metadata.camera;
+  if (ensuredCameras.has(id)) return;
+  if (!(await api.doc(`cameras/${id}`))) {
+    const focal = (PRIOR_FOCAL_35MM / 36) * Math.max(photo.width, photo.height);
+    await api.request(`/v1/cameras/${encodeURIComponent(id)}`, {
+      method: 'PUT',
+      headers: { 'Content-Type': 'application/json' },
+      body: JSON.stringify({
+        fx: focal, fy: focal, cx: (photo.width - 1) / 2, cy: (photo.height - 1) / 2,
+        width: photo.width, height: photo.height, distortion: [0, 0, 0, 0, 0], source: 'estimated',
+      }),
+    });
+  }
+  ensuredCameras.add(id);
+}
+
+async function shoot() {
+  const shutter = $('shutter');
+  shutter.disabled = true;
+  try {
+    const shot = await camera.takePhoto();
+    const now = Date.now();
+    const gps = position.metadata(now);
+    const record = await store.add((captureId) => ({
+      blob: shot.blob, width: shot.width, height: shot.height, takenAt: now, state: 'waiting',
+      metadata: {
+        capture_id: captureId, filename: `${captureId}.jpg`, camera: cameraIdFor(shot.width, shot.height),
+        taken: new Date(now).toISOString(), ...(gps ? { gps } : {}),
+      },
+    }));
+    renderPhoto(record);
+    uploader.kick();
+  } catch (err) {
+    showNotice(err.message);
+  } finally {
+    shutter.disabled = false;
+  }
+}
+
+// ---- feedback from the engine -----------------------------------------------
+
+/** A photo's capture document changed: its status, reason and site. */
+async function refreshCapture(captureId) {
+  const photo = state.photos.get(captureId);
+  if (!photo || photo.state !== 'sent') return;
+  const doc = await api.doc(`captures/${captureId}`).catch(() => null);
+  if (!doc) return;
+  const attrs = doc.attrs || {};
+  if (attrs.scout && !state.scout) {
+    state.scout = attrs.scout;
+    store.setSetting('scout', state.scout);
+  }
+  const changes = { status: attrs.status, reason: attrs.status_reason || '', site: attrs.site || '' };
+  if (attrs.status === 'withdrawn') changes.state = 'withdrawn';
+  if (changes.site && changes.site !== state.site) chooseSite(changes.site);
+  const record = await store.update(captureId, changes);
+  if (record) renderPhoto(record);
+  if (attrs.status === 'registered' && state.model) stampVersions(state.model);
+}
+
+/** Photos registered in `model` that have no model version yet get its version. */
+async function stampVersions(model) {
+  const statuses = (model.attrs && model.attrs.captures) || {};
+  for (const photo of state.photos.values()) {
+    const status = statuses[photo.captureId];
+    if (!status || photo.state !== 'sent') continue;
+    const changes = {};
+    if (status === 'registered' && !photo.modelVersion) changes.modelVersion = model.version;
+    if (status !== 'registered' && photo.modelVersion) changes.modelVersion = 0;
+    if (status !== photo.status && photo.status !== 'withdrawn') changes.status = status;
+    if (!Object.keys(changes).length) continue;
+    const record = await store.update(photo.captureId, changes);
+    if (record) renderPhoto(record);
+  }
+  const latest = [...state.photos.values()].reverse().find((p) => p.modelVersion);
+  if (latest && latest.captureId !== state.overlayOf) loadLiveOverlay(latest.captureId);
+}
+
+function chooseSite(site) {
+  state.site = site;
+  state.model = null;
+  loadModel();
+}
+
+/** The current site's model: version, map cameras and points. */
+const loadModel = serialized(async () => {
+  if (!state.site) return;
+  const model = await api.doc(`sites/${state.site}/model`).catch(() => null);
+  if (!model) return;
+  const fresh = !state.model || state.model.version !== model.version;
+  state.model = model;
+  renderStatus();
+  if (!fresh) return;
+  await stampVersions(model);
+  await loadMapData(model);
+});
+
+async function loadMapData(model) {
+  const captures = await api.captures(state.site).catch(() => []);
+  const scoutOf = new Map(captures.map((c) => [c.path.split('/').pop(), (c.attrs || {}).scout]));
+  siteMap.setModel(model.attrs || {}, (id) => scoutOf.get(id));
+  const sparse = model.blobs && model.blobs.sparse;
+  if (sparse) {
+    const buffer = await api.download(`/v1/blobs/${sparse}`, () => {}).catch(() => null);
+    if (buffer) siteMap.setPoints(parsePly(buffer).positions);
+  }
+  siteMap.setSelf(position.fix, position.heading);
+  $('site-map').dataset.cameras = String(siteMap.cameras.length);
+  $('site-map').dataset.scouts = [...siteMap.scouts].sort().join(',');
+  if (document.body.dataset.view === 'map') siteMap.draw();
+}
+
+const modelChanged = debounce(() => loadModel(), 300);
+
+function onChange(change) {
+  const path = change.path || '';
+  const capture = /^\/captures\/([^/]+)$/.exec(path);
+  if (capture && state.photos.has(capture[1])) refreshCapture(capture[1]);
+  if (state.site && path === `/sites/${state.site}/model`) modelChanged();
+}
+
+let feed = null;
+async function follow() {
+  if (feed) feed.stop();
+  feed = new LiveFeed({ token: tokens.get, onChange, onState: setConnection, pattern: '/**' });
+  let since = 0;
+  try {
+    since = (await healthz()).last_seq || 0;
+  } catch {
+    // offline: the feed starts from 0 once the server is back
+  }
+  feed.start(since);
+  for (const photo of state.photos.values()) {
+    if (photo.state === 'sent' && photo.status !== 'withdrawn') refreshCapture(photo.captureId);
+  }
+  if (state.site) loadModel();
+}
+
+// ---- AR: the model over the photo and over the live view --------------------
+
+async function overlayUrl(captureId, maxSide) {
+  const blob = await api.blob(`/v1/captures/${encodeURIComponent(captureId)}/overlay.jpg?max_side=${maxSide}`);
+  return URL.createObjectURL(blob);
+}
+
+async function loadLiveOverlay(captureId) {
+  state.overlayOf = captureId;
+  try {
+    const url = await overlayUrl(captureId, 1024);
+    const img = $('live-overlay');
+    if (img.src.startsWith('blob:')) URL.revokeObjectURL(img.src);
+    img.src = url;
+    img.dataset.capture = captureId;
+  } catch {
+    state.overlayOf = '';
+  }
+}
+
+function toggleBlend() {
+  const on = $('blend').getAttribute('aria-pressed') !== 'true';
+  $('blend').setAttribute('aria-pressed', String(on));
+  $('live-overlay').hidden = !on || !$('live-overlay').src;
+}
+
+function renderSeeThroughCaption(photo) {
+  $('see-through-caption').textContent = `${photo.captureId}: ${describe(photo).label}`;
+  $('withdraw').hidden = photo.state === 'withdrawn' || photo.state === 'refused';
+}
+
+async function openSeeThrough(captureId) {
+  const photo = state.photos.get(captureId);
+  if (!photo) return;
+  state.shown = captureId;
+  setView('see-through');
+  renderSeeThroughCaption(photo);
+  $('see-through-photo').src = await thumbnailOf(photo);
+  const overlay = $('see-through-overlay');
+  overlay.hidden = true;
+  overlay.removeAttribute('data-capture');
+  if (photo.status === 'registered') {
+    overlay.src = await overlayUrl(captureId, 1280).catch(() => '');
+    overlay.hidden = !overlay.src;
+    if (overlay.src) overlay.dataset.capture = captureId;
+  }
+}
+
+async function withdrawShown() {
+  const photo = state.photos.get(state.shown);
+  if (!photo) return;
+  try {
+    if (photo.state === 'sent') {
+      await api.request(`/v1/captures/${encodeURIComponent(photo.captureId)}`, { method: 'DELETE' });
+    }
+    const record = await store.update(photo.captureId, { state: 'withdrawn', status: 'withdrawn', blob: null, modelVersion: 0 });
+    if (record) renderPhoto(record);
+    setView('photos');
+  } catch (err) {
+    showNotice(`could not withdraw: ${err.message}`);
+  }
+}
+
+// ---- views and start-up -----------------------------------------------------
+
+function setView(view) {
+  document.body.dataset.view = view;
+  for (const b of document.querySelectorAll('#tabs button')) {
+    if (b.dataset.view === view) b.setAttribute('aria-current', 'page');
+    else b.removeAttribute('aria-current');
+  }
+  if (view === 'map') siteMap.draw();
+}
+
+function wire() {
+  $('shutter').addEventListener('click', shoot);
+  $('blend').addEventListener('click', toggleBlend);
+  $('open-map').addEventListener('click', () => setView('map'));
+  $('close-see-through').addEventListener('click', () => setView('photos'));
+  $('withdraw').addEventListener('click', withdrawShown);
+  $('overlay-opacity').addEventListener('input', (e) => {
+    $('see-through-overlay').style.opacity = String(e.target.value / 100);
+  });
+  for (const b of document.querySelectorAll('#tabs button')) {
+    b.addEventListener('click', () => setView(b.dataset.view));
+  }
+  $('sign-in').addEventListener('close', onTokenEntered);
+  $('notice-sign-in').addEventListener('click', () => askForToken());
+  window.addEventListener('online', () => setConnection($('connection').dataset.state));
+  window.addEventListener('offline', () => setConnection('offline'));
+  window.addEventListener('resize', debounce(() => siteMap.draw(), 200));
+  setInterval(renderGps, 1000);
+}
+
+async function startCamera() {
+  try {
+    await camera.start();
+    $('camera-problem').hidden = true;
+  } catch (err) {
+    $('camera-problem').textContent = err.message;
+    $('camera-problem').hidden = false;
+    $('shutter').disabled = true;
+  }
+}
+
+async function main() {
+  tokenFromAddress();
+  wire();
+  store = await PhotoStore.open();
+  state.device = await store.deviceId();
+  state.scout = await store.setting('scout', '');
+  for (const photo of await store.all()) renderPhoto(photo);
+  const placed = [...state.photos.values()].reverse().find((p) => p.site);
+  if (placed) state.site = placed.site;
+  uploader = new Uploader({
+    store, token: tokens.get, prepare: ensureCamera,
+    onChange: renderPhoto, onStopped: (message) => showNotice(message, { signIn: true }),
+  });
+  if ('serviceWorker' in navigator) navigator.serviceWorker.register('sw.js').catch(() => {});
+  position.start();
+  startCamera();
+  if (!tokens.get()) askForToken();
+  else {
+    follow();
+    uploader.kick();
+  }
+  renderStatus();
+  document.body.dataset.ready = 'true';
+}
+
+main().catch((err) => showNotice(`the app failed to start: ${err.message}`));
+
