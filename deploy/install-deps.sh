@@ -15,6 +15,9 @@ packages=(
   libgeographiclib-dev libboost-dev nlohmann-json3-dev libexiv2-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libspdlog-dev
   libssl-dev openssl
+  # the scout app's pairing QR code (token create --qr), and zbarimg to
+  # read it back in the test
+  libqrencode-dev zbar-tools
   # PostgreSQL server for the PostgreSQL backend tests and deployments
   postgresql-15 postgresql-client-15
   # runuser (util-linux) starts the throwaway test server as 'postgres';
