@@ -4,6 +4,7 @@
 #include <thread>
 
 #include "arscout/engine/service.h"
+#include "arscout/ingest/self_signed.h"
 #include "arscout/ingest/server.h"
 #include "arscout/viewer/routes.h"
 #include "cli_support.h"
@@ -19,6 +20,8 @@ struct ServeArgs {
   std::string listen = "127.0.0.1:8080";
   std::string tls_cert;
   std::string tls_key;
+  bool tls_self_signed = false;
+  std::string tls_dir;
   std::size_t max_body_mb = 64;
   int io_threads = 2;
   int workers = 32;
@@ -63,6 +66,36 @@ bool split_listen(const std::string& text, std::string* host,
   return true;
 }
 
+// --tls-self-signed: the certificate kept for this machine's names (made
+// on first use, remade when a name is new or it nears its end).
+void use_self_signed(const ServeArgs& a, ingest::ServerOptions* options) {
+  const std::vector<std::string> names = ingest::machine_names();
+  const ingest::SelfSignedCertificate cert = ingest::ensure_self_signed(
+      a.tls_dir.empty() ? ingest::default_tls_dir() : a.tls_dir, names);
+  options->tls_cert = cert.cert_path;
+  options->tls_key = cert.key_path;
+  std::string list;
+  for (const std::string& n : cert.names) list += (list.empty() ? "" : ", ") + n;
+  std::cout << "TLS: " << (cert.created ? "made" : "reusing")
+            << " self-signed certificate " << cert.cert_path << " for " << list
+            << "\nTLS certificate SHA-256 fingerprint " << cert.fingerprint
+            << std::endl;
+}
+
+// Where phones find the scout app when the server listens on every
+// address (docs/scout-app.md).
+void print_scout_addresses(const ingest::ServerOptions& options, int port,
+                           bool tls) {
+  if (options.host != "0.0.0.0" && options.host != "::") return;
+  for (const std::string& name : ingest::machine_names()) {
+    if (name == "localhost" || name == "127.0.0.1" || name == "::1") continue;
+    const bool v6 = name.find(':') != std::string::npos;
+    std::cout << "scout app at " << (tls ? "https://" : "http://")
+              << (v6 ? "[" + name + "]" : name) << ":" << port << "/scout/"
+              << std::endl;
+  }
+}
+
 int serve(ServeArgs& a) {
   ingest::ServerOptions options;
   if (!split_listen(a.listen, &options.host, &options.port))
@@ -70,6 +103,7 @@ int serve(ServeArgs& a) {
                          "--listen must be HOST:PORT, not '" + a.listen + "'");
   options.tls_cert = a.tls_cert;
   options.tls_key = a.tls_key;
+  if (a.tls_self_signed) use_self_signed(a, &options);
   options.max_body_bytes = a.max_body_mb << 20;
   options.io_threads = a.io_threads;
   options.worker_threads = a.workers;
@@ -82,6 +116,7 @@ int serve(ServeArgs& a) {
   std::cout << "arscout serving " << store->backend() << " store at "
             << (server.tls() ? "https://" : "http://") << options.host << ":"
             << server.port() << std::endl;
+  print_scout_addresses(options, server.port(), server.tls());
   std::unique_ptr<engine::EngineWorker> worker;
   if (a.with_engine) {
     print_worker_progress(&a.engine);
@@ -108,7 +143,18 @@ void add_serve_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--tls-cert", args.tls_cert,
                   "PEM certificate chain: serve HTTPS");
-  cmd->add_option("--tls-key", args.tls_key, "PEM private key for --tls-cert");
+  CLI::Option* key =
+      cmd->add_option("--tls-key", args.tls_key, "PEM private key for --tls-cert");
+  CLI::Option* self_signed = cmd->add_flag(
+      "--tls-self-signed", args.tls_self_signed,
+      "serve HTTPS with a self-signed certificate for this machine's names "
+      "and addresses, made once and kept in --tls-dir; prints its SHA-256 "
+      "fingerprint (phones need HTTPS for the scout app: docs/scout-app.md)");
+  self_signed->excludes("--tls-cert")->excludes(key);
+  cmd->add_option("--tls-dir", args.tls_dir,
+                  "where --tls-self-signed keeps cert.pem and key.pem "
+                  "(default $XDG_CONFIG_HOME/arscout/tls or "
+                  "~/.config/arscout/tls)");
   cmd->add_option("--max-body-mb", args.max_body_mb,
                   "largest request body in MiB (413 beyond)")
       ->capture_default_str()
