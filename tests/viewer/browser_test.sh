@@ -14,14 +14,9 @@ scene="$3/strecha/fountain-P11"
 repo=$(cd "$(dirname "$0")/../.." && pwd)
 chromium=${CHROMIUM:-/usr/bin/chromium}
 
-skip() {
-  if [ "${CI:-}" = true ]; then echo "FAIL: $1 (required under CI=true)"; exit 1; fi
-  echo "SKIP: $1"; exit 77
-}
-command -v node > /dev/null || skip "node is not installed (deploy/install-deps.sh)"
-[ -x "$chromium" ] || skip "$chromium is not installed (deploy/install-deps.sh)"
-[ -d "$repo/viewer/web/node_modules/playwright-core" ] ||
-  skip "viewer/web/node_modules is missing (npm ci --prefix viewer/web)"
+# shellcheck source=browser_support.sh
+source "$(dirname "$0")/browser_support.sh"
+need_browser
 [ -d "$scene/images" ] || skip "$scene not found"
 [ -f "$fixture/ready" ] || { echo "FAIL: no fountain site in $fixture"; exit 1; }
 
@@ -34,16 +29,8 @@ cleanup() {
 trap cleanup EXIT
 cp "$fixture"/arscout.db* "$work/"
 db="sqlite:$work/arscout.db"
-"$bin" serve --db "$db" --listen 127.0.0.1:0 --with-engine \
-  --dense-long-side 480 > "$work/server.log" 2>&1 &
-server=$!
-url=""
-for _ in $(seq 100); do
-  url=$(sed -n 's/^arscout serving .* at \(http[^ ]*\)$/\1/p' "$work/server.log")
-  [ -n "$url" ] && break
-  sleep 0.1
-done
-[ -n "$url" ] || { cat "$work/server.log"; echo "FAIL: no server"; exit 1; }
+start_server "$work/server.log" --db "$db" --listen 127.0.0.1:0 --with-engine \
+  --dense-long-side 480
 
 # The photo kept back, with its row of gps.csv as the scout would send it.
 row=$(grep '^0010.jpg,' "$scene/gps.csv")
