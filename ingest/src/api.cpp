@@ -154,6 +154,31 @@ HttpResponse Api::handle(const HttpRequest& request) {
   return response;
 }
 
+std::optional<HttpResponse> Api::refuse_before_body(const HttpRequest& head) {
+  const std::string& path = head.path;
+  if (!starts_with(path, "/v1/")) return std::nullopt;  // no token needed
+  auto who = authenticate(store_, head.header("authorization"));
+  if (!who) {
+    HttpResponse r =
+        HttpResponse::error(401, "unauthorized",
+                            head.header("authorization").empty()
+                                ? "an Authorization: Bearer token is required"
+                                : "the bearer token is not valid");
+    metrics_.record_request(route_template(head.method, path), 401, 0);
+    return r;
+  }
+  std::string why;
+  if (starts_with(path, kDocs) && head.method != "GET" &&
+      head.method != "HEAD" && !may_write_docs(*who))
+    why = "writing documents needs the admin role";
+  else if (who->role == Role::kPlanner &&
+           (path == kCaptures || starts_with(path, kCameras)))
+    why = "planners may not upload captures or change cameras";
+  if (why.empty()) return std::nullopt;
+  metrics_.record_request(route_template(head.method, path), 403, 0);
+  return forbidden(why);
+}
+
 HttpResponse Api::dispatch(const HttpRequest& req, std::string* route) {
   const std::string& path = req.path;
   const std::string& m = req.method;

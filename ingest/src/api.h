@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <variant>
 #include <vector>
@@ -35,6 +36,12 @@ class Api {
   };
   std::variant<Subscribe, HttpResponse> check_subscribe(
       const HttpRequest& request);
+
+  // A request known by its header only (method, path, headers; no body):
+  // the 401 or 403 it will get whatever its body says, so the server can
+  // answer before reading a body (and before "100 Continue"), or nullopt
+  // when the body is needed to decide. Touches the store (the token).
+  std::optional<HttpResponse> refuse_before_body(const HttpRequest& head);
 
   db::Store& store() { return store_; }
   Metrics& metrics() { return metrics_; }

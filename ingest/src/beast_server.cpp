@@ -238,16 +238,52 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
                         " bytes");
     if (ec == http::error::body_limit) return reject_too_large();
     if (ec) return;  // closed, timed out or garbage: drop the connection
+    if (std::string problem = transfer_encoding_problem(parser_->get());
+        !problem.empty())
+      return reject(400, "bad_request", problem);
     auto length = parser_->content_length();
     if (length && *length > shared_.options.max_body_bytes)
       return reject_too_large();
     if (websocket::is_upgrade(parser_->get())) return upgrade();
+    if (parser_->is_done()) return read_body();  // no body to protect
+    check_before_body();
+  }
+
+  // A body is read only from a client the request's header already
+  // authorises: a missing or unknown token, or a role that may not make
+  // the request, is answered (and the connection closed) before the body
+  // and before any "100 Continue", so an unauthenticated client cannot
+  // make the server take in megabytes. The token is checked on a worker
+  // (it reads the store), then the session goes on on its own strand.
+  void check_before_body() {
+    HttpRequest head = head_of(parser_->get());
+    auto parsed = parse_target(head.target);
+    if (!parsed) return continue_body();  // on_body answers the bad URL
+    head.path = std::move(parsed->path);
+    auto self = this->shared_from_this();
+    asio::post(shared_.workers, [self, head = std::move(head)] {
+      auto refusal = self->shared_.api.refuse_before_body(head);
+      asio::post(self->stream_.get_executor(),
+                 [self, refusal = std::move(refusal)]() mutable {
+                   if (refusal) return self->refuse(std::move(*refusal));
+                   self->continue_body();
+                 });
+    });
+  }
+
+  void continue_body() {
+    auto length = parser_->content_length();
     auto body_time = std::chrono::seconds(30) +
                      std::chrono::seconds(length.value_or(0) / (64 * 1024));
     tcp_of(stream_).expires_after(body_time);
     if (beast::iequals(parser_->get()[http::field::expect], "100-continue"))
       return send_continue();
     read_body();
+  }
+
+  // Answers, then closes: the unread body is not this connection's to skip.
+  void refuse(HttpResponse&& response) {
+    send(std::move(response), parser_->get().version(), false);
   }
 
   // Clients such as curl send "Expect: 100-continue" with large bodies and

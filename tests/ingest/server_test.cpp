@@ -17,6 +17,7 @@
 #include "arscout/ingest/change_stream.h"
 #include "arscout/ingest/client.h"
 #include "arscout/ingest/server.h"
+#include "raw_http.h"
 #include "test_stores.h"
 
 namespace arscout::ingest {
@@ -55,36 +56,7 @@ std::string metadata(const std::string& id, double lat = 47.07,
       .dump();
 }
 
-// Sends raw bytes on a fresh connection, optionally slowly, and returns what
-// the server answered before closing (or "" if it closed without a word).
-std::string raw_exchange(std::uint16_t port, const std::string& bytes,
-                         std::chrono::milliseconds per_byte = 0ms) {
-  int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(port);
-  inet_pton(AF_INET, "127.0.0.1", &addr.sin_addr);
-  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    close(fd);
-    return "connect failed";
-  }
-  timeval tv{30, 0};
-  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-  if (per_byte == 0ms) {
-    send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
-  } else {
-    for (char c : bytes) {
-      if (send(fd, &c, 1, MSG_NOSIGNAL) != 1) break;
-      std::this_thread::sleep_for(per_byte);
-    }
-  }
-  std::string reply;
-  char buf[4096];
-  ssize_t n;
-  while ((n = recv(fd, buf, sizeof buf, 0)) > 0) reply.append(buf, n);
-  close(fd);
-  return reply;
-}
+using testing::raw_exchange;
 
 class ServerTest : public ::testing::TestWithParam<std::string> {
  protected:
