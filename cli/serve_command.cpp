@@ -75,7 +75,8 @@ void use_self_signed(const ServeArgs& a, ingest::ServerOptions* options) {
   options->tls_cert = cert.cert_path;
   options->tls_key = cert.key_path;
   std::string list;
-  for (const std::string& n : cert.names) list += (list.empty() ? "" : ", ") + n;
+  for (const std::string& n : cert.names)
+    list += (list.empty() ? "" : ", ") + n;
   std::cout << "TLS: " << (cert.created ? "made" : "reusing")
             << " self-signed certificate " << cert.cert_path << " for " << list
             << "\nTLS certificate SHA-256 fingerprint " << cert.fingerprint
@@ -143,8 +144,8 @@ void add_serve_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--tls-cert", args.tls_cert,
                   "PEM certificate chain: serve HTTPS");
-  CLI::Option* key =
-      cmd->add_option("--tls-key", args.tls_key, "PEM private key for --tls-cert");
+  CLI::Option* key = cmd->add_option("--tls-key", args.tls_key,
+                                     "PEM private key for --tls-cert");
   CLI::Option* self_signed = cmd->add_flag(
       "--tls-self-signed", args.tls_self_signed,
       "serve HTTPS with a self-signed certificate for this machine's names "

@@ -23,7 +23,8 @@ struct TokenArgs {
 
 // Why `--qr URL` cannot pair a phone, or "" when it can.
 std::string qr_problem(const TokenArgs& a) {
-  if (a.role != "scout") return "--qr pairs the scout app: it needs --role scout";
+  if (a.role != "scout")
+    return "--qr pairs the scout app: it needs --role scout";
   if (!std::regex_match(a.qr_url, std::regex(R"(https?://[^\s#]+)"))) {
     return "--qr needs the scout app's address, http(s)://HOST:PORT/scout/, "
            "without a '#' (the token goes there)";
@@ -33,7 +34,8 @@ std::string qr_problem(const TokenArgs& a) {
 
 // The PNG's default name: the scout's, kept to characters safe in a file name.
 std::string default_png(const std::string& name) {
-  return "scout-" + std::regex_replace(name, std::regex("[^A-Za-z0-9._-]"), "_") +
+  return "scout-" +
+         std::regex_replace(name, std::regex("[^A-Za-z0-9._-]"), "_") +
          "-qr.png";
 }
 

@@ -28,8 +28,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr int kValidDays = 397;      // the longest lifetime browsers accept
-constexpr int kRenewWithinDays = 30;  // a certificate this close to its end is remade
+constexpr int kValidDays = 397;  // the longest lifetime browsers accept
+constexpr int kRenewWithinDays =
+    30;  // a certificate this close to its end is remade
 
 template <typename T, void (*Free)(T*)>
 struct Deleter {
@@ -215,8 +216,8 @@ SelfSignedCertificate make_certificate(const fs::path& dir,
 
 }  // namespace
 
-SelfSignedCertificate ensure_self_signed(const std::string& dir,
-                                         const std::vector<std::string>& names) {
+SelfSignedCertificate ensure_self_signed(
+    const std::string& dir, const std::vector<std::string>& names) {
   if (names.size() < 2) fail("needs at least two names (localhost and a host)");
   const fs::path folder(dir);
   const std::string cert_path = (folder / "cert.pem").string();
@@ -240,8 +241,10 @@ SelfSignedCertificate ensure_self_signed(const std::string& dir,
 std::vector<std::string> machine_names() {
   std::vector<std::string> names = {"localhost"};
   char host[256] = {};
-  if (::gethostname(host, sizeof host - 1) == 0 && host[0]) names.push_back(host);
-  else names.push_back("arscout");
+  if (::gethostname(host, sizeof host - 1) == 0 && host[0])
+    names.push_back(host);
+  else
+    names.push_back("arscout");
   names.push_back("127.0.0.1");
   names.push_back("::1");
   std::set<std::string> others;
@@ -264,7 +267,8 @@ std::vector<std::string> machine_names() {
     ::freeifaddrs(list);
   }
   for (const std::string& a : others)
-    if (std::find(names.begin(), names.end(), a) == names.end()) names.push_back(a);
+    if (std::find(names.begin(), names.end(), a) == names.end())
+      names.push_back(a);
   return names;
 }
 

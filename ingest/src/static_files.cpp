@@ -86,7 +86,8 @@ std::optional<HttpResponse> serve_static(const std::vector<StaticMount>& mounts,
   const fs::path root = fs::canonical(mount->directory, ec);
   if (ec) return not_found(req.path);
   const fs::path file = fs::canonical(root / relative, ec);
-  if (!ec && fs::is_regular_file(file / "index.html")) return to_folder(req.path);
+  if (!ec && fs::is_regular_file(file / "index.html"))
+    return to_folder(req.path);
   if (ec || !fs::is_regular_file(file)) return not_found(req.path);
   // A symbolic link must not lead out of the mounted folder.
   auto [r, f] = std::mismatch(root.begin(), root.end(), file.begin());

@@ -70,7 +70,8 @@ TEST(SelfSignedTest, MakesAPairForEveryNameThatOpenSslAccepts) {
   X509_STORE_free(trusted);
   // Valid now, for about 397 days.
   int days = 0, seconds = 0;
-  ASSERT_EQ(ASN1_TIME_diff(&days, &seconds, nullptr, X509_get0_notAfter(p.cert)), 1);
+  ASSERT_EQ(
+      ASN1_TIME_diff(&days, &seconds, nullptr, X509_get0_notAfter(p.cert)), 1);
   EXPECT_GE(days, 396);
   EXPECT_LE(days, 397);
   // The fingerprint is the certificate's SHA-256, as browsers show it.
@@ -79,7 +80,8 @@ TEST(SelfSignedTest, MakesAPairForEveryNameThatOpenSslAccepts) {
   X509_digest(p.cert, EVP_sha256(), md, &n);
   char first[3];
   std::snprintf(first, sizeof first, "%02X", md[0]);
-  EXPECT_TRUE(std::regex_match(c.fingerprint, std::regex("([0-9A-F]{2}:){31}[0-9A-F]{2}")));
+  EXPECT_TRUE(std::regex_match(c.fingerprint,
+                               std::regex("([0-9A-F]{2}:){31}[0-9A-F]{2}")));
   EXPECT_EQ(c.fingerprint.substr(0, 2), first);
   // The key is for its owner only.
   struct stat st {};
@@ -119,7 +121,8 @@ TEST(SelfSignedTest, MachineNamesIncludeTheLoopbackNames) {
   ASSERT_GE(names.size(), 4u);
   EXPECT_EQ(names[0], "localhost");
   EXPECT_NE(std::find(names.begin(), names.end(), "127.0.0.1"), names.end());
-  for (const std::string& n : names) EXPECT_EQ(n.rfind("fe80", 0), std::string::npos) << n;
+  for (const std::string& n : names)
+    EXPECT_EQ(n.rfind("fe80", 0), std::string::npos) << n;
 }
 
 }  // namespace

@@ -225,6 +225,41 @@ async function captureWalk(alice, scene, fixes) {
   log('all 11 sent');
 }
 
+/** Installable: the manifest names its icons and both are served. */
+async function checkInstallable(scout) {
+  const manifest = await scout.page.evaluate(async () => {
+    const href = document.querySelector('link[rel="manifest"]').href;
+    const m = await (await fetch(href)).json();
+    const icons = await Promise.all(m.icons.map(async (i) => (await fetch(new URL(i.src, href))).status));
+    return { display: m.display, start: m.start_url, icons, sizes: m.icons.map((i) => i.sizes) };
+  });
+  if (manifest.display !== 'standalone' || !manifest.sizes.includes('512x512') ||
+      manifest.icons.some((status) => status !== 200)) {
+    fail(`manifest ${JSON.stringify(manifest)}`);
+  }
+}
+
+/** Touch targets of at least 48 px, portrait and landscape alike. */
+async function checkLayout(scout) {
+  const { page } = scout;
+  for (const [width, height] of [[390, 844], [844, 390]]) {
+    await page.setViewportSize({ width, height });
+    await page.tap('#tabs button[data-view="capture"]');
+    for (const selector of ['#shutter', '#blend', '#tabs button[data-view="photos"]', '#status-bar']) {
+      const box = await page.locator(selector).boundingBox();
+      const inside = box && box.x >= 0 && box.y >= 0 && box.x + box.width <= width + 1 && box.y + box.height <= height + 1;
+      if (!inside) fail(`${selector} not on a ${width}x${height} screen: ${JSON.stringify(box)}`);
+      if (selector !== '#status-bar' && (box.width < 48 || box.height < 48)) {
+        fail(`${selector} is ${box.width}x${box.height} px on a ${width}x${height} screen`);
+      }
+    }
+    const video = await page.locator('#live').boundingBox();
+    if (!video || video.height < height / 3) fail(`the live view is ${JSON.stringify(video)} on ${width}x${height}`);
+  }
+  await page.setViewportSize({ width: 390, height: 844 });
+  log('installable; portrait and landscape layouts hold their touch targets');
+}
+
 async function checkStoredOnce(adminToken) {
   const docs = await api(adminToken, '/v1/docs/captures?depth=1');
   const captures = docs.documents.filter((d) => /^\/captures\/[^/]+$/.test(d.path));
@@ -337,6 +372,8 @@ async function main() {
   let bob;
   try {
     alice = await openScout(browser, env.ALICE_TOKEN, 'alice');
+    await checkInstallable(alice);
+    await checkLayout(alice);
     await captureWalk(alice, scene, fixes);
     await checkStoredOnce(env.ADMIN_TOKEN);
     const { site } = await checkRegistered(alice, env.ADMIN_TOKEN);
