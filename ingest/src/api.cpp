@@ -49,7 +49,17 @@ bool can_read(const Principal& who, const std::string& doc_path) {
          !(doc_path == "/auth" || starts_with(doc_path, "/auth/"));
 }
 
-std::string route_template(const std::string& method, const std::string& path) {
+// A method as a metrics label: one of a fixed set, so that a client cannot
+// grow /metrics by inventing methods (any token is a valid HTTP method).
+std::string method_label(const std::string& method) {
+  for (const char* known :
+       {"GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS"})
+    if (method == known) return method;
+  return "OTHER";
+}
+
+std::string route_template(const std::string& verb, const std::string& path) {
+  const std::string method = method_label(verb);
   if (starts_with(path, kDocs)) return method + " /v1/docs/*";
   if (path == kCaptures) return method + " /v1/captures";
   if (starts_with(path, kCaptures)) return method + " /v1/captures/*";
@@ -193,7 +203,7 @@ HttpResponse Api::dispatch(const HttpRequest& req, std::string* route) {
   }
   if (!starts_with(path, "/v1/")) {
     if (auto file = serve_static(static_mounts_, req)) {
-      *route = m + " (static file)";
+      *route = method_label(m) + " (static file)";
       return *file;
     }
   }
@@ -267,7 +277,8 @@ std::variant<Api::Subscribe, HttpResponse> Api::check_subscribe(
   if (auto it = req.query.find("access_token");
       authorization.empty() && it != req.query.end())
     authorization = "Bearer " + it->second;
-  if (!authenticate(store_, authorization))
+  auto who = authenticate(store_, authorization);
+  if (!who)
     return HttpResponse::error(401, "unauthorized",
                                "a valid Authorization: Bearer token (or "
                                "?access_token=) is required");
@@ -276,6 +287,7 @@ std::variant<Api::Subscribe, HttpResponse> Api::check_subscribe(
   if (!since) return HttpResponse::error(400, "bad_request", error);
   Subscribe s;
   s.since = *since;
+  s.who = *who;
   if (auto it = req.query.find("pattern"); it != req.query.end())
     s.pattern = it->second;
   try {

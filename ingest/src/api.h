@@ -33,6 +33,7 @@ class Api {
   struct Subscribe {
     std::int64_t since = 0;
     std::string pattern = "/**";
+    Principal who;  // the feed carries only what `who` may read
   };
   std::variant<Subscribe, HttpResponse> check_subscribe(
       const HttpRequest& request);

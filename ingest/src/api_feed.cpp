@@ -20,11 +20,21 @@ HttpResponse get_changes(ApiContext& ctx, const HttpRequest& req) {
   const auto deadline = Clock::now() + std::chrono::seconds(*wait);
   std::vector<db::Change> changes;
   std::int64_t head = 0;
+  std::int64_t after = *since;
   while (true) {
     head = ctx.store.last_seq();
     changes =
-        ctx.store.changes(*since, pattern, static_cast<std::size_t>(*limit));
+        ctx.store.changes(after, pattern, static_cast<std::size_t>(*limit));
+    const std::int64_t last = changes.empty() ? after : changes.back().seq;
+    // The feed shows only what the caller may read as a document.
+    std::erase_if(changes, [&](const db::Change& c) {
+      return !can_read(ctx.who, c.path);
+    });
     if (!changes.empty() || Clock::now() >= deadline) break;
+    if (last > after) {  // all hidden: look past them without waiting
+      after = last;
+      continue;
+    }
     auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
         deadline - Clock::now());
     ctx.store.wait_for_change(head,

@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "api.h"
+#include "api_handlers.h"
 #include "arscout/ingest/server.h"
 #include "beast_request.h"
 
@@ -135,7 +136,9 @@ class SubscribeSession
     std::weak_ptr<SubscribeSession> weak = this->shared_from_this();
     auto target = shared_.feeds.add(ws_.get_executor());
     subscription_ = shared_.api.store().subscribe(
-        where.pattern, where.since, [weak, target](const db::Change& c) {
+        where.pattern, where.since,
+        [weak, target, who = where.who](const db::Change& c) {
+          if (!can_read(who, c.path)) return;  // as the documents themselves
           std::string text = to_json(c).dump();
           std::lock_guard lock(target->mu);
           if (!target->executor) return;  // the server is stopping

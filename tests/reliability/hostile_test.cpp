@@ -11,6 +11,8 @@
 
 #include "arscout/db/store.h"
 #include "arscout/ingest/auth.h"
+#include "arscout/ingest/change_stream.h"
+#include "arscout/ingest/client.h"
 #include "flaky_upload.h"
 #include "raw_http.h"
 #include "serve_process.h"
@@ -120,6 +122,73 @@ TEST_F(HostileClients, BodiesWithoutATokenAreRefusedBeforeTheyAreRead) {
   for (size_t i = 0; i < attempts.size(); i += 2)
     answered += !attempts[i].reply.empty();
   EXPECT_EQ(answered, 8);
+}
+
+// Defect 7: the request method became part of a metrics label: 50
+// unauthenticated requests with long methods grew /metrics to 8.5 MB.
+TEST_F(HostileClients, InventedMethodsDoNotGrowTheMetrics) {
+  const auto metrics_size = [&] {
+    const std::string reply =
+        testing::raw_exchange(port_,
+                              "GET /metrics HTTP/1.1\r\nHost: a\r\n"
+                              "Connection: close\r\n\r\n");
+    return reply.size();
+  };
+  for (int i = 0; i < 3; ++i)  // every route label a plain request makes
+    testing::raw_exchange(port_,
+                          "GET /v1/sites HTTP/1.1\r\nHost: a\r\n"
+                          "Connection: close\r\n\r\n");
+  const size_t before = metrics_size();
+  for (int i = 0; i < 50; ++i) {
+    const std::string method = std::string(4000, 'X') + std::to_string(i);
+    for (const char* path : {"/v1/sites", "/v1/docs/a", "/index.html", "/x"})
+      testing::raw_exchange(port_, method + " " + path +
+                                       " HTTP/1.1\r\nHost: a\r\n"
+                                       "Connection: close\r\n\r\n");
+  }
+  const size_t after = metrics_size();
+  std::cout << "/metrics: " << before << " bytes before 200 requests with "
+            << "invented methods, " << after << " after" << std::endl;
+  EXPECT_LT(after, before + 8 * 1024);
+}
+
+// Defect 5: a scout or planner following the feed with pattern /auth/**
+// (or the WebSocket) saw every token's SHA-256, name and revocation. The
+// feed now carries only what the caller may read as a document.
+TEST_F(HostileClients, TheFeedShowsNoTokensToScoutsOrPlanners) {
+  auto store = db::Store::open(url_);
+  const std::string admin =
+      ingest::create_token(*store, ingest::Role::kAdmin, "root");
+  const std::string scout =
+      ingest::create_token(*store, ingest::Role::kScout, "sam");
+  for (const std::string& token : {planner_, scout}) {
+    ingest::Client client({server_->url(), token});
+    for (const char* query :
+         {"/v1/changes?since=0&pattern=/auth/**", "/v1/changes?since=0"}) {
+      const auto answer = client.get(query).json();
+      for (const auto& change : answer["changes"])
+        EXPECT_NE(change["path"].get<std::string>().rfind("/auth", 0), 0u)
+            << query << ": " << change.dump();
+      EXPECT_GT(answer["last_seq"].get<std::int64_t>(), 0) << query;
+    }
+    // A long-poll on hidden changes only waits out its time, empty.
+    const auto polled =
+        client.get("/v1/changes?since=0&pattern=/auth/**&wait=1").json();
+    EXPECT_TRUE(polled["changes"].empty()) << polled.dump();
+    // The WebSocket: the scout's own /scouts/sam arrives, no token does.
+    ingest::ChangeStream stream({server_->url(), token}, 0);
+    int seen = 0;
+    while (auto change = stream.next(std::chrono::milliseconds(1500))) {
+      ++seen;
+      EXPECT_NE((*change)["path"].get<std::string>().rfind("/auth", 0), 0u)
+          << change->dump();
+    }
+    EXPECT_GE(seen, 1);
+  }
+  // An admin still sees the tokens.
+  ingest::Client root({server_->url(), admin});
+  const auto all = root.get("/v1/changes?since=0&pattern=/auth/**").json();
+  EXPECT_EQ(all["changes"].size(), 3u) << all.dump();
 }
 
 }  // namespace
