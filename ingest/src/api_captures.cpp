@@ -26,14 +26,20 @@ std::optional<HttpResponse> read_upload(const HttpRequest& req, Upload* up) {
   if (!boundary.empty()) {
     auto parts = parse_multipart(req.body, boundary, &error);
     if (!parts) return HttpResponse::error(400, "bad_request", error);
-    bool has_image = false;
+    bool has_image = false, has_metadata = false;
     for (const FormPart& p : *parts) {
-      if (p.name == "image") {
+      bool& seen = p.name == "image" ? has_image : has_metadata;
+      if (p.name != "image" && p.name != "metadata") continue;
+      // Two of a kind would leave which one counts to the parser's order.
+      if (seen)
+        return HttpResponse::error(
+            400, "bad_request",
+            "the multipart body has two parts named '" + p.name + "'");
+      seen = true;
+      if (p.name == "image")
         up->image = p.body;
-        has_image = true;
-      } else if (p.name == "metadata") {
+      else
         meta_text = std::string(p.body);
-      }
     }
     if (!has_image)
       return HttpResponse::error(
@@ -99,6 +105,10 @@ std::optional<HttpResponse> read_fields(const Json& meta, CaptureFields* f) {
         {"filename", 256, &f->filename},
         {"taken", 64, &f->taken}})
     if (auto bad = string_field(meta, key, max, out)) return bad;
+  if (!f->taken.empty() && !parse_time_utc(f->taken))
+    return HttpResponse::error(
+        422, "unprocessable",
+        "taken must be an RFC 3339 time (2026-11-21T13:05:00Z)");
   if (!f->id.empty()) db::validate_path("/captures/" + f->id);
   if (!f->camera.empty()) db::validate_path("/cameras/" + f->camera);
   if (f->id.find('/') != std::string::npos ||

@@ -66,15 +66,18 @@ std::optional<GpsFix> gps_from_json(const Json& j, std::string* error) {
   fix.lat = *lat;
   fix.lon = *lon;
   if (auto it = j.find("satellites"); it != j.end() && !it->is_null()) {
-    if (!it->is_number_integer()) {
-      *error = "gps.satellites must be an integer";
+    // Range-checked before narrowing: 2^32 + 1 must not become 1.
+    if (!it->is_number_integer() || it->get<double>() < 0 ||
+        it->get<double>() > 255) {
+      *error = "gps.satellites must be a count in [0, 255]";
       return std::nullopt;
     }
-    fix.satellites = it->get<int>();
+    fix.satellites = static_cast<int>(it->get<std::int64_t>());
   }
   if (auto it = j.find("time"); it != j.end() && !it->is_null()) {
-    if (!it->is_string()) {
-      *error = "gps.time must be an RFC 3339 string";
+    if (!it->is_string() || it->get<std::string>().size() > 64 ||
+        !parse_time_utc(it->get<std::string>())) {
+      *error = "gps.time must be an RFC 3339 time (2026-11-21T13:05:00Z)";
       return std::nullopt;
     }
     fix.time = it->get<std::string>();

@@ -152,6 +152,61 @@ TEST_F(HostileClients, InventedMethodsDoNotGrowTheMetrics) {
   EXPECT_LT(after, before + 8 * 1024);
 }
 
+// Defect 11: smaller ones. Satellites 2^32 + 1 were stored as 1; gps.time
+// and taken were taken as any text; a second image part silently won; an
+// id ".." in a viewer route answered 500.
+TEST_F(HostileClients, MetadataIsCheckedBeforeItIsStored) {
+  auto store = db::Store::open(url_);
+  const std::string scout =
+      ingest::create_token(*store, ingest::Role::kScout, "sam");
+  ingest::Client client({server_->url(), scout});
+  const std::string jpeg = testing::noise_jpeg(1, 64, 48);
+  const auto upload = [&](const std::string& meta) {
+    return client.request(
+        "POST", "/v1/captures", jpeg,
+        {{"Content-Type", "image/jpeg"}, {"X-Capture-Metadata", meta}});
+  };
+  for (const char* meta :
+       {R"({"gps":{"lat":1,"lon":2,"satellites":4294967297}})",
+        R"({"gps":{"lat":1,"lon":2,"satellites":-1}})",
+        R"({"gps":{"lat":1,"lon":2,"time":"yesterday"}})",
+        R"({"gps":{"lat":1,"lon":2,"time":"2026-13-40T99:00:00Z"}})",
+        R"({"taken":"not a time"})"}) {
+    const auto r = upload(meta);
+    EXPECT_EQ(r.status, 422) << meta << ": " << r.body;
+  }
+  EXPECT_EQ(
+      upload(
+          R"({"gps":{"lat":1,"lon":2,"satellites":9,)"
+          R"("time":"2026-11-21T13:05:00Z"},"taken":"2026-11-21T13:05:00Z"})")
+          .status,
+      201);
+  // Two image parts: refused, not "the last wins".
+  const std::string boundary = "XyZ";
+  const auto part = [&](const std::string& name, const std::string& body) {
+    return "--" + boundary + "\r\nContent-Disposition: form-data; name=\"" +
+           name + "\"\r\n\r\n" + body + "\r\n";
+  };
+  const auto twice = client.request(
+      "POST", "/v1/captures",
+      part("image", jpeg) + part("image", testing::noise_jpeg(2, 64, 48)) +
+          "--" + boundary + "--\r\n",
+      {{"Content-Type", "multipart/form-data; boundary=" + boundary}});
+  EXPECT_EQ(twice.status, 400) << twice.body;
+  // A viewer route with the id ".." is a bad request, not a server error.
+  for (const char* target :
+       {"/v1/captures/%2E%2E/thumbnail.jpg", "/v1/captures/../overlay.jpg",
+        "/v1/sites/%2E%2E/captures"}) {
+    const auto r = client.get(target);
+    EXPECT_TRUE(r.status == 400 || r.status == 404)
+        << target << ": " << r.status << " " << r.body;
+  }
+  // Nothing of the refused ones was stored: one capture, the good one.
+  const auto changes =
+      client.get("/v1/changes?since=0&pattern=/captures/*").json();
+  EXPECT_EQ(changes["changes"].size(), 1u) << changes.dump();
+}
+
 // Defect 5: a scout or planner following the feed with pattern /auth/**
 // (or the WebSocket) saw every token's SHA-256, name and revocation. The
 // feed now carries only what the caller may read as a document.

@@ -4,6 +4,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "arscout/db/errors.h"
+#include "arscout/db/path.h"
 #include "arscout/viewer/exports.h"
 #include "arscout/viewer/overlay.h"
 
@@ -31,6 +32,8 @@ std::string id_between(const std::string& path, const std::string& collection,
 
 HttpResponse error_response(const StoreError& e) {
   switch (e.code()) {
+    case ErrorCode::kInvalidPath:  // an id such as ".." in the URL
+      return HttpResponse::error(400, "bad_request", e.what());
     case ErrorCode::kNotFound:
     case ErrorCode::kUnknownBlob:
       return HttpResponse::error(404, "not_found", e.what());
@@ -192,7 +195,10 @@ ingest::ApiRoute route(
   r.handle = [collection, leaf, make](const HttpRequest& req,
                                       const ingest::Principal&) {
     const std::string id = id_between(req.path, collection, leaf);
-    return get_only(req, [&] { return make(req, id); });
+    return get_only(req, [&] {
+      db::validate_path("/" + collection + "/" + id);  // ".." is no id
+      return make(req, id);
+    });
   };
   return r;
 }
