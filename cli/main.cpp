@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
       "arscout: interactive, collaborative 3D reconstruction of urban sites.\n"
       "Scouts upload geotagged photos into a shared document store; the\n"
       "engine reconstructs each site incrementally and writes models back."};
+  app.set_version_flag("--version", std::string("arscout ") + ARSCOUT_VERSION);
   app.require_subcommand(1);
   std::string log_level;
   app.add_option(
@@ -43,6 +44,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     app.exit(e);

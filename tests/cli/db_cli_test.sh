@@ -25,6 +25,8 @@ contains() {  # contains NAME TEXT
   fi
 }
 
+check version 0 "$arscout" --version
+contains version 'arscout 0.'
 check init 0 "$arscout" db init "$url"
 contains init '"schema_version":2'
 check put 0 "$arscout" db put "$url" /captures/c1 '{"gps":{"lat":47.0,"lon":15.0}}' --kind capture --expect-version 0
