@@ -288,6 +288,7 @@ std::variant<Api::Subscribe, HttpResponse> Api::check_subscribe(
   Subscribe s;
   s.since = *since;
   s.who = *who;
+  s.authorization = authorization;
   if (auto it = req.query.find("pattern"); it != req.query.end())
     s.pattern = it->second;
   try {

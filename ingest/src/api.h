@@ -34,6 +34,9 @@ class Api {
     std::int64_t since = 0;
     std::string pattern = "/**";
     Principal who;  // the feed carries only what `who` may read
+    // How it authenticated ("Bearer ..."): checked again every second, so
+    // a revoked or expired token's stream ends.
+    std::string authorization;
   };
   std::variant<Subscribe, HttpResponse> check_subscribe(
       const HttpRequest& request);

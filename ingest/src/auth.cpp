@@ -2,14 +2,34 @@
 
 #include <openssl/rand.h>
 
+#include <algorithm>
+#include <ctime>
+
 #include "arscout/db/path.h"
+#include "arscout/ingest/gps.h"
 #include "digest.h"
 
 namespace arscout::ingest {
 namespace {
 
+constexpr const char* kTokens = "/auth/tokens";
+
 std::string token_path(const std::string& token) {
-  return "/auth/tokens/" + sha256_hex(token);
+  return std::string(kTokens) + "/" + sha256_hex(token);
+}
+
+std::int64_t now_s() { return static_cast<std::int64_t>(std::time(nullptr)); }
+
+TokenInfo token_info(const db::Document& doc) {
+  TokenInfo t;
+  t.id = doc.path.substr(doc.path.rfind('/') + 1);
+  t.role =
+      role_from_string(doc.attrs.value("role", "")).value_or(Role::kPlanner);
+  t.name = doc.attrs.value("name", "");
+  t.created = doc.attrs.value("created", "");
+  t.expires = doc.attrs.value("expires", "");
+  t.revoked = doc.attrs.value("revoked", "");
+  return t;
 }
 
 }  // namespace
@@ -33,7 +53,21 @@ std::optional<Role> role_from_string(const std::string& text) {
   return std::nullopt;
 }
 
-std::string create_token(db::Store& store, Role role, const std::string& name) {
+std::string TokenInfo::state(std::int64_t at_s) const {
+  if (!revoked.empty()) return "revoked";
+  if (!expires.empty()) {
+    const auto end = parse_time_utc(expires);
+    if (!end || *end <= at_s) return "expired";
+  }
+  return "active";
+}
+
+std::string create_token(db::Store& store, Role role, const std::string& name,
+                         std::optional<std::int64_t> expires_s) {
+  if (expires_s && *expires_s <= now_s())
+    throw db::StoreError(
+        db::ErrorCode::kInvalidArgument,
+        "the expiry " + format_time_utc(*expires_s) + " is not in the future");
   db::validate_path("/" + name);  // names become path segments
   if (name.find('/') != std::string::npos)
     throw db::StoreError(
@@ -44,9 +78,12 @@ std::string create_token(db::Store& store, Role role, const std::string& name) {
     throw db::StoreError(db::ErrorCode::kInternal,
                          "no randomness for a token (RAND_bytes failed)");
   std::string token = "ars_" + to_hex(random, sizeof random);
+  db::Json attrs{{"role", to_string(role)},
+                 {"name", name},
+                 {"created", format_time_utc(now_s())}};
+  if (expires_s) attrs["expires"] = format_time_utc(*expires_s);
   std::vector<db::WriteOp> ops = {
-      db::WriteOp::put(token_path(token), "token",
-                       db::Json{{"role", to_string(role)}, {"name", name}}, 0)};
+      db::WriteOp::put(token_path(token), "token", attrs, 0)};
   if (role == Role::kScout && !store.get("/scouts/" + name))
     ops.push_back(db::WriteOp::put("/scouts/" + name, "scout",
                                    db::Json{{"name", name}, {"role", "scout"}},
@@ -66,7 +103,52 @@ std::optional<Principal> authenticate(db::Store& store,
   if (!doc) return std::nullopt;
   auto role = role_from_string(doc->attrs.value("role", ""));
   if (!role) return std::nullopt;
+  if (token_info(*doc).state(now_s()) != "active") return std::nullopt;
   return Principal{*role, doc->attrs.value("name", "")};
+}
+
+std::vector<TokenInfo> list_tokens(db::Store& store) {
+  std::vector<TokenInfo> out;
+  for (const db::Document& doc : store.list_children(kTokens))
+    out.push_back(token_info(doc));
+  std::stable_sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
+    return a.created < b.created;
+  });
+  return out;
+}
+
+std::vector<TokenInfo> revoke_tokens(db::Store& store,
+                                     const std::string& id_prefix,
+                                     const std::string& name) {
+  if (!id_prefix.empty() && id_prefix.size() < 8)
+    throw db::StoreError(db::ErrorCode::kInvalidArgument,
+                         "a token id needs at least 8 hex digits");
+  std::vector<TokenInfo> chosen;
+  for (const TokenInfo& t : list_tokens(store)) {
+    const bool match = id_prefix.empty()
+                           ? t.name == name
+                           : t.id.compare(0, id_prefix.size(), id_prefix) == 0;
+    if (match) chosen.push_back(t);
+  }
+  if (chosen.empty())
+    throw db::StoreError(
+        db::ErrorCode::kInvalidArgument,
+        "no token matches " +
+            (id_prefix.empty() ? "the name " + name : "the id " + id_prefix));
+  if (!id_prefix.empty() && chosen.size() > 1)
+    throw db::StoreError(db::ErrorCode::kInvalidArgument,
+                         "the id " + id_prefix + " matches " +
+                             std::to_string(chosen.size()) +
+                             " tokens: give more digits");
+  std::vector<TokenInfo> revoked;
+  const std::string when = format_time_utc(now_s());
+  for (TokenInfo& t : chosen) {
+    if (!t.revoked.empty()) continue;
+    store.patch(std::string(kTokens) + "/" + t.id, db::Json{{"revoked", when}});
+    t.revoked = when;
+    revoked.push_back(t);
+  }
+  return revoked;
 }
 
 }  // namespace arscout::ingest

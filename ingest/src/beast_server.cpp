@@ -126,11 +126,33 @@ class SubscribeSession
       if (ec) return;
       self->start_feed(where);
       self->read_loop();
+      self->recheck_token(where.authorization);
     });
   }
 
  private:
   static constexpr std::size_t kMaxQueued = 20000;
+
+  // Every second the stream's token is looked up again (on a worker: it
+  // reads the store); once it is revoked or expired the stream closes.
+  void recheck_token(std::string authorization) {
+    recheck_.expires_after(std::chrono::seconds(1));
+    recheck_.async_wait([self = this->shared_from_this(),
+                         authorization](beast::error_code ec) {
+      if (ec) return;  // cancelled: the stream ended
+      asio::post(self->shared_.workers, [self, authorization] {
+        const bool valid =
+            authenticate(self->shared_.api.store(), authorization).has_value();
+        asio::post(self->ws_.get_executor(), [self, valid, authorization] {
+          if (valid) return self->recheck_token(authorization);
+          self->ws_.async_close(
+              websocket::close_reason(websocket::close_code::policy_error,
+                                      "the token was revoked or expired"),
+              [self](beast::error_code) {});
+        });
+      });
+    });
+  }
 
   void start_feed(const Api::Subscribe& where) {
     std::weak_ptr<SubscribeSession> weak = this->shared_from_this();
@@ -154,7 +176,10 @@ class SubscribeSession
   void read_loop() {
     auto self = this->shared_from_this();
     ws_.async_read(incoming_, [self](beast::error_code ec, std::size_t) {
-      if (ec) return;  // closed: the session ends with its last owner
+      if (ec) {  // closed: the session ends with its last owner
+        self->recheck_.cancel();
+        return;
+      }
       self->incoming_.consume(self->incoming_.size());
       self->read_loop();
     });
@@ -186,6 +211,7 @@ class SubscribeSession
 
   websocket::stream<Stream> ws_;
   Shared shared_;
+  asio::steady_timer recheck_{ws_.get_executor()};
   beast::flat_buffer incoming_;
   std::deque<std::string> queue_;
   std::unique_ptr<db::Subscription> subscription_;

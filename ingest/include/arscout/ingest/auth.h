@@ -1,9 +1,13 @@
 // Bearer tokens. A token is shown once, at creation; the store keeps only
-// its SHA-256, as the document /auth/tokens/{sha256} {"role", "name"}.
+// its SHA-256, as the document /auth/tokens/{sha256} {"role", "name",
+// "created", and "expires" and "revoked" where set}. A revoked token's
+// document stays (who held it, and when it ended).
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "arscout/db/store.h"
 
@@ -22,12 +26,42 @@ struct Principal {
 
 // Creates a token for `name` with `role` and returns it (the only time it is
 // seen). For a scout also creates /scouts/{name} if it does not exist.
-// Throws db::StoreError for an invalid name.
-std::string create_token(db::Store& store, Role role, const std::string& name);
+// With `expires_s` (seconds since the Unix epoch, UTC) the token stops
+// working then. Throws db::StoreError for an invalid name or an expiry in
+// the past.
+std::string create_token(db::Store& store, Role role, const std::string& name,
+                         std::optional<std::int64_t> expires_s = std::nullopt);
 
 // The principal for an "Authorization" header value ("Bearer TOKEN"), or
-// nullopt for a missing, malformed or unknown token.
+// nullopt for a missing, malformed, unknown, revoked or expired token. It
+// reads the store on every call, so a revocation or expiry holds at once
+// on every server sharing the database.
 std::optional<Principal> authenticate(db::Store& store,
                                       const std::string& authorization);
+
+// A stored token, as `arscout token list` shows it: never the token
+// itself, which is not kept.
+struct TokenInfo {
+  std::string id;  // the SHA-256 of the token, hex (its document's name)
+  Role role = Role::kPlanner;
+  std::string name;
+  std::string created;  // RFC 3339 UTC
+  std::string expires;  // RFC 3339 UTC, or "" for never
+  std::string revoked;  // RFC 3339 UTC, or "" while not revoked
+  // "active", "revoked" or "expired" at `now_s`.
+  std::string state(std::int64_t now_s) const;
+};
+
+// Every token, revoked and expired ones included, oldest first.
+std::vector<TokenInfo> list_tokens(db::Store& store);
+
+// Revokes the tokens whose id starts with `id_prefix` (at least 8 hex
+// digits, and it must name exactly one token) or, with an empty prefix,
+// every token of `name`. Returns the tokens revoked now (already revoked
+// ones are left as they are). Throws db::StoreError (kInvalidArgument)
+// when the selection is ambiguous or matches nothing.
+std::vector<TokenInfo> revoke_tokens(db::Store& store,
+                                     const std::string& id_prefix,
+                                     const std::string& name);
 
 }  // namespace arscout::ingest
