@@ -139,12 +139,32 @@ HttpResponse put_camera(ApiContext& ctx, const HttpRequest& req,
   if (id.find('/') != std::string::npos)
     return HttpResponse::error(400, "invalid_path",
                                "a camera id is one path segment");
+  // Intrinsics and a few statistics take well under a kilobyte; the cap
+  // keeps a camera from becoming a free-form store.
+  constexpr std::size_t kMaxCameraBytes = 16 * 1024;
+  if (req.body.size() > kMaxCameraBytes)
+    return HttpResponse::error(413, "payload_too_large",
+                               "a camera document is at most 16 KiB");
   std::string error;
   auto body = parse_json_body(req.body, &error);
   if (!body) return HttpResponse::error(400, "invalid_json", error);
   error = validate_camera_json(*body);
   if (!error.empty()) return HttpResponse::error(422, "unprocessable", error);
-  db::WriteOp op = db::WriteOp::put("/cameras/" + id, "camera", *body);
+  // A camera belongs to the scout that created it; only that scout or an
+  // admin may change it (one without an owner, written straight into the
+  // store, only an admin). The version read is the version expected, so a
+  // race with another writer is a 409, not a lost ownership check.
+  const auto current = ctx.store.get("/cameras/" + id);
+  const std::string owner =
+      current ? current->attrs.value("owner", "") : ctx.who.name;
+  if (ctx.who.role != Role::kAdmin && owner != ctx.who.name)
+    return HttpResponse::error(
+        403, "forbidden",
+        "camera " + id + " belongs to " +
+            (owner.empty() ? std::string("the operators") : owner));
+  (*body)["owner"] = owner.empty() ? ctx.who.name : owner;
+  db::WriteOp op = db::WriteOp::put("/cameras/" + id, "camera", *body,
+                                    current ? current->version : 0);
   op.author = ctx.who.name;
   ctx.store.write(op);
   auto doc = ctx.store.get("/cameras/" + id);

@@ -207,6 +207,40 @@ TEST_F(HostileClients, MetadataIsCheckedBeforeItIsStored) {
   EXPECT_EQ(changes["changes"].size(), 1u) << changes.dump();
 }
 
+// Defect 8: any scout could overwrite any camera (another scout's
+// included) with up to about 1 MiB of unknown fields.
+TEST_F(HostileClients, ACameraBelongsToTheScoutThatMadeIt) {
+  auto store = db::Store::open(url_);
+  const auto token = [&](ingest::Role role, const char* name) {
+    return ingest::Client(
+        {server_->url(), ingest::create_token(*store, role, name)});
+  };
+  ingest::Client alice = token(ingest::Role::kScout, "alice");
+  ingest::Client bob = token(ingest::Role::kScout, "bob");
+  ingest::Client root = token(ingest::Role::kAdmin, "root");
+  const auto camera = [](double fx) {
+    return nlohmann::json{
+        {"fx", fx},     {"fy", fx},      {"cx", 319.5},          {"cy", 239.5},
+        {"width", 640}, {"height", 480}, {"source", "estimated"}}
+        .dump();
+  };
+  const auto put = [&](ingest::Client& who, const std::string& body) {
+    return who.request("PUT", "/v1/cameras/phone-a", body,
+                       {{"Content-Type", "application/json"}});
+  };
+  EXPECT_EQ(put(alice, camera(500)).status, 201);
+  const auto taken = put(bob, camera(900));
+  EXPECT_EQ(taken.status, 403) << taken.body;
+  EXPECT_EQ(put(alice, camera(510)).status, 200);
+  EXPECT_EQ(put(root, camera(520)).status, 200);
+  auto padded = nlohmann::json::parse(camera(530));
+  padded["junk"] = std::string(1 << 20, 'j');
+  EXPECT_EQ(put(alice, padded.dump()).status, 413);
+  const auto doc = root.get("/v1/docs/cameras/phone-a").json();
+  EXPECT_EQ(doc["attrs"]["fx"], 520);
+  EXPECT_EQ(doc["attrs"]["owner"], "alice");
+}
+
 // Defect 5: a scout or planner following the feed with pattern /auth/**
 // (or the WebSocket) saw every token's SHA-256, name and revocation. The
 // feed now carries only what the caller may read as a document.
