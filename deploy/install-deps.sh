@@ -18,6 +18,8 @@ packages=(
   # the scout app's pairing QR code (token create --qr), and zbarimg to
   # read it back in the test
   libqrencode-dev zbar-tools
+  # zlib: the decode-budget tests build their PNGs with it
+  zlib1g-dev
   # PostgreSQL server for the PostgreSQL backend tests and deployments
   postgresql-15 postgresql-client-15
   # runuser (util-linux) starts the throwaway test server as 'postgres';

@@ -167,7 +167,12 @@ HttpResponse Api::handle(const HttpRequest& request) {
 std::optional<HttpResponse> Api::refuse_before_body(const HttpRequest& head) {
   const std::string& path = head.path;
   if (!starts_with(path, "/v1/")) return std::nullopt;  // no token needed
-  auto who = authenticate(store_, head.header("authorization"));
+  std::optional<Principal> who;
+  try {
+    who = authenticate(store_, head.header("authorization"));
+  } catch (const std::exception&) {
+    return std::nullopt;  // the store is down: the request gets its 503
+  }
   if (!who) {
     HttpResponse r =
         HttpResponse::error(401, "unauthorized",

@@ -137,21 +137,25 @@ class SubscribeSession
   // reads the store); once it is revoked or expired the stream closes.
   void recheck_token(std::string authorization) {
     recheck_.expires_after(std::chrono::seconds(1));
-    recheck_.async_wait([self = this->shared_from_this(),
-                         authorization](beast::error_code ec) {
-      if (ec) return;  // cancelled: the stream ended
-      asio::post(self->shared_.workers, [self, authorization] {
-        const bool valid =
-            authenticate(self->shared_.api.store(), authorization).has_value();
-        asio::post(self->ws_.get_executor(), [self, valid, authorization] {
-          if (valid) return self->recheck_token(authorization);
-          self->ws_.async_close(
-              websocket::close_reason(websocket::close_code::policy_error,
-                                      "the token was revoked or expired"),
-              [self](beast::error_code) {});
+    recheck_.async_wait(
+        [self = this->shared_from_this(), authorization](beast::error_code ec) {
+          if (ec) return;  // cancelled: the stream ended
+          asio::post(self->shared_.workers, [self, authorization] {
+            bool valid = true;  // a store that cannot answer revokes nothing
+            try {
+              valid = authenticate(self->shared_.api.store(), authorization)
+                          .has_value();
+            } catch (const std::exception&) {
+            }
+            asio::post(self->ws_.get_executor(), [self, valid, authorization] {
+              if (valid) return self->recheck_token(authorization);
+              self->ws_.async_close(
+                  websocket::close_reason(websocket::close_code::policy_error,
+                                          "the token was revoked or expired"),
+                  [self](beast::error_code) {});
+            });
+          });
         });
-      });
-    });
   }
 
   void start_feed(const Api::Subscribe& where) {

@@ -258,22 +258,6 @@ ExifInfo read_exif(std::string_view image_bytes) {
   }
 }
 
-std::optional<DeclaredSize> read_declared_size(std::string_view image_bytes) {
-  init_exiv2_once();
-  try {
-    auto image = Exiv2::ImageFactory::open(
-        reinterpret_cast<const Exiv2::byte*>(image_bytes.data()),
-        static_cast<long>(image_bytes.size()));
-    if (!image.get()) return std::nullopt;
-    image->readMetadata();  // JPEG: the SOF marker; PNG: IHDR
-    if (image->pixelWidth() <= 0 || image->pixelHeight() <= 0)
-      return std::nullopt;
-    return DeclaredSize{image->pixelWidth(), image->pixelHeight()};
-  } catch (const std::exception&) {
-    return std::nullopt;
-  }
-}
-
 ExifInfo read_exif_file(const std::string& path) {
   init_exiv2_once();
   try {

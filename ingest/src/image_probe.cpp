@@ -1,10 +1,6 @@
 #include "image_probe.h"
 
-#include <algorithm>
-#include <condition_variable>
-#include <mutex>
 #include <opencv2/imgcodecs.hpp>
-#include <thread>
 
 namespace arscout::ingest {
 namespace {
@@ -26,32 +22,6 @@ bool png_has_end_chunk(std::string_view b) {
   return b.size() >= 12 &&
          b.substr(b.size() - 12, 8) == std::string_view("\0\0\0\0IEND", 8);
 }
-
-// Bounds concurrent decodes to the number of cores.
-class DecodeSlot {
- public:
-  DecodeSlot() {
-    std::unique_lock lock(mu_);
-    cv_.wait(lock, [] { return busy_ < limit(); });
-    ++busy_;
-  }
-  ~DecodeSlot() {
-    {
-      std::lock_guard lock(mu_);
-      --busy_;
-    }
-    cv_.notify_one();
-  }
-
- private:
-  static unsigned limit() {
-    static const unsigned n = std::max(1u, std::thread::hardware_concurrency());
-    return n;
-  }
-  static inline std::mutex mu_;
-  static inline std::condition_variable cv_;
-  static inline unsigned busy_ = 0;
-};
 
 ImageProbe fail(std::string why) {
   ImageProbe p;
@@ -76,25 +46,9 @@ ImageProbe probe_image(std::string_view bytes) {
   } else {
     return fail("not a JPEG or PNG image (unrecognised file signature)");
   }
-  auto declared = read_declared_size(bytes);
-  if (declared && declared->width * declared->height > kMaxImagePixels)
-    return fail(p.format + " of " + std::to_string(declared->width) + " x " +
-                std::to_string(declared->height) + " pixels: more than the " +
-                std::to_string(kMaxImagePixels / 1'000'000) +
-                " megapixels accepted");
-  cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8UC1,
-              const_cast<char*>(bytes.data()));
-  cv::Mat image;
-  try {
-    // A decode holds tens of MB and a core: more at once than there are
-    // cores only adds memory and latency.
-    DecodeSlot slot;
-    image = cv::imdecode(raw, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    return fail("corrupt " + p.format + ": " + e.what());
-  }
-  if (image.empty())
-    return fail("corrupt " + p.format + ": it does not decode");
+  std::string why;
+  const cv::Mat image = decode_within_budget(bytes, cv::IMREAD_UNCHANGED, &why);
+  if (image.empty()) return fail(why);
   p.ok = true;
   p.width = image.cols;
   p.height = image.rows;

@@ -5,6 +5,8 @@
 #include <string>
 #include <string_view>
 
+#include "arscout/ingest/image_budget.h"
+
 namespace arscout::ingest {
 
 struct ImageProbe {
@@ -15,18 +17,7 @@ struct ImageProbe {
   int height = 0;
 };
 
-// Refuses images whose header declares more than kMaxImagePixels before
-// decoding them: a 1 KB JPEG can declare 30000 x 30000 pixels, and decoding
-// it would take gigabytes.
-constexpr long kMaxImagePixels = 120'000'000;  // 108 MP phones fit
+// Validated against the decode budget (arscout/ingest/image_budget.h).
 ImageProbe probe_image(std::string_view bytes);
-
-// The width and height an image's header declares, read without decoding
-// it (Exiv2; defined in exif.cpp with the rest of the Exiv2 use); nullopt
-// when the header cannot be read.
-struct DeclaredSize {
-  long width = 0, height = 0;
-};
-std::optional<DeclaredSize> read_declared_size(std::string_view image_bytes);
 
 }  // namespace arscout::ingest

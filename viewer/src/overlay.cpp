@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "arscout/db/errors.h"
+#include "arscout/ingest/image_budget.h"
 
 namespace arscout::viewer {
 namespace {
@@ -153,14 +154,14 @@ std::string overlay_jpeg(db::Store& store, const std::string& capture,
                          site + "'s model (version " +
                          std::to_string(model.version) + ")");
   const std::string bytes = store.get_blob(doc->blobs.at("image"));
-  const cv::Mat photo = cv::imdecode(
-      cv::Mat(1, static_cast<int>(bytes.size()), CV_8U,
-              const_cast<char*>(bytes.data())),
+  std::string why;
+  const cv::Mat photo = ingest::decode_within_budget(
+      bytes,
       // As the engine reads it: its poses are for the pixels as stored.
-      cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION);
+      cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION, &why);
   if (photo.empty())
     throw StoreError(ErrorCode::kInternal,
-                     "the photo of capture " + capture + " does not decode");
+                     "the photo of capture " + capture + ": " + why);
   const cv::Mat drawn = draw_overlay(
       photo, *camera, load_cloud(store, model, options.cloud), options);
   std::vector<uchar> jpeg;

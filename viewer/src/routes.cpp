@@ -5,6 +5,7 @@
 
 #include "arscout/db/errors.h"
 #include "arscout/db/path.h"
+#include "arscout/ingest/image_budget.h"
 #include "arscout/viewer/exports.h"
 #include "arscout/viewer/overlay.h"
 
@@ -115,8 +116,6 @@ std::string thumbnail_jpeg(db::Store& store, const std::string& capture,
   if (!doc || !doc->blobs.count("image"))
     throw StoreError(ErrorCode::kNotFound, "no capture " + capture);
   const std::string bytes = store.get_blob(doc->blobs.at("image"));
-  const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8U,
-                    const_cast<char*>(bytes.data()));
   // A reduced decode is far quicker than decoding 12 MP and shrinking.
   const int width = doc->attrs.value("width", 0);
   const int height = doc->attrs.value("height", 0);
@@ -125,10 +124,12 @@ std::string thumbnail_jpeg(db::Store& store, const std::string& capture,
                    : factor >= 4 ? cv::IMREAD_REDUCED_COLOR_4
                    : factor >= 2 ? cv::IMREAD_REDUCED_COLOR_2
                                  : cv::IMREAD_COLOR;
-  cv::Mat image = cv::imdecode(raw, flag | cv::IMREAD_IGNORE_ORIENTATION);
+  std::string why;
+  cv::Mat image = ingest::decode_within_budget(
+      bytes, flag | cv::IMREAD_IGNORE_ORIENTATION, &why);
   if (image.empty())
     throw StoreError(ErrorCode::kInternal,
-                     "the photo of capture " + capture + " does not decode");
+                     "the photo of capture " + capture + ": " + why);
   const double scale = std::min(
       1.0, static_cast<double>(size) / std::max(image.cols, image.rows));
   if (scale < 1)
