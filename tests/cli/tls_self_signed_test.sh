@@ -15,17 +15,13 @@ trap cleanup EXIT
 failures=0
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 
-start() {  # start LOG: serve on a free port, sets $server and $port
-  "$arscout" serve --db "sqlite:$dir/store.db" --listen 127.0.0.1:0 \
-    --tls-self-signed --tls-dir "$dir/tls" > "$1" 2>&1 &
-  server=$!
-  port=""
-  for _ in $(seq 100); do
-    port=$(sed -n 's/^arscout serving .* at https:\/\/127.0.0.1:\([0-9]*\)$/\1/p' "$1")
-    [ -n "$port" ] && return 0
-    sleep 0.1
-  done
-  cat "$1"; fail "no HTTPS server"; exit 1
+# shellcheck source=../support/serve_script.sh
+source "$(dirname "$0")/../support/serve_script.sh"
+bin=$arscout
+start() {  # start LOG: serve on a free port, sets $server, $url and $port
+  start_server "$1" --db "sqlite:$dir/store.db" --listen 127.0.0.1:0 \
+    --tls-self-signed --tls-dir "$dir/tls"
+  port=${url##*:}
 }
 stop() { kill "$server"; wait "$server" 2>/dev/null; server=""; }
 

@@ -1,5 +1,7 @@
 #include "flaky_upload.h"
 
+#include "raw_http.h"
+
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
@@ -28,15 +30,8 @@ void interrupted_upload(std::uint16_t port, const std::string& token,
                         const std::string& metadata, const std::string& jpeg,
                         Interruption how, double fraction_sent) {
   if (how == Interruption::kNone) return;
-  int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(port);
-  inet_pton(AF_INET, "127.0.0.1", &addr.sin_addr);
-  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    close(fd);
-    return;  // as good as cut: the retry follows
-  }
+  const int fd = connect_local(port);
+  if (fd < 0) return;  // as good as cut: the retry follows
   std::string head =
       "POST /v1/captures HTTP/1.1\r\nHost: 127.0.0.1\r\n"
       "Authorization: Bearer " +

@@ -9,8 +9,6 @@
 #include <thread>
 
 namespace arscout::testing {
-namespace {
-
 int connect_local(std::uint16_t port) {
   int fd = socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in addr{};
@@ -26,6 +24,8 @@ int connect_local(std::uint16_t port) {
   setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
   return fd;
 }
+
+namespace {
 
 std::string read_all(int fd) {
   std::string reply;

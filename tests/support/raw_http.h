@@ -8,6 +8,10 @@
 
 namespace arscout::testing {
 
+// A connected TCP socket to 127.0.0.1:port with 30 s send and receive
+// timeouts, or -1. The caller closes it.
+int connect_local(std::uint16_t port);
+
 // Sends `bytes` on a fresh connection, optionally one byte per `per_byte`,
 // and returns what the server answered before closing ("" when it closed
 // without a word, "connect failed" when there was no server). Waits at

@@ -1,0 +1,26 @@
+# For test scripts that run `arscout serve`; source it after setting $bin
+# (the arscout executable).
+#
+# skip WHY: exits 77 (skipped), except under CI=true, where it fails.
+# start_server LOG ARGS...: runs `$bin serve ARGS...` in the background with
+# its output in LOG, sets $server (the pid) and $url (its address, http or
+# https), or fails with the log.
+
+skip() {
+  if [ "${CI:-}" = true ]; then echo "FAIL: $1 (required under CI=true)"; exit 1; fi
+  echo "SKIP: $1"; exit 77
+}
+
+start_server() {
+  local log=$1; shift
+  : > "$log"
+  "$bin" serve "$@" >> "$log" 2>&1 &
+  server=$!
+  url=""
+  for _ in $(seq 100); do
+    url=$(sed -n 's/^arscout serving .* at \(http[^ ]*\)$/\1/p' "$log")
+    [ -n "$url" ] && return 0
+    sleep 0.1
+  done
+  cat "$log"; echo "FAIL: no server"; exit 1
+}
