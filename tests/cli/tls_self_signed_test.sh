@@ -5,19 +5,14 @@
 # and a second start reuses the same certificate.
 set -uo pipefail
 arscout=$(realpath "${1:?usage: tls_self_signed_test.sh ARSCOUT}")
-dir=$(mktemp -d)
-server=""
-cleanup() {
-  [ -n "$server" ] && kill "$server" 2>/dev/null && wait "$server" 2>/dev/null
-  rm -rf "$dir"
-}
-trap cleanup EXIT
+bin=$arscout
+# shellcheck source=../support/serve_script.sh
+source "$(dirname "$0")/../support/serve_script.sh"
+use_work_dir
+dir=$work
 failures=0
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 
-# shellcheck source=../support/serve_script.sh
-source "$(dirname "$0")/../support/serve_script.sh"
-bin=$arscout
 start() {  # start LOG: serve on a free port, sets $server, $url and $port
   start_server "$1" --db "sqlite:$dir/store.db" --listen 127.0.0.1:0 \
     --tls-self-signed --tls-dir "$dir/tls"

@@ -2,6 +2,8 @@
 # (the arscout executable).
 #
 # skip WHY: exits 77 (skipped), except under CI=true, where it fails.
+# use_work_dir: sets $work to a fresh folder; on exit the server started
+# by start_server is stopped and the folder removed.
 # start_server LOG ARGS...: runs `$bin serve ARGS...` in the background with
 # its output in LOG, sets $server (the pid) and $url (its address, http or
 # https), or fails with the log.
@@ -23,4 +25,10 @@ start_server() {
     sleep 0.1
   done
   cat "$log"; echo "FAIL: no server"; exit 1
+}
+
+use_work_dir() {
+  work=$(mktemp -d)
+  server=""
+  trap 'if [ -n "$server" ]; then kill "$server" 2>/dev/null; wait "$server" 2>/dev/null; fi; rm -rf "$work"' EXIT
 }

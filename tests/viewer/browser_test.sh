@@ -20,13 +20,7 @@ need_browser
 [ -d "$scene/images" ] || skip "$scene not found"
 [ -f "$fixture/ready" ] || { echo "FAIL: no fountain site in $fixture"; exit 1; }
 
-work=$(mktemp -d)
-server=""
-cleanup() {
-  [ -n "$server" ] && kill "$server" 2>/dev/null && wait "$server" 2>/dev/null
-  rm -rf "$work"
-}
-trap cleanup EXIT
+use_work_dir
 cp "$fixture"/arscout.db* "$work/"
 db="sqlite:$work/arscout.db"
 start_server "$work/server.log" --db "$db" --listen 127.0.0.1:0 --with-engine \

@@ -19,13 +19,7 @@ source "$(dirname "$0")/browser_support.sh"
 need_browser
 [ -d "$scene/images" ] || skip "$scene not found"
 
-work=$(mktemp -d)
-server=""
-cleanup() {
-  [ -n "$server" ] && kill "$server" 2>/dev/null && wait "$server" 2>/dev/null
-  rm -rf "$work"
-}
-trap cleanup EXIT
+use_work_dir
 db="sqlite:$work/arscout.db"
 alice=$("$bin" token create --db "$db" --role scout --name alice)
 bob=$("$bin" token create --db "$db" --role scout --name bob)
