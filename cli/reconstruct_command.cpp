@@ -198,7 +198,9 @@ void print_refine(const engine::RefineResult& r) {
   }
   std::cout << std::fixed << std::setprecision(2)
             << "      refine: " << r.images << " images, " << r.iterations
-            << " iterations, " << r.seconds << " s"
+            << " iterations, " << r.seconds << " s, keypoints "
+            << std::setprecision(3) << r.pixel_sigma << " px, loss "
+            << r.loss_scale_px << " px" << std::setprecision(2)
             << (r.converged ? "" : " (given way)") << std::endl;
 }
 

@@ -200,6 +200,7 @@ class ProblemBuilder {
   int image_count() const { return static_cast<int>(images_.size()); }
   int point_count() const { return static_cast<int>(points_.size()); }
   double pixel_sigma() const { return pixel_sigma_; }
+  double loss_scale_px() const { return loss_scale_px_; }
 
   void normalize_quaternions() {
     for (int i : images_) scene_.images[i].q.normalize();
@@ -245,10 +246,11 @@ class ProblemBuilder {
         options_.pixel_sigma > 0
             ? options_.pixel_sigma
             : estimate_pixel_sigma(std::move(residual_norms_), points_.size());
-    const double scale = options_.loss_scale_sigmas > 0
-                             ? options_.loss_scale_sigmas * pixel_sigma_
-                             : options_.loss_scale_px;
-    loss_->Reset(reprojection_loss(scale, pixel_sigma_), ceres::TAKE_OWNERSHIP);
+    loss_scale_px_ = options_.loss_scale_sigmas > 0
+                         ? options_.loss_scale_sigmas * pixel_sigma_
+                         : options_.loss_scale_px;
+    loss_->Reset(reprojection_loss(loss_scale_px_, pixel_sigma_),
+                 ceres::TAKE_OWNERSHIP);
   }
 
   void add_gps_priors() {
@@ -374,6 +376,7 @@ class ProblemBuilder {
   std::unique_ptr<ceres::LossFunction> upright_loss_;  // in units of sigma
   std::vector<double> residual_norms_;                 // before solving, pixels
   double pixel_sigma_ = 1;
+  double loss_scale_px_ = 1;
   ceres::Problem problem_;
   bool global_ = false;
   std::set<int> free_;
@@ -567,6 +570,7 @@ BundleReport adjust_bundle(Scene& scene, const std::vector<int>& free_images,
   report.iterations = static_cast<int>(summary.iterations.size());
   const double residuals = std::max(1, summary.num_residuals);
   report.pixel_sigma = builder.pixel_sigma();
+  report.loss_scale_px = builder.loss_scale_px();
   report.initial_rms_px =
       report.pixel_sigma * std::sqrt(2 * summary.initial_cost / residuals);
   report.final_rms_px =

@@ -72,6 +72,7 @@ struct BundleReport {
   bool stopped = false;    // ended early by BundleOptions::stop
   bool converged = false;  // by the tolerances, not the iteration cap
   double pixel_sigma = 1;  // the keypoint deviation weighted by, pixels
+  double loss_scale_px = 1;  // the Cauchy scale used, pixels
 };
 
 // Adjusts the poses of `free_images` and every point they observe; other

@@ -150,6 +150,7 @@ void IncrementalMapper::close_loops(int index) {
   ++loops_closed_;
   triangulate_image(index);
   scene_.registered_at_last_global_ba = 0;  // refine() is due
+  scene_.unsettled_refine_rounds = 0;       // in full, for a changed model
   if (global_inline()) adjust_global();
 }
 
@@ -201,6 +202,8 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   const BundleReport report = adjust_bundle(scene_, {}, true, ba);
   result.iterations = report.iterations;
   result.images = report.images;
+  result.pixel_sigma = report.pixel_sigma;
+  result.loss_scale_px = report.loss_scale_px;
   result.converged = !report.stopped;
   // Stopped before its first iteration: no pose moved, nothing to follow.
   if (report.iterations == 0) {
@@ -216,8 +219,14 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   }
   filter_points(all);
   // A round that used up its iterations is continued by the next call, up
-  // to kRefineRounds rounds in a row: a solve that never meets the
-  // tolerance must not keep an idle site busy for ever.
+  // to kRefineRounds rounds in a row on the same model: a solve that never
+  // meets the tolerance must not keep an idle site busy for ever. Rounds
+  // counted before a capture registered are not this model's: counting them
+  // cut a 400-photo walk's final refinement to one round (docs/engine.md).
+  if (scene_.unsettled_at_count != scene_.registered_count()) {
+    scene_.unsettled_at_count = scene_.registered_count();
+    scene_.unsettled_refine_rounds = 0;
+  }
   const bool settled =
       result.converged &&
       (report.converged || ++scene_.unsettled_refine_rounds >= kRefineRounds);

@@ -96,9 +96,12 @@ struct Scene {
   bool geo_registered = false;         // world frame is ENU
   bool initialized = false;
   int registered_at_last_global_ba = 0;
-  // Refinement rounds that ended on their iteration cap since the model
-  // last settled (not serialized: a restored scene starts counting again).
+  // Refinement rounds in a row that ended on their iteration cap while the
+  // model kept its registered captures (`unsettled_at_count`); a capture
+  // registered or a loop closed starts the count again (neither is
+  // serialized: a restored scene starts counting again).
   int unsettled_refine_rounds = 0;
+  int unsettled_at_count = -1;
   // add_capture stopped at its registration limit, so captures may be
   // waiting that the model's points would register now (not serialized: a
   // restored scene looks once).

@@ -181,6 +181,10 @@ struct RefineResult {
   int iterations = 0;
   int images = 0;
   double seconds = 0;
+  // The keypoint deviation the adjustment weighed by and its Cauchy scale,
+  // pixels (docs/engine.md, "The loss scale follows the keypoints").
+  double pixel_sigma = 0;
+  double loss_scale_px = 0;
   // Waiting captures this call registered (ids, in order); when any, the
   // call did only that, and the global adjustment is due next.
   std::vector<std::string> registered;
