@@ -325,7 +325,11 @@ std::string upload_problem(const ingest::HttpResult& r, const std::string& id) {
   if (r.status != 201) return excerpt(r.body);
   if (r.headers.count("idempotent-replay")) return "an idempotent replay";
   db::Json doc = r.json();
-  if (doc.value("path", "") != "/captures/" + id)
+  // Stored in the scout's own space: "/captures/{scout}.{id}".
+  const std::string path = doc.value("path", "");
+  const std::string tail = "." + id;
+  if (path.rfind("/captures/", 0) != 0 || path.size() < tail.size() ||
+      path.compare(path.size() - tail.size(), tail.size(), tail) != 0)
     return "201 for another path: " + excerpt(r.body);
   if (doc["attrs"].value("status", "") != "stored")
     return "status is not 'stored': " + excerpt(r.body);

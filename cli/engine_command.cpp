@@ -1,12 +1,14 @@
 // `arscout engine`: a standalone engine worker (docs/service.md).
 #include <chrono>
-#include <ctime>
-#include <iomanip>
 #include <iostream>
-#include <mutex>
 #include <thread>
 
+#include <spdlog/spdlog.h>
+
+#include "arscout/db/errors.h"
 #include "arscout/db/store.h"
+#include "arscout/ingest/server.h"
+#include "arscout/util/log_value.h"
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
@@ -59,31 +61,81 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
                 "increment: the same feed gives the same models");
 }
 
-void print_worker_progress(engine::WorkerOptions* options) {
-  static std::mutex mutex;
+void log_worker_progress(engine::WorkerOptions* options) {
   options->progress = [](const std::string& line) {
-    const std::time_t now = std::time(nullptr);
-    std::lock_guard lock(mutex);
-    std::cout << std::put_time(std::localtime(&now), "%H:%M:%S") << " " << line
-              << std::endl;
+    spdlog::info("event=engine msg={}", util::quoted_log_value(line));
   };
+}
+
+void expose_worker(const engine::EngineWorker& worker,
+                   ingest::ServerOptions* options) {
+  options->extra_metrics = [&worker] { return worker.metrics(); };
+  options->health_details = [&worker] {
+    const engine::WorkerStats s = worker.stats();
+    return ingest::Json{{"engine",
+                         {{"captures_waiting", s.captures_waiting},
+                          {"sites", s.sites},
+                          {"sites_held", s.sites_held},
+                          {"model_versions", s.increments},
+                          {"failures", s.failures},
+                          {"checkpoint", s.checkpoint}}}};
+  };
+}
+
+bool split_listen(const std::string& text, std::string* host,
+                  std::uint16_t* port) {
+  std::size_t colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0) return false;
+  *host = text.substr(0, colon);
+  if (host->front() == '[' && host->back() == ']')
+    *host = host->substr(1, host->size() - 2);
+  try {
+    std::size_t used = 0;
+    int p = std::stoi(text.substr(colon + 1), &used);
+    if (used != text.size() - colon - 1 || p < 0 || p > 65535) return false;
+    *port = static_cast<std::uint16_t>(p);
+  } catch (const std::exception&) {
+    return false;
+  }
+  return true;
 }
 
 namespace {
 
 struct EngineArgs {
   std::string db;
+  std::string listen;  // "": no endpoint
   engine::WorkerOptions worker;
 };
+
+// --listen: /healthz and /metrics only, no API (docs/service.md).
+std::unique_ptr<ingest::Server> start_endpoint(
+    const EngineArgs& a, db::Store& store, const engine::EngineWorker& worker) {
+  if (a.listen.empty()) return nullptr;
+  ingest::ServerOptions options;
+  if (!split_listen(a.listen, &options.host, &options.port))
+    throw db::StoreError(db::ErrorCode::kInvalidArgument,
+                         "--listen must be HOST:PORT, not '" + a.listen + "'");
+  options.serve_api = false;
+  options.worker_threads = 2;
+  expose_worker(worker, &options);
+  auto server = std::make_unique<ingest::Server>(store, options);
+  server->start();
+  std::cout << "engine health and metrics at http://" << options.host << ":"
+            << server->port() << "/healthz and /metrics" << std::endl;
+  return server;
+}
 
 int run_engine(EngineArgs& a) {
   install_stop_handlers();
   auto store = db::Store::open(a.db);
-  print_worker_progress(&a.worker);
+  log_worker_progress(&a.worker);
   engine::EngineWorker worker(*store, a.worker);
+  auto endpoint = start_endpoint(a, *store, worker);
   worker.start();
   while (!stop_requested())
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  if (endpoint) endpoint->stop();
   worker.stop();
   const engine::WorkerStats s = worker.stats();
   std::cout << "engine stopped: " << s.captures_placed << " captures placed, "
@@ -101,6 +153,9 @@ void add_engine_command(CLI::App& app) {
   cmd->add_option("--db", args.db,
                   "database URL: sqlite:FILE or postgresql://...")
       ->required();
+  cmd->add_option("--listen", args.listen,
+                  "HOST:PORT to serve /healthz and /metrics on (port 0: any; "
+                  "no API there)");
   add_engine_worker_options(cmd, &args.worker);
   cmd->callback([] { run_command([] { return run_engine(args); }); });
 }

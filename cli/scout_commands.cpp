@@ -195,17 +195,14 @@ std::string sanitise(std::string_view s) {
   return out;
 }
 
-// The scout's name, else a hash of the token: a capture id is visible to
-// every reader, so it must not carry part of the secret.
-std::string id_prefix(const std::string& scout_name, const std::string& token) {
-  if (!scout_name.empty()) return sanitise(scout_name);
-  return "t" + short_hash(token, 10);
-}
-
 // Deterministic, so that a retry or a re-run of the same folder is replayed
-// by the server instead of stored twice.
+// by the server instead of stored twice. The server keeps every id under
+// the token's name ("{name}.{id}", docs/api.md), so it need not be unique
+// across scouts: "{--scout-name}.{file}", kept as it is when --scout-name
+// is the token's name.
 std::string capture_id(const std::string& prefix, const std::string& file) {
-  std::string id = prefix + "-" + sanitise(file);
+  std::string id =
+      (prefix.empty() ? "" : sanitise(prefix) + ".") + sanitise(file);
   constexpr std::size_t kMax = 128;
   if (id.size() > kMax) id = id.substr(0, kMax - 13) + "-" + short_hash(id, 12);
   return id;
@@ -349,7 +346,7 @@ class Uploader {
       : a_(a),
         client_(client_options(a.server)),
         gps_(a),
-        prefix_(id_prefix(a.scout_name, a.server.token)) {}
+        prefix_(a.scout_name) {}
 
   // Waits --interval after the previous photo; false when interrupted.
   bool pace() {
@@ -459,9 +456,10 @@ class Uploader {
     line << name << "  gps ";
     bool ok = out.answer && out.answer->status / 100 == 2;
     if (ok) {
-      line << accepted(*out.answer, id, gps_text, why);
+      const std::string stored = stored_id(*out.answer, id);
+      line << accepted(*out.answer, stored, gps_text, why);
       ++succeeded_;
-      if (on_stored_) on_stored_(id, name);
+      if (on_stored_) on_stored_(stored, name);
       bytes_sent_ += size;
     } else {
       line << gps_text << (why.empty() ? "" : " (" + why + ")") << "  "
@@ -475,7 +473,19 @@ class Uploader {
     std::cout << line.str() << std::endl;
   }
 
-  // "exif ±25.0 m  201 alice-01.jpg seq 17 stored  model v3" for an answer.
+  // The id the server stored the capture under (its document's path), else
+  // the one sent.
+  static std::string stored_id(const HttpResult& answer,
+                               const std::string& sent) {
+    try {
+      const std::string path = answer.json().value("path", "");
+      if (path.rfind("/captures/", 0) == 0) return path.substr(10);
+    } catch (const std::exception&) {
+    }
+    return sent;
+  }
+
+  // "exif ±25.0 m  201 alice.01.jpg seq 17 stored  model v3" for an answer.
   std::string accepted(const HttpResult& answer, const std::string& id,
                        const std::string& gps_text, const std::string& why) {
     std::ostringstream text;
@@ -717,7 +727,8 @@ void add_scout(CLI::App& app) {
                   "file (as ../shared/data/strecha/*/images/K.txt)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--scout-name", a.scout_name,
-                  "capture id prefix (default: a hash of the token)");
+                  "capture id prefix (the server keeps every id under the "
+                  "token's name anyway)");
   cmd->add_option("--retries", a.retries,
                   "retries of a network error or 5xx answer, 0.5 s doubling "
                   "to 8 s apart")

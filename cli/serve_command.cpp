@@ -25,10 +25,35 @@ struct ServeArgs {
   std::size_t max_body_mb = 64;
   int io_threads = 2;
   int workers = 32;
+  ingest::ServerOptions limits;  // the connection and stream caps
   bool with_engine = false;
   std::string web_root = viewer::default_web_root();
   engine::WorkerOptions engine;
 };
+
+// Caps against clients that hold what others need (docs/RELIABILITY.md,
+// "Hostile clients"); 0 turns a cap off.
+void add_limit_options(CLI::App* cmd, ingest::ServerOptions* limits) {
+  cmd->add_option("--max-connections", limits->max_connections,
+                  "open connections in all (503 beyond; kept under the "
+                  "open-file limit)")
+      ->capture_default_str();
+  cmd->add_option("--max-connections-per-address",
+                  limits->max_connections_per_address,
+                  "open connections from one client address (503 beyond)")
+      ->capture_default_str();
+  cmd->add_option("--max-streams", limits->max_streams,
+                  "open long-polls and WebSocket streams in all (429 beyond)")
+      ->capture_default_str();
+  cmd->add_option("--max-streams-per-token", limits->max_streams_per_token,
+                  "open long-polls and WebSocket streams per token (429 "
+                  "beyond)")
+      ->capture_default_str();
+  cmd->add_option("--min-body-rate", limits->min_body_rate,
+                  "bytes per second a request body must keep to over every "
+                  "10 s (408 and closed below)")
+      ->capture_default_str();
+}
 
 // The web viewer's files; a missing three.js is worth a line at start-up,
 // not a page that stays blank.
@@ -45,25 +70,6 @@ void mount_viewer(const std::string& web_root, ingest::ServerOptions* options) {
               << "/node_modules (run: npm ci --prefix " << web_root
               << "); the viewer page will not draw" << std::endl;
   options->static_mounts = viewer::web_mounts(web_root);
-}
-
-// "HOST:PORT" or "[V6]:PORT".
-bool split_listen(const std::string& text, std::string* host,
-                  std::uint16_t* port) {
-  std::size_t colon = text.rfind(':');
-  if (colon == std::string::npos || colon == 0) return false;
-  *host = text.substr(0, colon);
-  if (host->front() == '[' && host->back() == ']')
-    *host = host->substr(1, host->size() - 2);
-  try {
-    std::size_t used = 0;
-    int p = std::stoi(text.substr(colon + 1), &used);
-    if (used != text.size() - colon - 1 || p < 0 || p > 65535) return false;
-    *port = static_cast<std::uint16_t>(p);
-  } catch (const std::exception&) {
-    return false;
-  }
-  return true;
 }
 
 // --tls-self-signed: the certificate kept for this machine's names (made
@@ -108,22 +114,28 @@ int serve(ServeArgs& a) {
   options.max_body_bytes = a.max_body_mb << 20;
   options.io_threads = a.io_threads;
   options.worker_threads = a.workers;
+  options.max_connections = a.limits.max_connections;
+  options.max_connections_per_address = a.limits.max_connections_per_address;
+  options.max_streams = a.limits.max_streams;
+  options.max_streams_per_token = a.limits.max_streams_per_token;
+  options.min_body_rate = a.limits.min_body_rate;
   install_stop_handlers();
   auto store = db::Store::open(a.db);
   options.routes = viewer::viewer_routes(*store);
   mount_viewer(a.web_root, &options);
+  std::unique_ptr<engine::EngineWorker> worker;
+  if (a.with_engine) {
+    log_worker_progress(&a.engine);
+    worker = std::make_unique<engine::EngineWorker>(*store, a.engine);
+    expose_worker(*worker, &options);
+  }
   ingest::Server server(*store, options);
   server.start();
   std::cout << "arscout serving " << store->backend() << " store at "
             << (server.tls() ? "https://" : "http://") << options.host << ":"
             << server.port() << std::endl;
   print_scout_addresses(options, server.port(), server.tls());
-  std::unique_ptr<engine::EngineWorker> worker;
-  if (a.with_engine) {
-    print_worker_progress(&a.engine);
-    worker = std::make_unique<engine::EngineWorker>(*store, a.engine);
-    worker->start();
-  }
+  if (worker) worker->start();
   while (!stop_requested())
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   if (worker) worker->stop();
@@ -164,9 +176,11 @@ void add_serve_command(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
   cmd->add_option("--workers", args.workers,
-                  "handler threads (uploads, queries, long-polls)")
+                  "handler threads (uploads, queries); long-polls and "
+                  "WebSocket streams wait without one")
       ->capture_default_str()
       ->check(CLI::Range(1, 1024));
+  add_limit_options(cmd, &args.limits);
   cmd->add_option("--web-root", args.web_root,
                   "folder of the web viewer served at / (\"\": none)")
       ->capture_default_str();

@@ -34,7 +34,9 @@ bob=$("$bin" token create --db "$db" --role scout --name bob)
 
 # Created before the server starts: the loop below reads it at once.
 : > "$work/server.log"
-"$bin" serve --db "$db" --listen 127.0.0.1:0 --with-engine \
+# At info the log holds the engine's progress (event=engine) and one line
+# per request (event=request); only the engine's are shown below.
+"$bin" --log-level info serve --db "$db" --listen 127.0.0.1:0 --with-engine \
   > "$work/server.log" 2>&1 &
 server_pid=$!
 for _ in $(seq 100); do
@@ -47,7 +49,8 @@ done
 planner=$("$bin" token create --db "$db" --role planner --name planner)
 echo "== server at $url (log: $work/server.log); engine lines follow"
 echo "== planners: open $url/ in a browser while it runs, token $planner"
-tail -f "$work/server.log" --pid "$server_pid" | sed -un 's/^/   engine  /p' &
+tail -f "$work/server.log" --pid "$server_pid" |
+  sed -un 's/.* level=info event=engine msg="\(.*\)"$/   engine  \1/p' &
 
 fountain="$data/strecha/fountain-P11"
 lund="$data/opensfm/lund"

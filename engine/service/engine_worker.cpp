@@ -44,9 +44,11 @@
 #include "site_directory.h"
 #include "site_job.h"
 #include "site_leases.h"
+#include "worker_metrics.h"
 
 namespace arscout::engine {
 
+using service::PhaseClocks;
 using service::Work;
 
 namespace {
@@ -99,6 +101,7 @@ struct EngineWorker::Impl {
   bool claim_wanted = false;   // work was deferred since the last beat
   std::condition_variable beat_cv;
   WorkerStats stats;
+  PhaseClocks phases;  // thread-safe on its own
   std::unique_ptr<db::Subscription> subscription;
   std::vector<std::thread> threads;
 
@@ -373,6 +376,7 @@ struct EngineWorker::Impl {
     try {
       std::unique_lock publication(job.publication());
       service::Increment increment = timed([&] { return job.run(work); });
+      phases.sparse.observe(increment.seconds);
       lock.lock();
       std::multiset<std::int64_t> others = in_flight;
       for (const Work& w : work) others.erase(others.find(w.seq));
@@ -432,6 +436,7 @@ struct EngineWorker::Impl {
     try {
       std::lock_guard publication(job.publication());
       service::Increment dense = timed([&] { return job.run_dense(); });
+      phases.dense.observe(dense.seconds);
       if (!dense.ops.empty()) commit(site, job, dense, std::nullopt);
       lock.lock();
       stats.increments += dense.model_written ? 1 : 0;
@@ -517,6 +522,7 @@ struct EngineWorker::Impl {
     std::lock_guard publication(job.publication());
     service::Increment dense = job.finish_dense(*task);
     append_ready_time(dense, start);
+    phases.dense.observe(dense.seconds);
     if (!dense.ops.empty()) commit(site, job, dense, std::nullopt);
     std::lock_guard guard(mutex);
     stats.increments += dense.model_written ? 1 : 0;
@@ -546,11 +552,14 @@ struct EngineWorker::Impl {
       // deterministic run does it at once (the order must not depend on
       // arrivals), the others after new work and the views' cloud.
       do {
-        refined = job.run_refine([&] {
-          std::lock_guard guard(mutex);
-          return stopping ||
-                 (give_way && (!q.pending.empty() || dense_busy_locked(q)));
+        refined = timed([&] {
+          return job.run_refine([&] {
+            std::lock_guard guard(mutex);
+            return stopping ||
+                   (give_way && (!q.pending.empty() || dense_busy_locked(q)));
+          });
         });
+        phases.refine.observe(refined.seconds);
         if (!refined.ops.empty()) commit(site, job, refined, std::nullopt);
         written += refined.model_written ? 1 : 0;
       } while (refined.refine_again && !give_way);
@@ -602,12 +611,12 @@ struct EngineWorker::Impl {
 
   static void append_ready_time(service::Increment& increment,
                                 std::chrono::steady_clock::time_point start) {
-    increment.summary += ", ready in " +
-                         std::to_string(static_cast<int>(
-                             std::chrono::duration<double, std::milli>(
-                                 std::chrono::steady_clock::now() - start)
-                                 .count())) +
-                         " ms";
+    increment.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+            .count();
+    increment.summary +=
+        ", ready in " +
+        std::to_string(static_cast<int>(increment.seconds * 1000)) + " ms";
   }
 
   // Commits an increment's writes with the site document (and the
@@ -763,7 +772,20 @@ bool EngineWorker::wait_idle(std::chrono::milliseconds timeout) {
 
 WorkerStats EngineWorker::stats() const {
   std::lock_guard lock(impl_->mutex);
-  return impl_->stats;
+  WorkerStats s = impl_->stats;
+  s.sites = static_cast<std::int64_t>(impl_->sites.size());
+  // Every placed change is in flight until its increment commits.
+  s.captures_waiting = static_cast<std::int64_t>(impl_->in_flight.size());
+  return s;
+}
+
+std::string EngineWorker::metrics() const {
+  std::optional<std::int64_t> head;
+  try {
+    head = impl_->store.last_seq();
+  } catch (const std::exception&) {
+  }
+  return service::render_metrics(stats(), impl_->phases, head);
 }
 
 }  // namespace arscout::engine

@@ -74,6 +74,7 @@ struct Increment {
   // A refinement that registered waiting captures: the global adjustment
   // they make due is the next call's.
   bool refine_again = false;
+  double seconds = 0;  // how long it took to make, set by the worker
 };
 
 class SiteJob {

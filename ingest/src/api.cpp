@@ -6,6 +6,7 @@
 
 #include "api_handlers.h"
 #include "arscout/db/path.h"
+#include "arscout/util/log_value.h"
 
 namespace arscout::ingest {
 namespace {
@@ -32,11 +33,13 @@ HttpResponse forbidden(const std::string& why) {
 
 bool may_write_docs(const Principal& who) { return who.role == Role::kAdmin; }
 
-HttpResponse health(db::Store& store) {
+HttpResponse health(db::Store& store, const std::function<Json()>& details) {
   try {
-    return HttpResponse::json(200, Json{{"status", "ok"},
-                                        {"backend", store.backend()},
-                                        {"last_seq", store.last_seq()}});
+    Json body{{"status", "ok"},
+              {"backend", store.backend()},
+              {"last_seq", store.last_seq()}};
+    if (details) body.update(details());
+    return HttpResponse::json(200, body);
   } catch (const db::StoreError& e) {
     return HttpResponse::error(503, "unavailable", e.what());
   }
@@ -70,6 +73,20 @@ std::string route_template(const std::string& verb, const std::string& path) {
     if (path == fixed) return method + " " + fixed;
   return "other";
 }
+
+namespace {
+
+// The access log: one line per answered request, at info (quiet by
+// default).
+void log_access(const HttpRequest& request, int status, double seconds) {
+  if (!spdlog::should_log(spdlog::level::info)) return;
+  spdlog::info(
+      "event=request method={} target={} status={} ms={:.1f} remote={}",
+      method_label(request.method), util::quoted_log_value(request.target, 512),
+      status, seconds * 1000, request.remote.empty() ? "-" : request.remote);
+}
+
+}  // namespace
 
 HttpResponse error_for(const db::StoreError& e) {
   using db::ErrorCode;
@@ -156,16 +173,21 @@ HttpResponse Api::handle(const HttpRequest& request) {
                   e.what());
     response = HttpResponse::error(500, "internal", e.what());
   }
+  if (response.park_after) return response;  // asked again when woken
   if (response.status == 503 || response.status == 500) metrics_.store_error();
   double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();
   metrics_.record_request(route, response.status, seconds);
+  log_access(request, response.status, seconds);
   return response;
 }
 
 std::optional<HttpResponse> Api::refuse_before_body(const HttpRequest& head) {
   const std::string& path = head.path;
+  if (!serve_api_ && path != "/healthz" && path != "/metrics")
+    return HttpResponse::error(404, "not_found",
+                               "only /healthz and /metrics are served here");
   if (!starts_with(path, "/v1/")) return std::nullopt;  // no token needed
   std::optional<Principal> who;
   try {
@@ -198,13 +220,19 @@ HttpResponse Api::dispatch(const HttpRequest& req, std::string* route) {
   const std::string& path = req.path;
   const std::string& m = req.method;
   if (path == "/healthz")
-    return m == "GET" ? health(store_) : method_not_allowed("GET");
+    return m == "GET" ? health(store_, health_details_)
+                      : method_not_allowed("GET");
   if (path == "/metrics") {
     if (m != "GET") return method_not_allowed("GET");
     HttpResponse r;
     r.content_type = "text/plain; version=0.0.4";
-    r.body = metrics_.render();
+    r.body = metrics_.render() + (extra_metrics_ ? extra_metrics_() : "");
     return r;
+  }
+  if (!serve_api_) {
+    *route = "other";
+    return HttpResponse::error(404, "not_found",
+                               "only /healthz and /metrics are served here");
   }
   if (!starts_with(path, "/v1/")) {
     if (auto file = serve_static(static_mounts_, req)) {

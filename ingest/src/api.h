@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <variant>
@@ -24,6 +25,13 @@ class Api {
         metrics_(metrics),
         routes_(std::move(routes)),
         static_mounts_(std::move(static_mounts)) {}
+  // From ServerOptions: serve_api, extra_metrics, health_details.
+  Api(db::Store& store, Metrics& metrics, const ServerOptions& options)
+      : Api(store, metrics, options.routes, options.static_mounts) {
+    serve_api_ = options.serve_api;
+    extra_metrics_ = options.extra_metrics;
+    health_details_ = options.health_details;
+  }
 
   // Answers one request; never throws. Records it in the metrics.
   HttpResponse handle(const HttpRequest& request);
@@ -57,6 +65,9 @@ class Api {
   Metrics& metrics_;
   std::vector<ApiRoute> routes_;
   std::vector<StaticMount> static_mounts_;
+  bool serve_api_ = true;
+  std::function<std::string()> extra_metrics_;
+  std::function<Json()> health_details_;
 };
 
 // static_files.cpp: a GET or HEAD under one of `mounts` (the longest

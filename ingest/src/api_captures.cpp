@@ -92,6 +92,16 @@ HttpResponse replay_or_conflict(const db::Document& existing,
   return r;
 }
 
+// A capture's id within its scout's own space: "{scout}.{capture_id}", so
+// that no scout can take an id another one will send (docs/api.md). An id
+// that begins with the scout's "{name}." already (an id the server gave,
+// a replayed session) is kept as it is. Token names hold no '.'
+// (create_token), so two scouts' spaces never meet.
+std::string scoped_capture_id(const Principal& who, const std::string& id) {
+  const std::string space = who.name + ".";
+  return id.rfind(space, 0) == 0 ? id : space + id;
+}
+
 struct CaptureFields {
   std::string id, camera, site_hint, filename, taken;
   std::optional<GpsFix> gps;
@@ -156,6 +166,16 @@ HttpResponse post_capture(ApiContext& ctx, const HttpRequest& req) {
   if (auto bad = read_upload(req, &up)) return *bad;
   CaptureFields f;
   if (auto bad = read_fields(up.meta, &f)) return *bad;
+  if (ctx.who.name.find('.') != std::string::npos)
+    return HttpResponse::error(
+        403, "forbidden",
+        "the token's name '" + ctx.who.name +
+            "' holds a '.', which capture ids use to keep scouts apart: "
+            "upload with a token whose name has none");
+  if (!f.id.empty()) {
+    f.id = scoped_capture_id(ctx.who, f.id);
+    db::validate_path("/captures/" + f.id);  // the name made it longer
+  }
   // A known capture id is checked before any work: a retry costs a hash.
   std::string path = "/captures/" + f.id;
   if (!f.id.empty())
@@ -170,7 +190,7 @@ HttpResponse post_capture(ApiContext& ctx, const HttpRequest& req) {
   // document write then fails, the orphaned blob is collected by `db gc`.
   const std::string hash = ctx.store.put_blob(up.image);
   if (f.id.empty()) {  // named by its content: a re-upload is a replay
-    f.id = ctx.who.name + "-" + hash.substr(0, 16);
+    f.id = scoped_capture_id(ctx.who, hash.substr(0, 16));
     path = "/captures/" + f.id;
     if (auto existing = ctx.store.get(path))
       return replay_or_conflict(*existing, ctx.who, hash);

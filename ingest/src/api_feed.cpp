@@ -35,6 +35,11 @@ HttpResponse get_changes(ApiContext& ctx, const HttpRequest& req) {
       after = last;
       continue;
     }
+    if (req.may_park) {  // the server waits without a thread, then asks again
+      HttpResponse parked;
+      parked.park_after = head;
+      return parked;
+    }
     auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
         deadline - Clock::now());
     ctx.store.wait_for_change(head,

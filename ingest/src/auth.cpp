@@ -73,6 +73,11 @@ std::string create_token(db::Store& store, Role role, const std::string& name,
     throw db::StoreError(
         db::ErrorCode::kInvalidArgument,
         "a token name is one path segment, not '" + name + "'");
+  if (name.find('.') != std::string::npos)  // capture ids are "{name}.{id}"
+    throw db::StoreError(db::ErrorCode::kInvalidArgument,
+                         "a token name holds no '.' (letters, digits, '_' "
+                         "and '-'), not '" +
+                             name + "'");
   unsigned char random[32];
   if (RAND_bytes(random, sizeof random) != 1)
     throw db::StoreError(db::ErrorCode::kInternal,

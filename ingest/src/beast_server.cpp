@@ -4,6 +4,7 @@
 #include <utility>  // before Asio, for C++20
 
 #include <spdlog/spdlog.h>
+#include <sys/resource.h>
 #include <boost/asio.hpp>
 #include <boost/asio/ssl.hpp>
 #include <boost/beast/core.hpp>
@@ -20,6 +21,9 @@
 #include "api_handlers.h"
 #include "arscout/ingest/server.h"
 #include "beast_request.h"
+#include "body_rate.h"
+#include "change_watch.h"
+#include "keyed_limit.h"
 
 namespace arscout::ingest {
 namespace {
@@ -31,49 +35,26 @@ namespace websocket = beast::websocket;
 namespace ssl = asio::ssl;
 using tcp = asio::ip::tcp;
 
-// Where a WebSocket session's subscription posts changes: the session's
-// strand, until the server stops. The subscription (its thread and its
-// callback) can outlive the io_context: sessions hand it to the worker pool
-// to stop, and the pool goes last. A strand executor must not outlive its
-// io_context, so the server drops these copies while the context exists.
-struct FeedTarget {
-  std::mutex mu;
-  std::optional<asio::any_io_executor> executor;  // reset when stopping
-};
-
-class FeedTargets {
- public:
-  std::shared_ptr<FeedTarget> add(asio::any_io_executor executor) {
-    auto target = std::make_shared<FeedTarget>();
-    target->executor = std::move(executor);
-    std::lock_guard lock(mu_);
-    std::erase_if(targets_, [](const auto& t) { return t.expired(); });
-    targets_.push_back(target);
-    return target;
-  }
-  // After this no change is posted any more, and no copy of an executor of
-  // the io_context is left with the subscriptions.
-  void close_all() {
-    std::lock_guard lock(mu_);
-    for (const auto& weak : targets_)
-      if (auto target = weak.lock()) {
-        std::lock_guard target_lock(target->mu);
-        target->executor.reset();
-      }
-    targets_.clear();
-  }
-
- private:
-  std::mutex mu_;
-  std::vector<std::weak_ptr<FeedTarget>> targets_;
-};
-
 struct Shared {
   Api& api;
   const ServerOptions& options;
   asio::thread_pool& workers;
-  FeedTargets& feeds;
+  ChangeWatch& watch;   // long-polls and streams wait here, threadless
+  KeyedLimit& streams;  // open long-polls and streams, per token
 };
+
+using Slot = KeyedLimit::Slot;
+
+HttpResponse too_many_streams(const KeyedLimit& streams) {
+  HttpResponse r = HttpResponse::error(
+      429, "too_many_streams",
+      "too many open long-polls and WebSocket streams (at most " +
+          std::to_string(streams.per_key_cap()) + " per token, " +
+          std::to_string(streams.total_cap()) +
+          " in all); close one or poll less often");
+  r.headers.emplace_back("Retry-After", "5");
+  return r;
+}
 
 http::response<http::string_body> to_beast(HttpResponse&& r, unsigned version,
                                            bool keep_alive) {
@@ -104,51 +85,130 @@ template <typename Stream>
 class SubscribeSession
     : public std::enable_shared_from_this<SubscribeSession<Stream>> {
  public:
-  SubscribeSession(Stream&& stream, Shared shared)
-      : ws_(std::move(stream)), shared_(shared) {
+  SubscribeSession(Stream&& stream, Shared shared,
+                   std::optional<Slot> connection, Slot stream_slot)
+      : ws_(std::move(stream)),
+        shared_(shared),
+        connection_(std::move(connection)),
+        stream_slot_(std::move(stream_slot)) {
     shared_.api.metrics().connection_opened();
+    shared_.api.metrics().stream_opened();
   }
   ~SubscribeSession() {
+    shared_.watch.cancel(watch_id_);
+    shared_.api.metrics().stream_closed();
     shared_.api.metrics().connection_closed();
-    // Stopping joins the subscription thread; never on a network thread.
-    if (subscription_) {
-      auto sub = std::shared_ptr<db::Subscription>(std::move(subscription_));
-      asio::post(shared_.workers, [sub] { sub->stop(); });
-    }
   }
 
   void run(http::request<http::string_body> upgrade, Api::Subscribe where) {
     tcp_of(beast::get_lowest_layer(ws_)).expires_never();
     ws_.set_option(
         websocket::stream_base::timeout::suggested(beast::role_type::server));
+    where_ = std::move(where);
+    last_ = where_.since;
     auto self = this->shared_from_this();
-    ws_.async_accept(upgrade, [self, where](beast::error_code ec) {
+    ws_.async_accept(upgrade, [self](beast::error_code ec) {
       if (ec) return;
-      self->start_feed(where);
+      self->fetch();
       self->read_loop();
-      self->recheck_token(where.authorization);
+      self->recheck_token();
     });
   }
 
  private:
-  static constexpr std::size_t kMaxQueued = 20000;
+  static constexpr std::size_t kBatch = 500;
+  // More is read from the log only while fewer changes wait to be sent: a
+  // slow client gets its changes later, and holds no more memory.
+  static constexpr std::size_t kRefill = 1000;
+
+  struct Batch {
+    std::vector<std::string> texts;  // readable by the subscriber
+    std::int64_t head = 0;           // the log's last seq before reading
+    std::int64_t last = 0;           // the last seq read
+    bool full = false;               // more may follow at once
+    bool failed = false;
+  };
+
+  // Reads the next batch on a worker and hands it to the session's strand;
+  // between batches the session waits on the change watch, holding no
+  // thread.
+  void fetch() {
+    if (fetching_ || closed_) return;
+    if (queue_.size() >= kRefill) {
+      fetch_when_drained_ = true;
+      return;
+    }
+    fetching_ = true;
+    auto self = this->shared_from_this();
+    asio::post(shared_.workers, [self, since = last_] {
+      Batch batch = self->read_batch(since);
+      asio::post(self->ws_.get_executor(),
+                 [self, batch = std::move(batch)]() mutable {
+                   self->on_batch(std::move(batch));
+                 });
+    });
+  }
+
+  Batch read_batch(std::int64_t since) const {
+    Batch b;
+    b.last = since;
+    try {
+      db::Store& store = shared_.api.store();
+      b.head = store.last_seq();
+      const auto changes = store.changes(since, where_.pattern, kBatch);
+      b.full = changes.size() == kBatch;
+      for (const db::Change& c : changes) {
+        b.last = c.seq;
+        if (can_read(where_.who, c.path))  // as the documents themselves
+          b.texts.push_back(to_json(c).dump());
+      }
+    } catch (const std::exception& e) {
+      spdlog::warn("event=stream_read_failed since={} error=\"{}\"", since,
+                   e.what());
+      b.failed = true;
+    }
+    return b;
+  }
+
+  void on_batch(Batch batch) {
+    fetching_ = false;
+    if (closed_) return;
+    if (batch.failed) return retry_later();
+    for (std::string& text : batch.texts) enqueue(std::move(text));
+    last_ = batch.last;
+    if (batch.full) return fetch();
+    std::weak_ptr<SubscribeSession> weak = this->shared_from_this();
+    watch_id_ = shared_.watch.notify_after(std::max(batch.head, last_), [weak] {
+      if (auto self = weak.lock())
+        asio::post(self->ws_.get_executor(), [self] { self->fetch(); });
+    });
+  }
+
+  // The store failed: the log is the truth, so read again from last_.
+  void retry_later() {
+    retry_.expires_after(std::chrono::seconds(1));
+    retry_.async_wait([self = this->shared_from_this()](beast::error_code ec) {
+      if (!ec) self->fetch();
+    });
+  }
 
   // Every second the stream's token is looked up again (on a worker: it
   // reads the store); once it is revoked or expired the stream closes.
-  void recheck_token(std::string authorization) {
+  void recheck_token() {
     recheck_.expires_after(std::chrono::seconds(1));
     recheck_.async_wait(
-        [self = this->shared_from_this(), authorization](beast::error_code ec) {
+        [self = this->shared_from_this()](beast::error_code ec) {
           if (ec) return;  // cancelled: the stream ended
-          asio::post(self->shared_.workers, [self, authorization] {
+          asio::post(self->shared_.workers, [self] {
             bool valid = true;  // a store that cannot answer revokes nothing
             try {
-              valid = authenticate(self->shared_.api.store(), authorization)
+              valid = authenticate(self->shared_.api.store(),
+                                   self->where_.authorization)
                           .has_value();
             } catch (const std::exception&) {
             }
-            asio::post(self->ws_.get_executor(), [self, valid, authorization] {
-              if (valid) return self->recheck_token(authorization);
+            asio::post(self->ws_.get_executor(), [self, valid] {
+              if (valid) return self->recheck_token();
               self->ws_.async_close(
                   websocket::close_reason(websocket::close_code::policy_error,
                                           "the token was revoked or expired"),
@@ -158,46 +218,26 @@ class SubscribeSession
         });
   }
 
-  void start_feed(const Api::Subscribe& where) {
-    std::weak_ptr<SubscribeSession> weak = this->shared_from_this();
-    auto target = shared_.feeds.add(ws_.get_executor());
-    subscription_ = shared_.api.store().subscribe(
-        where.pattern, where.since,
-        [weak, target, who = where.who](const db::Change& c) {
-          if (!can_read(who, c.path)) return;  // as the documents themselves
-          std::string text = to_json(c).dump();
-          std::lock_guard lock(target->mu);
-          if (!target->executor) return;  // the server is stopping
-          asio::post(*target->executor,
-                     [weak, text = std::move(text)]() mutable {
-                       if (auto self = weak.lock())
-                         self->enqueue(std::move(text));
-                     });
-        });
-  }
-
   // The client sends nothing we need; reading notices when it goes away.
   void read_loop() {
     auto self = this->shared_from_this();
     ws_.async_read(incoming_, [self](beast::error_code ec, std::size_t) {
-      if (ec) {  // closed: the session ends with its last owner
-        self->recheck_.cancel();
-        return;
-      }
+      if (ec) return self->end();
       self->incoming_.consume(self->incoming_.size());
       self->read_loop();
     });
   }
 
+  // Closed: nothing pending keeps the session, which ends with its last
+  // owner.
+  void end() {
+    closed_ = true;
+    recheck_.cancel();
+    retry_.cancel();
+    shared_.watch.cancel(watch_id_);
+  }
+
   void enqueue(std::string text) {
-    if (queue_.size() >= kMaxQueued) {  // a client too slow to keep up
-      ws_.async_close(
-          websocket::close_reason(websocket::close_code::policy_error,
-                                  "too far behind; reconnect "
-                                  "with since"),
-          [self = this->shared_from_this()](beast::error_code) {});
-      return;
-    }
     queue_.push_back(std::move(text));
     if (queue_.size() == 1) write_next();
   }
@@ -205,20 +245,32 @@ class SubscribeSession
   void write_next() {
     ws_.text(true);
     auto self = this->shared_from_this();
-    ws_.async_write(asio::buffer(queue_.front()),
-                    [self](beast::error_code ec, std::size_t) {
-                      if (ec) return;
-                      self->queue_.pop_front();
-                      if (!self->queue_.empty()) self->write_next();
-                    });
+    ws_.async_write(asio::buffer(queue_.front()), [self](beast::error_code ec,
+                                                         std::size_t) {
+      if (ec) return;
+      self->queue_.pop_front();
+      if (!self->queue_.empty()) self->write_next();
+      if (self->fetch_when_drained_ && self->queue_.size() < kRefill) {
+        self->fetch_when_drained_ = false;
+        self->fetch();
+      }
+    });
   }
 
   websocket::stream<Stream> ws_;
   Shared shared_;
+  std::optional<Slot> connection_;
+  Slot stream_slot_;
+  Api::Subscribe where_;
+  std::int64_t last_ = 0;
+  bool fetching_ = false;
+  bool fetch_when_drained_ = false;
+  bool closed_ = false;
+  std::uint64_t watch_id_ = 0;
   asio::steady_timer recheck_{ws_.get_executor()};
+  asio::steady_timer retry_{ws_.get_executor()};
   beast::flat_buffer incoming_;
   std::deque<std::string> queue_;
-  std::unique_ptr<db::Subscription> subscription_;
 };
 
 // ---------------------------------------------------------------- HTTP
@@ -226,15 +278,22 @@ class SubscribeSession
 template <typename Stream>
 class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
  public:
-  HttpSession(Stream&& stream, Shared shared)
-      : stream_(std::move(stream)), shared_(shared) {
+  HttpSession(Stream&& stream, Shared shared, std::optional<Slot> connection)
+      : stream_(std::move(stream)),
+        shared_(shared),
+        connection_(std::move(connection)),
+        body_rate_(shared.options.min_body_rate) {
     shared_.api.metrics().connection_opened();
     // Beast reads at most the buffer's free capacity (512 bytes minimum),
     // and the body parser empties it after each read: without room here a
     // 3 MB upload takes ~6,000 reads.
     buffer_.reserve(kReadChunk);
   }
-  ~HttpSession() { shared_.api.metrics().connection_closed(); }
+  ~HttpSession() {
+    shared_.watch.cancel(watch_id_);
+    release_stream();
+    shared_.api.metrics().connection_closed();
+  }
 
   void run() {
     if constexpr (std::is_same_v<Stream, beast::tcp_stream>) {
@@ -305,10 +364,6 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
   }
 
   void continue_body() {
-    auto length = parser_->content_length();
-    auto body_time = std::chrono::seconds(30) +
-                     std::chrono::seconds(length.value_or(0) / (64 * 1024));
-    tcp_of(stream_).expires_after(body_time);
     if (beast::iequals(parser_->get()[http::field::expect], "100-continue"))
       return send_continue();
     read_body();
@@ -331,12 +386,44 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
                       });
   }
 
+  // The body in pieces, each within the stall time, all within the body's
+  // deadline (set by continue_body), at min_body_rate or faster.
   void read_body() {
-    http::async_read(
-        stream_, buffer_, *parser_,
-        [self = this->shared_from_this()](beast::error_code ec, std::size_t) {
-          self->on_body(ec);
-        });
+    if (parser_->is_done()) return on_body({});  // no body, or read already
+    const auto now = std::chrono::steady_clock::now();
+    body_deadline_ = now + body_time();
+    body_rate_.start(now);
+    read_body_some();
+  }
+
+  std::chrono::seconds body_time() {
+    auto length = parser_->content_length();
+    return std::chrono::seconds(30) +
+           std::chrono::seconds(length.value_or(0) / (64 * 1024));
+  }
+
+  void read_body_some() {
+    constexpr auto kStall = std::chrono::seconds(10);
+    const auto left = body_deadline_ - std::chrono::steady_clock::now();
+    tcp_of(stream_).expires_after(
+        std::min<std::chrono::steady_clock::duration>(left, kStall));
+    http::async_read_some(stream_, buffer_, *parser_,
+                          [self = this->shared_from_this()](
+                              beast::error_code ec, std::size_t bytes) {
+                            self->on_body_some(ec, bytes);
+                          });
+  }
+
+  void on_body_some(beast::error_code ec, std::size_t bytes) {
+    if (ec || parser_->is_done()) return on_body(ec);
+    if (!body_rate_.add(bytes, std::chrono::steady_clock::now())) {
+      shared_.api.metrics().refused("slow_body");
+      return reject(408, "request_timeout",
+                    "the request body arrived slower than " +
+                        std::to_string(body_rate_.min_rate()) +
+                        " bytes per second");
+    }
+    read_body_some();
   }
 
   void on_body(beast::error_code ec) {
@@ -355,16 +442,75 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     }
     req.path = std::move(parsed->path);
     req.query = std::move(parsed->query);
+    req.may_park = true;
+    beast::error_code peer_error;
+    const auto peer = socket_of(stream_).remote_endpoint(peer_error);
+    if (!peer_error) req.remote = peer.address().to_string();
+    answer(std::move(req), version, keep_alive);
+  }
+
+  // The API answers on a worker; a long-poll with nothing to show yet is
+  // parked instead (park), and asked again when woken.
+  void answer(HttpRequest req, unsigned version, bool keep_alive) {
     auto self = this->shared_from_this();
     asio::post(shared_.workers, [self, req = std::move(req), version,
                                  keep_alive]() mutable {
       HttpResponse response = self->shared_.api.handle(req);
       asio::post(self->stream_.get_executor(),
-                 [self, response = std::move(response), version,
-                  keep_alive]() mutable {
+                 [self, req = std::move(req), response = std::move(response),
+                  version, keep_alive]() mutable {
+                   if (response.park_after)
+                     return self->park(std::move(req), *response.park_after,
+                                       version, keep_alive);
+                   self->release_stream();
                    self->send(std::move(response), version, keep_alive);
                  });
     });
+  }
+
+  // A long-poll waits on the change watch and a timer for its `wait`,
+  // holding a stream slot but no thread; whichever comes first unparks it.
+  void park(HttpRequest req, std::int64_t after, unsigned version,
+            bool keep_alive) {
+    if (!stream_slot_) {
+      stream_slot_ = shared_.streams.acquire(req.header("authorization"));
+      if (!stream_slot_) {
+        shared_.api.metrics().refused("streams");
+        return send(too_many_streams(shared_.streams), version, keep_alive);
+      }
+      shared_.api.metrics().stream_opened();
+      park_deadline_ = std::chrono::steady_clock::now() +
+                       std::chrono::seconds(std::stoi(req.query["wait"]));
+    }
+    parked_.emplace(Parked{std::move(req), version, keep_alive});
+    std::weak_ptr<HttpSession> weak = this->shared_from_this();
+    watch_id_ = shared_.watch.notify_after(after, [weak] {
+      if (auto self = weak.lock())
+        asio::post(self->stream_.get_executor(), [self] { self->unpark(); });
+    });
+    park_timer_.expires_at(park_deadline_);
+    park_timer_.async_wait(
+        [self = this->shared_from_this()](beast::error_code ec) {
+          if (!ec) self->unpark();
+        });
+  }
+
+  void unpark() {
+    if (!parked_) return;  // the other wake-up came first
+    Parked p = std::move(*parked_);
+    parked_.reset();
+    shared_.watch.cancel(watch_id_);
+    park_timer_.cancel();
+    const auto left = park_deadline_ - std::chrono::steady_clock::now();
+    const auto seconds = std::chrono::ceil<std::chrono::seconds>(left).count();
+    p.request.query["wait"] = std::to_string(std::max<long long>(0, seconds));
+    answer(std::move(p.request), p.version, p.keep_alive);
+  }
+
+  void release_stream() {
+    if (!stream_slot_) return;
+    stream_slot_.reset();
+    shared_.api.metrics().stream_closed();
   }
 
   void upgrade() {
@@ -382,9 +528,15 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     auto checked = shared_.api.check_subscribe(req);
     if (auto* error = std::get_if<HttpResponse>(&checked))
       return send(std::move(*error), request.version(), false);
-    auto ws =
-        std::make_shared<SubscribeSession<Stream>>(std::move(stream_), shared_);
-    ws->run(std::move(request), std::get<Api::Subscribe>(checked));
+    auto& where = std::get<Api::Subscribe>(checked);
+    auto slot = shared_.streams.acquire(where.authorization);
+    if (!slot) {
+      shared_.api.metrics().refused("streams");
+      return send(too_many_streams(shared_.streams), request.version(), false);
+    }
+    auto ws = std::make_shared<SubscribeSession<Stream>>(
+        std::move(stream_), shared_, std::move(connection_), std::move(*slot));
+    ws->run(std::move(request), std::move(where));
   }
 
   void reject_too_large() {
@@ -417,19 +569,68 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     socket_of(stream_).shutdown(tcp::socket::shutdown_send, ignored);
   }
 
+  struct Parked {
+    HttpRequest request;
+    unsigned version;
+    bool keep_alive;
+  };
+
   Stream stream_;
   Shared shared_;
+  std::optional<Slot> connection_;
   beast::flat_buffer buffer_;
   std::optional<BeastRequestParser> parser_;
+  BodyRate body_rate_;
+  std::chrono::steady_clock::time_point body_deadline_;
+  // A parked long-poll: its request, stream slot, deadline and wake-ups.
+  std::optional<Parked> parked_;
+  std::optional<Slot> stream_slot_;
+  std::chrono::steady_clock::time_point park_deadline_;
+  std::uint64_t watch_id_ = 0;
+  asio::steady_timer park_timer_{stream_.get_executor()};
 };
 
 }  // namespace
 
+// The connection cap, kept under the process's open-file limit (with room
+// for the store's files and the threads' pipes): past it accept() would
+// fail for every client, the well-behaved ones too.
+std::size_t connection_cap(std::size_t wanted) {
+  constexpr rlim_t kReserved = 64;
+  rlimit files{};
+  if (getrlimit(RLIMIT_NOFILE, &files) != 0 || files.rlim_cur == RLIM_INFINITY)
+    return wanted;
+  const auto room = static_cast<std::size_t>(files.rlim_cur > 2 * kReserved
+                                                 ? files.rlim_cur - kReserved
+                                                 : files.rlim_cur / 2);
+  return wanted == 0 ? room : std::min(wanted, room);
+}
+
+// What a connection past a cap gets: a short 503, written without waiting
+// (a fresh socket's send buffer takes it), then the close.
+void turn_away(tcp::socket& socket, const std::string& why) {
+  const std::string body =
+      R"({"error":"unavailable","message":")" + why + R"("})";
+  const std::string response =
+      "HTTP/1.1 503 Service Unavailable\r\nContent-Type: application/json\r\n"
+      "Retry-After: 5\r\nConnection: close\r\nContent-Length: " +
+      std::to_string(body.size()) + "\r\n\r\n" + body;
+  boost::system::error_code ec;
+  socket.non_blocking(true, ec);
+  socket.write_some(asio::buffer(response), ec);
+  socket.shutdown(tcp::socket::shutdown_both, ec);
+  socket.close(ec);
+}
+
 struct Server::Impl {
   Impl(db::Store& store, ServerOptions opts)
       : options(std::move(opts)),
-        api(store, metrics, options.routes, options.static_mounts),
+        api(store, metrics, options),
         workers(static_cast<std::size_t>(std::max(1, options.worker_threads))),
+        watch(store, std::chrono::milliseconds(100)),
+        streams(options.max_streams, options.max_streams_per_token),
+        connections(connection_cap(options.max_connections),
+                    options.max_connections_per_address),
         acceptor(ioc),
         tls_context(ssl::context::tls_server) {}
 
@@ -469,36 +670,50 @@ struct Server::Impl {
   }
 
   void accept() {
-    acceptor.async_accept(asio::make_strand(ioc), [this](beast::error_code ec,
-                                                         tcp::socket socket) {
-      if (ec == asio::error::operation_aborted) return;
-      if (!ec) {
-        Shared shared{api, options, workers, feeds};
-        if (use_tls) {
-          std::make_shared<HttpSession<beast::ssl_stream<beast::tcp_stream>>>(
-              beast::ssl_stream<beast::tcp_stream>(
-                  beast::tcp_stream(std::move(socket)), tls_context),
-              shared)
-              ->run();
-        } else {
-          std::make_shared<HttpSession<beast::tcp_stream>>(
-              beast::tcp_stream(std::move(socket)), shared)
-              ->run();
-        }
-      }
-      accept();
-    });
+    acceptor.async_accept(asio::make_strand(ioc),
+                          [this](beast::error_code ec, tcp::socket socket) {
+                            if (ec == asio::error::operation_aborted) return;
+                            if (!ec) start_session(std::move(socket));
+                            accept();
+                          });
+  }
+
+  void start_session(tcp::socket socket) {
+    boost::system::error_code ec;
+    const auto peer = socket.remote_endpoint(ec);
+    auto slot = connections.acquire(ec ? "" : peer.address().to_string());
+    if (!slot) {
+      metrics.refused("connections");
+      return turn_away(socket, "too many connections (at most " +
+                                   std::to_string(connections.per_key_cap()) +
+                                   " per address, " +
+                                   std::to_string(connections.total_cap()) +
+                                   " in all)");
+    }
+    Shared shared{api, options, workers, watch, streams};
+    if (use_tls) {
+      std::make_shared<HttpSession<beast::ssl_stream<beast::tcp_stream>>>(
+          beast::ssl_stream<beast::tcp_stream>(
+              beast::tcp_stream(std::move(socket)), tls_context),
+          shared, std::move(slot))
+          ->run();
+    } else {
+      std::make_shared<HttpSession<beast::tcp_stream>>(
+          beast::tcp_stream(std::move(socket)), shared, std::move(slot))
+          ->run();
+    }
   }
 
   ServerOptions options;
   Metrics metrics;
   Api api;
-  // Before the io_context, so it is destroyed after it: sessions still
-  // queued there when the server stops post their subscription's stop()
-  // to the workers as they go, and the pool must still exist to take it
-  // (dropping the task then stops the subscription before the store can go).
+  // Before the io_context, so they are destroyed after it: sessions still
+  // queued there when the server stops cancel their wake-ups and release
+  // their slots as they go.
   asio::thread_pool workers;
-  FeedTargets feeds;
+  ChangeWatch watch;
+  KeyedLimit streams;
+  KeyedLimit connections;
   asio::io_context ioc;
   tcp::acceptor acceptor;
   ssl::context tls_context;
@@ -518,8 +733,12 @@ void Server::start() {
   impl_->accept();
   for (int i = 0; i < std::max(1, impl_->options.io_threads); ++i)
     impl_->threads.emplace_back([this] { impl_->ioc.run(); });
-  spdlog::info("event=listening host={} port={} tls={}", impl_->options.host,
-               impl_->bound_port, impl_->use_tls);
+  spdlog::info(
+      "event=listening host={} port={} tls={} max_connections={} "
+      "max_connections_per_address={} max_streams={}",
+      impl_->options.host, impl_->bound_port, impl_->use_tls,
+      impl_->connections.total_cap(), impl_->connections.per_key_cap(),
+      impl_->streams.total_cap());
 }
 
 void Server::stop() {
@@ -532,7 +751,7 @@ void Server::stop() {
   for (auto& t : impl_->threads) t.join();
   impl_->threads.clear();
   impl_->workers.join();
-  impl_->feeds.close_all();
+  impl_->watch.stop();  // no wake-up is posted to the context after this
 }
 
 std::uint16_t Server::port() const { return impl_->bound_port; }

@@ -8,11 +8,14 @@ void Metrics::record_request(const std::string& route, int status,
                              double seconds) {
   std::lock_guard lock(mu_);
   ++requests_[{route, status}];
-  Histogram& h = latency_[route];
-  for (std::size_t i = 0; i < kBuckets.size(); ++i)
-    if (seconds <= kBuckets[i]) ++h.counts[i];
-  ++h.count;
-  h.sum += seconds;
+  latency_[route].observe(seconds);
+}
+
+void Metrics::refused(const std::string& reason) {
+  const bool known =
+      reason == "connections" || reason == "streams" || reason == "slow_body";
+  std::lock_guard lock(mu_);
+  ++refused_[known ? reason : "other"];
 }
 
 std::string Metrics::render() const {
@@ -26,17 +29,9 @@ std::string Metrics::render() const {
         << key.second << "\"} " << n << "\n";
   out << "# HELP arscout_http_request_duration_seconds Request latency by "
          "route.\n# TYPE arscout_http_request_duration_seconds histogram\n";
-  for (const auto& [route, h] : latency_) {
-    for (std::size_t i = 0; i < kBuckets.size(); ++i)
-      out << "arscout_http_request_duration_seconds_bucket{route=\"" << route
-          << "\",le=\"" << kBuckets[i] << "\"} " << h.counts[i] << "\n";
-    out << "arscout_http_request_duration_seconds_bucket{route=\"" << route
-        << "\",le=\"+Inf\"} " << h.count << "\n"
-        << "arscout_http_request_duration_seconds_sum{route=\"" << route
-        << "\"} " << h.sum << "\n"
-        << "arscout_http_request_duration_seconds_count{route=\"" << route
-        << "\"} " << h.count << "\n";
-  }
+  for (const auto& [route, h] : latency_)
+    out << h.render("arscout_http_request_duration_seconds",
+                    "route=\"" + route + "\"");
   out << "# HELP arscout_upload_bytes_total Bytes of accepted image uploads.\n"
          "# TYPE arscout_upload_bytes_total counter\n"
       << "arscout_upload_bytes_total " << upload_bytes_.load() << "\n"
@@ -46,7 +41,15 @@ std::string Metrics::render() const {
       << "# HELP arscout_store_errors_total Store failures (unavailable or "
          "internal) while serving requests.\n"
          "# TYPE arscout_store_errors_total counter\n"
-      << "arscout_store_errors_total " << store_errors_.load() << "\n";
+      << "arscout_store_errors_total " << store_errors_.load() << "\n"
+      << "# HELP arscout_open_streams Long-polls and WebSocket streams "
+         "waiting for changes.\n"
+         "# TYPE arscout_open_streams gauge\n"
+      << "arscout_open_streams " << open_streams_.load() << "\n"
+      << "# HELP arscout_refused_total Clients turned away by a cap, by "
+         "reason.\n# TYPE arscout_refused_total counter\n";
+  for (const auto& [reason, n] : refused_)
+    out << "arscout_refused_total{reason=\"" << reason << "\"} " << n << "\n";
   return out.str();
 }
 

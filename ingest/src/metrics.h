@@ -9,6 +9,8 @@
 #include <string>
 #include <utility>
 
+#include "arscout/util/histogram.h"
+
 namespace arscout::ingest {
 
 class Metrics {
@@ -20,24 +22,24 @@ class Metrics {
   void store_error() { ++store_errors_; }
   void connection_opened() { ++active_connections_; }
   void connection_closed() { --active_connections_; }
+  // Parked long-polls and WebSocket streams.
+  void stream_opened() { ++open_streams_; }
+  void stream_closed() { --open_streams_; }
+  // A client turned away by a cap: "connections", "streams" or
+  // "slow_body" (a fixed set: any other reason counts as "other").
+  void refused(const std::string& reason);
 
   std::string render() const;
 
  private:
-  static constexpr std::array<double, 12> kBuckets = {
-      0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 10};
-  struct Histogram {
-    std::array<std::uint64_t, kBuckets.size()> counts{};
-    std::uint64_t count = 0;
-    double sum = 0;
-  };
-
   mutable std::mutex mu_;
   std::map<std::pair<std::string, int>, std::uint64_t> requests_;
-  std::map<std::string, Histogram> latency_;
+  std::map<std::string, util::Histogram> latency_;
   std::atomic<std::int64_t> upload_bytes_{0};
   std::atomic<std::int64_t> store_errors_{0};
   std::atomic<std::int64_t> active_connections_{0};
+  std::atomic<std::int64_t> open_streams_{0};
+  std::map<std::string, std::uint64_t> refused_;  // under mu_
 };
 
 }  // namespace arscout::ingest

@@ -105,10 +105,10 @@ class ServerTest : public ::testing::TestWithParam<std::string> {
 
 TEST_P(ServerTest, UploadStoresOneCaptureAndRetriesAreReplays) {
   std::string image = jpeg_bytes(1);
-  HttpResult first = upload(alice_, image, metadata("alice-1"));
+  HttpResult first = upload(alice_, image, metadata("1"));
   ASSERT_EQ(first.status, 201) << first.body;
   Json doc = first.json();
-  EXPECT_EQ(doc["path"], "/captures/alice-1");
+  EXPECT_EQ(doc["path"], "/captures/alice.1");  // under the scout's name
   EXPECT_EQ(doc["attrs"]["scout"], "alice");
   EXPECT_EQ(doc["attrs"]["gps"]["source"], "request");
   EXPECT_EQ(doc["attrs"]["width"], 160);
@@ -116,17 +116,25 @@ TEST_P(ServerTest, UploadStoresOneCaptureAndRetriesAreReplays) {
   EXPECT_EQ(store_->get_blob(doc["blobs"]["image"].get<std::string>()), image);
 
   std::string before = snapshot();
-  HttpResult again = upload(alice_, image, metadata("alice-1"));
+  HttpResult again = upload(alice_, image, metadata("1"));
   EXPECT_EQ(again.status, 201);
   EXPECT_EQ(again.headers["idempotent-replay"], "true");
   EXPECT_EQ(again.json()["seq"], doc["seq"]);
+  // The id the server answered is the same capture.
+  HttpResult by_stored_id = upload(alice_, image, metadata("alice.1"));
+  EXPECT_EQ(by_stored_id.headers["idempotent-replay"], "true");
+  EXPECT_EQ(by_stored_id.json()["path"], "/captures/alice.1");
   EXPECT_EQ(snapshot(), before);
 
-  HttpResult other = upload(alice_, jpeg_bytes(2), metadata("alice-1"));
+  HttpResult other = upload(alice_, jpeg_bytes(2), metadata("1"));
   EXPECT_EQ(other.status, 409) << other.body;
-  HttpResult stolen = upload(bob_, image, metadata("alice-1"));
-  EXPECT_EQ(stolen.status, 409) << stolen.body;
   EXPECT_EQ(snapshot(), before);
+  // Bob's "1", and even his "alice.1", are his own captures.
+  for (const char* id : {"1", "alice.1"}) {
+    HttpResult bobs = upload(bob_, image, metadata(id));
+    EXPECT_EQ(bobs.status, 201) << bobs.body;
+    EXPECT_EQ(bobs.json()["path"], std::string("/captures/bob.") + id);
+  }
 }
 
 TEST_P(ServerTest, CaptureWithoutGpsNeedsGpsAndMultipartWorks) {
@@ -152,14 +160,14 @@ TEST_P(ServerTest, CaptureWithoutGpsNeedsGpsAndMultipartWorks) {
 }
 
 TEST_P(ServerTest, WithdrawIsForTheOwnScoutOrAnAdmin) {
-  ASSERT_EQ(upload(alice_, jpeg_bytes(4), metadata("alice-w")).status, 201);
+  ASSERT_EQ(upload(alice_, jpeg_bytes(4), metadata("w")).status, 201);
   Client bob(as(bob_)), alice(as(alice_)), planner(as(planner_));
-  EXPECT_EQ(bob.request("DELETE", "/v1/captures/alice-w").status, 403);
-  EXPECT_EQ(planner.request("DELETE", "/v1/captures/alice-w").status, 403);
-  HttpResult ok = alice.request("DELETE", "/v1/captures/alice-w");
+  EXPECT_EQ(bob.request("DELETE", "/v1/captures/alice.w").status, 403);
+  EXPECT_EQ(planner.request("DELETE", "/v1/captures/alice.w").status, 403);
+  HttpResult ok = alice.request("DELETE", "/v1/captures/alice.w");
   ASSERT_EQ(ok.status, 200) << ok.body;
   EXPECT_EQ(ok.json()["attrs"]["status"], "withdrawn");
-  EXPECT_EQ(planner.get("/v1/docs/captures/alice-w").status, 200);
+  EXPECT_EQ(planner.get("/v1/docs/captures/alice.w").status, 200);
 }
 
 struct BadCase {
@@ -285,7 +293,7 @@ TEST_P(ServerTest, BadInputGetsItsOwnStatusAndChangesNothing) {
        "no capture"},
       {"another scout's capture",
        "DELETE",
-       "/v1/captures/alice-x",
+       "/v1/captures/alice.alice-x",
        "bob",
        "",
        {},

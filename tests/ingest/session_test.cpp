@@ -76,11 +76,11 @@ class SessionTest : public ::testing::Test {
     }
     // The engine's kind of write: not an input, recomputed on replay.
     db::WriteOp engine_patch = db::WriteOp::patch(
-        "/captures/c0", {{"site", "s-1"}, {"status", "registered"}});
+        "/captures/alice.c0", {{"site", "s-1"}, {"status", "registered"}});
     engine_patch.author = "engine";
     source_->write(engine_patch);
     source_->put("/sites/s-1", "site", {{"name", "s-1"}});
-    ASSERT_EQ(api.handle(request("DELETE", "/v1/captures/c1", bob_)).status,
+    ASSERT_EQ(api.handle(request("DELETE", "/v1/captures/bob.c1", bob_)).status,
               200);
   }
 
@@ -104,12 +104,12 @@ TEST_F(SessionTest, ReplayReproducesTheScoutsInputsAndNotTheEnginesOutputs) {
   EXPECT_EQ(s.withdrawals, 1);
   EXPECT_EQ(s.cameras, 1);
   EXPECT_EQ(s.failed, 0);
-  for (const char* id : {"c0", "c2", "c3"}) {
+  for (const char* id : {"alice.c0", "alice.c2", "bob.c3"}) {
     const auto a = source_->get(std::string("/captures/") + id);
     const auto b = target_->get(std::string("/captures/") + id);
     ASSERT_TRUE(b) << id;
     Json expected = comparable(*a);
-    if (std::string(id) == "c0") {  // as uploaded, before the engine
+    if (std::string(id) == "alice.c0") {  // as uploaded, before the engine
       expected["attrs"]["status"] = "stored";
       expected["attrs"].erase("site");
       expected["author"] = "alice";
@@ -118,10 +118,10 @@ TEST_F(SessionTest, ReplayReproducesTheScoutsInputsAndNotTheEnginesOutputs) {
     EXPECT_EQ(target_->get_blob(b->blobs.at("image")),
               source_->get_blob(a->blobs.at("image")));
   }
-  EXPECT_EQ(target_->get("/captures/c1")->attrs.at("status"), "withdrawn");
-  EXPECT_EQ(target_->get("/captures/c1")->attrs.at("status_reason"),
+  EXPECT_EQ(target_->get("/captures/bob.c1")->attrs.at("status"), "withdrawn");
+  EXPECT_EQ(target_->get("/captures/bob.c1")->attrs.at("status_reason"),
             "withdrawn by bob");
-  EXPECT_EQ(target_->get("/captures/c3")->attrs.at("status"), "needs-gps");
+  EXPECT_EQ(target_->get("/captures/bob.c3")->attrs.at("status"), "needs-gps");
   EXPECT_EQ(target_->get("/cameras/phone")->attrs,
             source_->get("/cameras/phone")->attrs);
   EXPECT_FALSE(target_->get("/sites/s-1"));

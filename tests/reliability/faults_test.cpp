@@ -185,7 +185,7 @@ TEST(PostgresRestart, ServerAnswers503WhileDownAndScoutsLoseNothing) {
   for (int s = 0; s < kScouts; ++s)
     for (int i = 0; i < kPhotos; ++i) {
       char id[32];
-      std::snprintf(id, sizeof id, "s%d-%04d.jpg", s, i);
+      std::snprintf(id, sizeof id, "s%d.%04d.jpg", s, i);
       auto doc = store->get(std::string("/captures/") + id);
       ASSERT_TRUE(doc) << id << " lost";
       EXPECT_EQ(store->get_blob(doc->blobs.at("image")),
@@ -229,7 +229,8 @@ class SqliteDisk : public ::testing::Test {
   }
 
   std::string photo(int i) { return testing::noise_jpeg(i, 480, 360); }
-  std::string id(int i) { return "alice-" + std::to_string(i); }
+  // Ids in alice's own space ("alice.N"), kept as they are by the server.
+  std::string id(int i) { return "alice." + std::to_string(i); }
 
   void stop_server() {
     server_->process().signal(SIGTERM);

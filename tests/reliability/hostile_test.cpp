@@ -2,6 +2,11 @@
 // client may send that no well-behaved one does, against `arscout serve` in
 // its own process so its memory can be measured. Each case failed before
 // its fix.
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <iostream>
 #include <thread>
@@ -299,7 +304,7 @@ TEST_F(HostileClients, DecodesStayWithinTheBudgetWhateverTheMetadataSays) {
   for (int i = 0; i < 16; ++i)
     viewers.emplace_back([&, i] {
       ingest::Client c({server_->url(), planner_, std::chrono::seconds(300)});
-      statuses[i] = c.get("/v1/captures/largest/thumbnail.jpg?size=" +
+      statuses[i] = c.get("/v1/captures/sam.largest/thumbnail.jpg?size=" +
                           std::to_string(128 + i))
                         .status;
     });
@@ -357,6 +362,176 @@ TEST_F(HostileClients, TheFeedShowsNoTokensToScoutsOrPlanners) {
   ingest::Client root({server_->url(), admin});
   const auto all = root.get("/v1/changes?since=0&pattern=/auth/**").json();
   EXPECT_EQ(all["changes"].size(), 3u) << all.dump();
+}
+
+// Defect 6: capture ids were global and predictable: bob uploading with
+// capture_id "alice-0006.jpg" made alice's own upload of that photo fail
+// with 409. Every id now lives in its scout's own space ("{name}.{id}"),
+// and token names hold no '.', so two spaces never meet.
+TEST_F(HostileClients, ScoutsCannotTakeEachOthersCaptureIds) {
+  auto store = db::Store::open(url_);
+  const std::string alice =
+      ingest::create_token(*store, ingest::Role::kScout, "alice");
+  const std::string bob =
+      ingest::create_token(*store, ingest::Role::kScout, "bob");
+  EXPECT_THROW(ingest::create_token(*store, ingest::Role::kScout, "al.ice"),
+               db::StoreError);
+  const auto upload = [&](const std::string& token, const std::string& id,
+                          int image) {
+    ingest::Client client({server_->url(), token});
+    return client.request(
+        "POST", "/v1/captures", testing::noise_jpeg(image, 64, 48),
+        {{"Content-Type", "image/jpeg"},
+         {"X-Capture-Metadata",
+          R"({"capture_id":")" + id + R"(","gps":{"lat":47,"lon":15}})"}});
+  };
+  // Bob squats on every form of alice's next id first.
+  for (const char* id : {"0006.jpg", "alice.0006.jpg", "alice-0006.jpg"}) {
+    const auto squat = upload(bob, id, 1);
+    ASSERT_EQ(squat.status, 201) << squat.body;
+    EXPECT_EQ(squat.json()["path"], std::string("/captures/bob.") + id);
+  }
+  for (const char* id : {"0006.jpg", "alice.0006.jpg"}) {
+    const auto mine = upload(alice, id, 2);
+    EXPECT_TRUE(mine.status == 201) << id << ": " << mine.body;
+    EXPECT_EQ(mine.json()["path"], "/captures/alice.0006.jpg") << id;
+    EXPECT_EQ(mine.json()["attrs"]["scout"], "alice");
+  }
+  // Only bob's three and alice's one are stored.
+  db::Query all;
+  all.pattern = "/captures/*";
+  EXPECT_EQ(store->query(all).size(), 4u);
+}
+
+// Defect 2: a long-poll held a worker thread for its whole wait: 32
+// concurrent `GET /v1/changes?wait=20` blocked every other request,
+// /healthz included, for 18 s. Long-polls and WebSocket streams now wait
+// on one change watch, holding no thread; past a per-token cap they get
+// 429.
+TEST_F(HostileClients, LongPollsAndStreamsHoldNoWorkerThread) {
+  constexpr int kPolls = 48, kStreams = 16;
+  auto store = db::Store::open(url_);
+  const std::string scout =
+      ingest::create_token(*store, ingest::Role::kScout, "sam");
+  testing::ServeProcess server(ARSCOUT_CLI, url_, dir_ + "/serve-streams.log",
+                               {"--workers", "4", "--max-streams-per-token",
+                                std::to_string(kPolls + kStreams)});
+  const std::int64_t head = store->last_seq();
+  const std::string poll =
+      "/v1/changes?since=" + std::to_string(head) + "&wait=20";
+  std::vector<int> statuses(kPolls, 0);
+  std::vector<int> delivered(kPolls, -1);
+  std::vector<std::thread> polls;
+  for (int i = 0; i < kPolls; ++i)
+    polls.emplace_back([&, i] {
+      ingest::Client c({server.url(), scout, std::chrono::seconds(40)});
+      const auto r = c.get(poll);
+      statuses[i] = r.status;
+      if (r.status == 200)
+        delivered[i] = static_cast<int>(r.json()["changes"].size());
+    });
+  std::vector<std::unique_ptr<ingest::ChangeStream>> streams;
+  for (int i = 0; i < kStreams; ++i)
+    streams.push_back(std::make_unique<ingest::ChangeStream>(
+        ingest::ClientOptions{server.url(), scout}, head));
+  std::this_thread::sleep_for(std::chrono::seconds(1));  // all are waiting
+
+  // 4 workers, 64 waiting clients: /healthz answers at once.
+  ingest::Client probe({server.url(), ""});
+  double slowest = 0;
+  for (int i = 0; i < 10; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    EXPECT_EQ(probe.get("/healthz").status, 200);
+    slowest = std::max(slowest, std::chrono::duration<double>(
+                                    std::chrono::steady_clock::now() - t0)
+                                    .count());
+  }
+  // One more from the same token is past its cap; another token's is not.
+  ingest::Client more({server.url(), scout});
+  const auto refused = more.get(poll);
+  EXPECT_EQ(refused.status, 429) << refused.body;
+  ingest::Client other({server.url(), planner_});
+  EXPECT_EQ(
+      other.get("/v1/changes?since=" + std::to_string(head) + "&wait=1").status,
+      200);
+
+  // A write wakes them all, well before their 20 s.
+  const auto written = std::chrono::steady_clock::now();
+  store->put("/notes/wake", "note", db::Json{{"n", 1}});
+  for (std::thread& t : polls) t.join();
+  const double woke =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - written)
+          .count();
+  for (int i = 0; i < kPolls; ++i) {
+    EXPECT_EQ(statuses[i], 200) << i;
+    EXPECT_EQ(delivered[i], 1) << i;
+  }
+  int streamed = 0;
+  for (auto& stream : streams)
+    streamed += stream->next(std::chrono::seconds(5)).has_value();
+  EXPECT_EQ(streamed, kStreams);
+  std::cout << kPolls << " long-polls and " << kStreams
+            << " WebSocket streams open on 4 workers: slowest /healthz "
+            << slowest * 1000 << " ms; a write woke every long-poll within "
+            << woke << " s" << std::endl;
+  EXPECT_LT(slowest, 0.1);
+  EXPECT_LT(woke, 5.0);
+}
+
+// Defect 3, the rest: no cap on connections, and a body sent a byte at a
+// time kept its connection. Past the per-address cap a connection gets 503
+// and is closed at once; a body slower than the minimum rate gets 408.
+TEST_F(HostileClients, ConnectionsAreCappedAndSlowBodiesCutOff) {
+  constexpr int kCap = 16;
+  testing::ServeProcess server(
+      ARSCOUT_CLI, url_, dir_ + "/serve-caps.log",
+      {"--max-connections-per-address", std::to_string(kCap)});
+  const std::uint16_t port = testing::port_of(server.url());
+  std::vector<int> idle;
+  for (int i = 0; i < kCap; ++i) idle.push_back(testing::connect_local(port));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const std::string over =
+      testing::raw_exchange(port, "GET /healthz HTTP/1.1\r\nHost: a\r\n\r\n");
+  EXPECT_EQ(over.rfind("HTTP/1.1 503", 0), 0u) << over;
+  EXPECT_NE(over.find("too many connections"), std::string::npos) << over;
+  for (int fd : idle) close(fd);
+  std::string again;
+  for (int i = 0; i < 50 && again.rfind("HTTP/1.1 200", 0) != 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    again = testing::raw_exchange(
+        port, "GET /healthz HTTP/1.1\r\nHost: a\r\nConnection: close\r\n\r\n");
+  }
+  EXPECT_EQ(again.rfind("HTTP/1.1 200", 0), 0u) << again;
+
+  // A scout's upload trickled at a byte every 2 s: cut off after the first
+  // 10 s window, not left open for its 30 s + 16 s deadline.
+  auto store = db::Store::open(url_);
+  const std::string scout =
+      ingest::create_token(*store, ingest::Role::kScout, "sam");
+  const int fd = testing::connect_local(port);
+  ASSERT_GE(fd, 0);
+  const std::string header =
+      "POST /v1/captures HTTP/1.1\r\nHost: a\r\nAuthorization: Bearer " +
+      scout + "\r\nContent-Type: image/jpeg\r\nContent-Length: 1048576\r\n\r\n";
+  send(fd, header.data(), header.size(), MSG_NOSIGNAL);
+  const auto t0 = std::chrono::steady_clock::now();
+  std::string reply;
+  while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(40)) {
+    char c = 'x', buf[4096];
+    const ssize_t n = recv(fd, buf, sizeof buf, MSG_DONTWAIT);
+    if (n > 0) reply.append(buf, static_cast<size_t>(n));
+    if (n == 0 || send(fd, &c, 1, MSG_NOSIGNAL) != 1) break;
+    std::this_thread::sleep_for(std::chrono::seconds(2));
+  }
+  close(fd);
+  const double cut =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0)
+          .count();
+  std::cout << "a body at 0.5 bytes/s: cut off after " << cut << " s ("
+            << (reply.empty() ? "closed" : reply.substr(0, 12)) << ")"
+            << std::endl;
+  EXPECT_LT(cut, 25.0);
+  if (!reply.empty()) EXPECT_EQ(reply.rfind("HTTP/1.1 408", 0), 0u) << reply;
 }
 
 }  // namespace

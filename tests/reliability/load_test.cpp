@@ -37,8 +37,9 @@ int env_int(const char* name, int fallback) {
 // caches; far less than this unless something accumulates per request.
 constexpr std::int64_t kPeakRssBoundKib = 512 * 1024;
 
+// In the scout's own id space ("{token name}.{id}"), kept as it is.
 std::string capture_id(int scout, int i) {
-  return "scout" + std::to_string(scout) + "-" + std::to_string(i);
+  return "scout" + std::to_string(scout) + "." + std::to_string(i);
 }
 
 std::string metadata_for(int scout, int i) {

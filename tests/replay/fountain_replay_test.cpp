@@ -3,17 +3,24 @@
 // real server) is exported, replayed into an empty store with an engine
 // following it, and must drive the engine to a model with the expected
 // statistics. A failure prints the whole table, expected against got.
+#include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <regex>
+#include <thread>
 
 #include <gtest/gtest.h>
 
 #include "arscout/db/store.h"
+#include "arscout/ingest/client.h"
 #include "arscout/ingest/session.h"
 #include "replay_support.h"
 #include "test_stores.h"
+#include "tool_process.h"
 
 namespace arscout {
 namespace {
@@ -77,6 +84,84 @@ TEST(ReplayRegression, FountainSessionDrivesTheEngineToTheExpectedModel) {
       {"dense points", replay::dense_point_count(*r.store, *r.model), 217000,
        265000},
   });
+}
+
+// The value of an unlabelled metric in a /metrics text, or -1.
+double metric(const std::string& text, const std::string& name) {
+  const std::regex line("(^|\n)" + name + " ([-0-9.e+]+)");
+  std::smatch m;
+  return std::regex_search(text, m, line) ? std::stod(m[2]) : -1;
+}
+
+// `arscout engine --listen`'s port, from its start-up line, or 0.
+std::uint16_t endpoint_port(const std::string& log) {
+  for (int i = 0; i < 300; ++i) {
+    std::smatch m;
+    const std::string text = testing::slurp(log);
+    if (std::regex_search(text, m,
+                          std::regex("metrics at http://[^:]+:([0-9]+)")))
+      return static_cast<std::uint16_t>(std::stoi(m[1]));
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return 0;
+}
+
+// Issue 19: the engine's own /metrics, scraped while the fountain session
+// is replayed into its database at once, shows its backlog rise and drain.
+TEST(ReplayMetrics, TheEngineMetricsShowTheBacklogRisingAndFalling) {
+  std::string scene;
+  ARSCOUT_SHARED_DATA_OR_SKIP(scene, "strecha/fountain-P11");
+  const fs::path dir = testing::make_temp_dir("replay-metrics");
+  const std::string session = record_fountain_session(dir);
+  if (session.empty()) GTEST_SKIP() << "no recorded session";
+  const std::string url = testing::fresh_sqlite_url();
+  auto store = db::Store::open(url);
+  const std::string log = (dir / "engine.log").string();
+  testing::ToolProcess engine(ARSCOUT_CLI,
+                              {"engine", "--db", url, "--listen", "127.0.0.1:0",
+                               "--dense-long-side", "480"},
+                              log);
+  const std::uint16_t port = endpoint_port(log);
+  ASSERT_NE(port, 0) << testing::slurp(log);
+  ingest::Client scrape({"http://127.0.0.1:" + std::to_string(port), ""});
+  ASSERT_EQ(scrape.get("/v1/sites").status, 404);  // no API here
+
+  std::vector<double> waiting;
+  std::string last;
+  std::atomic<bool> replayed{false};
+  std::thread scraper([&] {
+    const auto deadline = std::chrono::steady_clock::now() + kTimeout;
+    while (std::chrono::steady_clock::now() < deadline) {
+      last = scrape.get("/metrics").body;
+      waiting.push_back(metric(last, "arscout_engine_captures_waiting"));
+      if (replayed && waiting.back() == 0 &&
+          metric(last, "arscout_engine_model_versions_total") > 0)
+        return;
+      std::this_thread::sleep_for(std::chrono::milliseconds(250));
+    }
+  });
+  ingest::ReplayOptions fast;
+  fast.fast = true;
+  const ingest::ReplaySummary summary =
+      ingest::replay_session(session, *store, fast);
+  replayed = true;
+  scraper.join();
+  EXPECT_EQ(summary.captures, 10);
+  const double peak = *std::max_element(waiting.begin(), waiting.end());
+  std::cout << "engine /metrics scraped " << waiting.size()
+            << " times: captures waiting rose to " << peak << ", ended at "
+            << waiting.back() << "; model versions "
+            << metric(last, "arscout_engine_model_versions_total") << std::endl;
+  EXPECT_GE(peak, 2);
+  EXPECT_EQ(waiting.back(), 0);
+  EXPECT_GT(metric(last, "arscout_engine_model_versions_total"), 0);
+  EXPECT_NE(last.find("arscout_engine_phase_seconds_count{phase=\"sparse\"}"),
+            std::string::npos);
+  const auto health = scrape.get("/healthz");
+  EXPECT_EQ(health.status, 200);
+  EXPECT_EQ(health.json()["engine"]["captures_waiting"], 0) << health.body;
+  engine.signal(SIGTERM);
+  EXPECT_TRUE(engine.wait_for(std::chrono::seconds(60)));
 }
 
 TEST(ReplayDeterminism, TwoDeterministicReplaysGiveTheSameModel) {

@@ -99,8 +99,9 @@ Replayed replay_deterministically(const std::string& session,
 
 namespace {
 
+// "alice.0005.jpg" -> "0005.jpg": the capture id less the scout's space.
 std::string photo_name(const std::string& capture_id) {
-  return capture_id.substr(capture_id.find('-') + 1);
+  return capture_id.substr(capture_id.find('.') + 1);
 }
 
 }  // namespace

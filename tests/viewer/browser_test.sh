@@ -29,7 +29,7 @@ start_server "$work/server.log" --db "$db" --listen 127.0.0.1:0 --with-engine \
 # The photo kept back, with its row of gps.csv as the scout would send it.
 row=$(grep '^0010.jpg,' "$scene/gps.csv")
 IFS=, read -r _ lat lon alt hacc vacc <<< "$row"
-meta=$(printf '{"capture_id":"alice-0010.jpg","filename":"0010.jpg","camera":"fountain-p11","gps":{"lat":%s,"lon":%s,"alt":%s,"h_acc":%s,"v_acc":%s}}' \
+meta=$(printf '{"capture_id":"0010.jpg","filename":"0010.jpg","camera":"fountain-p11","gps":{"lat":%s,"lon":%s,"alt":%s,"h_acc":%s,"v_acc":%s}}' \
   "$lat" "$lon" "$alt" "$hacc" "$vacc")
 status=0
 SERVER="$url" PLANNER_TOKEN=$(cat "$fixture/planner.token") \

@@ -40,9 +40,10 @@ std::string read_file(const fs::path& path) {
   return bytes.str();
 }
 
-// "alice-0005.jpg" -> "0005.jpg", the ground truth's names.
+// "alice.0005.jpg" -> "0005.jpg", the ground truth's names: the capture id
+// less the scout's space.
 std::string photo_name(const std::string& capture) {
-  return capture.substr(capture.find('-') + 1);
+  return capture.substr(capture.find('.') + 1);
 }
 
 class FountainSite : public ::testing::Test {
@@ -106,7 +107,7 @@ TEST_F(FountainSite, OverlayProjectsSparsePointsOntoTheirKeypoints) {
 }
 
 TEST_F(FountainSite, OverlayDrawsTheModelOverThePhoto) {
-  const std::string jpeg = overlay_jpeg(*store_, "alice-0005.jpg", {});
+  const std::string jpeg = overlay_jpeg(*store_, "alice.0005.jpg", {});
   const cv::Mat overlay =
       cv::imdecode(cv::Mat(1, static_cast<int>(jpeg.size()), CV_8U,
                            const_cast<char*>(jpeg.data())),
@@ -122,7 +123,7 @@ TEST_F(FountainSite, OverlayDrawsTheModelOverThePhoto) {
   std::cout << "overlay of 0005.jpg: " << drawn * 100
             << " % of the pixels drawn" << std::endl;
   EXPECT_GT(drawn, 0.3);
-  EXPECT_THROW(overlay_jpeg(*store_, "alice-nope.jpg", {}), db::StoreError);
+  EXPECT_THROW(overlay_jpeg(*store_, "alice.nope.jpg", {}), db::StoreError);
 }
 
 TEST_F(FountainSite, ColmapExportReadsBackWithTheSamePoses) {
@@ -254,11 +255,11 @@ TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
   EXPECT_EQ(tar.body, export_site(*store_, site_, ExportFormat::kColmap).bytes);
   EXPECT_NE(tar.headers.at("content-disposition").find("colmap.tar"),
             std::string::npos);
-  const auto overlay = client.get("/v1/captures/alice-0003.jpg/overlay.jpg");
+  const auto overlay = client.get("/v1/captures/alice.0003.jpg/overlay.jpg");
   ASSERT_EQ(overlay.status, 200);
   EXPECT_EQ(overlay.headers.at("content-type"), "image/jpeg");
   const auto thumbnail =
-      client.get("/v1/captures/alice-0003.jpg/thumbnail.jpg?size=200");
+      client.get("/v1/captures/alice.0003.jpg/thumbnail.jpg?size=200");
   ASSERT_EQ(thumbnail.status, 200);
   const cv::Mat small =
       cv::imdecode(cv::Mat(1, static_cast<int>(thumbnail.body.size()), CV_8U,
@@ -279,9 +280,9 @@ TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
   EXPECT_EQ(client.get("/v1/sites/nowhere/export?format=ply").status, 404);
   EXPECT_EQ(client.get("/v1/captures/nobody/overlay.jpg").status, 404);
   EXPECT_EQ(
-      client.get("/v1/captures/alice-0003.jpg/thumbnail.jpg?size=0").status,
+      client.get("/v1/captures/alice.0003.jpg/thumbnail.jpg?size=0").status,
       400);
-  EXPECT_EQ(client.request("DELETE", "/v1/captures/alice-0003.jpg/overlay.jpg")
+  EXPECT_EQ(client.request("DELETE", "/v1/captures/alice.0003.jpg/overlay.jpg")
                 .status,
             405);
   client_options.token = "";

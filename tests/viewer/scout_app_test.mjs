@@ -267,6 +267,8 @@ async function checkStoredOnce(adminToken) {
   const created = changes.changes.filter((c) => c.version === 1);
   const alices = captures.filter((d) => d.attrs.scout === 'alice');
   if (alices.length !== 11) fail(`${alices.length} capture documents for alice, expected 11`);
+  const astray = alices.filter((d) => !d.path.startsWith('/captures/alice.'));
+  if (astray.length) fail(`alice's captures outside her id space: ${astray.map((d) => d.path).join(' ')}`);
   const ids = new Set(created.map((c) => c.path));
   if (created.length !== captures.length || ids.size !== created.length) {
     fail(`${created.length} creations for ${captures.length} capture documents`);
@@ -311,6 +313,8 @@ async function checkOverlayAndWithdraw(alice, adminToken, site, screenshots) {
   await page.tap('#tabs button[data-view="photos"]');
   const row = page.locator('#photos li[data-status="registered"]').first();
   const id = await row.getAttribute('data-capture');
+  const storedId = await row.getAttribute('data-server-id');
+  if (storedId !== `alice.${id}`) fail(`photo ${id} is stored as ${storedId}, not under alice's name`);
   await row.tap();
   await page.waitForFunction((c) => {
     const img = document.getElementById('see-through-overlay');
@@ -323,7 +327,7 @@ async function checkOverlayAndWithdraw(alice, adminToken, site, screenshots) {
   await page.waitForSelector(`#photos li[data-capture="${id}"][data-state="withdrawn"]`);
   const model = await until('a model version without the withdrawn photo', async () => {
     const m = await api(adminToken, `/v1/docs/sites/${encodeURIComponent(site)}/model`);
-    return m.version > before && !m.attrs.images.some((im) => im.id === id) ? m : null;
+    return m.version > before && !m.attrs.images.some((im) => im.id === storedId) ? m : null;
   });
   log(`withdrawn ${id}: model v${model.version} has ${model.attrs.images.length} images without it`);
 }

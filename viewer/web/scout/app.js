@@ -152,7 +152,7 @@ async function thumbnailOf(photo) {
   if (state.objectUrls.has(photo.captureId)) return state.objectUrls.get(photo.captureId);
   let blob = photo.blob;
   if (!blob && photo.state === 'sent') {
-    blob = await api.blob(`/v1/captures/${encodeURIComponent(photo.captureId)}/thumbnail.jpg?size=128`).catch(() => null);
+    blob = await api.blob(`/v1/captures/${encodeURIComponent(serverIdOf(photo))}/thumbnail.jpg?size=128`).catch(() => null);
   }
   if (!blob) return '';
   const url = URL.createObjectURL(blob);
@@ -177,7 +177,7 @@ function renderPhoto(photo) {
   state.photos.set(photo.captureId, photo);
   const li = photoRow(photo);
   const { label, tone } = describe(photo);
-  Object.assign(li.dataset, { state: photo.state, status: photo.status || '', tone });
+  Object.assign(li.dataset, { state: photo.state, status: photo.status || '', tone, serverId: serverIdOf(photo) });
   li.querySelector('.photo-state').textContent = label;
   li.querySelector('.photo-id').textContent = `${photo.captureId} · ${new Date(photo.takenAt).toLocaleTimeString()}`;
   $('no-photos').hidden = state.photos.size > 0;
@@ -236,10 +236,18 @@ async function shoot() {
 // ---- feedback from the engine -----------------------------------------------
 
 /** A photo's capture document changed: its status, reason and site. */
+/**
+ * The id the server stored a photo under: "{scout}.{captureId}", as its
+ * answer said (docs/api.md); the queue's own id before it was sent.
+ */
+function serverIdOf(photo) {
+  return photo.serverId || photo.captureId;
+}
+
 async function refreshCapture(captureId) {
   const photo = state.photos.get(captureId);
   if (!photo || photo.state !== 'sent') return;
-  const doc = await api.doc(`captures/${captureId}`).catch(() => null);
+  const doc = await api.doc(`captures/${serverIdOf(photo)}`).catch(() => null);
   if (!doc) return;
   const attrs = doc.attrs || {};
   if (attrs.scout && !state.scout) {
@@ -258,7 +266,7 @@ async function refreshCapture(captureId) {
 async function stampVersions(model) {
   const statuses = (model.attrs && model.attrs.captures) || {};
   for (const photo of state.photos.values()) {
-    const status = statuses[photo.captureId];
+    const status = statuses[serverIdOf(photo)];
     if (!status || photo.state !== 'sent') continue;
     const changes = {};
     if (status === 'registered' && !photo.modelVersion) changes.modelVersion = model.version;
@@ -311,7 +319,8 @@ const modelChanged = debounce(() => loadModel(), 300);
 function onChange(change) {
   const path = change.path || '';
   const capture = /^\/captures\/([^/]+)$/.exec(path);
-  if (capture && state.photos.has(capture[1])) refreshCapture(capture[1]);
+  const photo = capture && [...state.photos.values()].find((p) => serverIdOf(p) === capture[1]);
+  if (photo) refreshCapture(photo.captureId);
   if (state.site && path === `/sites/${state.site}/model`) modelChanged();
 }
 
@@ -335,7 +344,8 @@ async function follow() {
 // ---- AR: the model over the photo and over the live view --------------------
 
 async function overlayUrl(captureId, maxSide) {
-  const blob = await api.blob(`/v1/captures/${encodeURIComponent(captureId)}/overlay.jpg?max_side=${maxSide}`);
+  const id = serverIdOf(state.photos.get(captureId) || { captureId });
+  const blob = await api.blob(`/v1/captures/${encodeURIComponent(id)}/overlay.jpg?max_side=${maxSide}`);
   return URL.createObjectURL(blob);
 }
 
@@ -385,7 +395,7 @@ async function withdrawShown() {
   if (!photo) return;
   try {
     if (photo.state === 'sent') {
-      await api.request(`/v1/captures/${encodeURIComponent(photo.captureId)}`, { method: 'DELETE' });
+      await api.request(`/v1/captures/${encodeURIComponent(serverIdOf(photo))}`, { method: 'DELETE' });
     }
     const record = await store.update(photo.captureId, { state: 'withdrawn', status: 'withdrawn', blob: null, modelVersion: 0 });
     if (record) renderPhoto(record);

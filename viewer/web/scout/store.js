@@ -11,6 +11,7 @@
 //   { captureId, seq, blob (JPEG), width, height, metadata (what is sent),
 //     state: 'waiting' | 'sending' | 'sent' | 'refused' | 'withdrawn',
 //     attempts, error (the last failure, words), takenAt (ms),
+//     serverId (the id the server stored it under, "{scout}.{captureId}"),
 //     status (the engine's: stored, needs-gps, registered, rejected, ...),
 //     reason, site, modelVersion }
 // A sent or refused photo keeps its record (the photo list shows it) but

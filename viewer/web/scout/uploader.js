@@ -143,6 +143,8 @@ export class Uploader {
       await this.update(photo, {
         state: 'sent', blob: null, error: '', status: attrs.status || 'stored',
         reason: attrs.status_reason || '', site: attrs.site || '',
+        // The server keeps the id under the scout's name (docs/api.md).
+        serverId: (doc.path || '').replace(/^\/captures\//, '') || photo.captureId,
       });
       return 'sent';
     }

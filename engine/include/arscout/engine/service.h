@@ -89,6 +89,10 @@ struct WorkerStats {
   std::int64_t failures = 0;     // increments that failed (retried later)
   std::int64_t sites_held = 0;   // site leases held now
   std::int64_t sites_taken = 0;  // site leases claimed, all time
+  std::int64_t sites = 0;        // sites this worker knows
+  // Captures placed and not yet in a committed increment: queued for their
+  // site (or deferred while another worker holds it), or being added.
+  std::int64_t captures_waiting = 0;
 };
 
 class EngineWorker {
@@ -109,6 +113,11 @@ class EngineWorker {
   // True when idle.
   bool wait_idle(std::chrono::milliseconds timeout);
   WorkerStats stats() const;
+  // stats() and the phases' durations (sparse increments, dense phases,
+  // refinements) as histograms, with how far the feed's head is past the
+  // checkpoint, in the Prometheus text format (docs/service.md, "Health
+  // and metrics"). Reads the store's head; without it the lag is left out.
+  std::string metrics() const;
 
  private:
   struct Impl;

@@ -3,6 +3,7 @@
 // libraries (ServerOptions::routes) see them too.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
@@ -22,6 +23,11 @@ struct HttpRequest {
   std::map<std::string, std::string> query;    // percent-decoded
   std::map<std::string, std::string> headers;  // keys lower-case
   std::string body;
+  // Set by a server that holds long-polls without a thread: GET
+  // /v1/changes then never blocks, and answers with
+  // HttpResponse::park_after when it has nothing to show yet.
+  bool may_park = false;
+  std::string remote;  // the client's address, for the access log
 
   // A header's value, or "" when absent.
   std::string header(const std::string& lower_name) const;
@@ -32,6 +38,9 @@ struct HttpResponse {
   std::string content_type = "application/json";
   std::vector<std::pair<std::string, std::string>> headers;
   std::string body;
+  // Not an answer yet (only to a request with may_park): nothing to show;
+  // ask again once the change log is past this seq, or when the wait ends.
+  std::optional<std::int64_t> park_after;
 
   static HttpResponse json(int status, const Json& body);
   // {"error": kind, "message": message} plus any fields of `extra`.

@@ -42,18 +42,38 @@ struct ServerOptions {
   std::size_t max_body_bytes = 64u << 20;
   std::size_t max_header_bytes = 16u << 10;
   // A client must send a whole request header within this time (defeats
-  // slow-header attacks); the body gets 30 s + 1 s per 64 KiB.
+  // slow-header attacks); the body gets 30 s + 1 s per 64 KiB in all, and
+  // min_body_rate below.
   std::chrono::seconds header_timeout{15};
   std::chrono::seconds idle_timeout{60};  // between keep-alive requests
   int io_threads = 2;
-  // Handlers (store access, image decoding, long-polls) run here, off the
-  // network threads; a long-poll holds one for up to 60 s.
+  // Handlers (store access, image decoding) run here, off the network
+  // threads. Long-polls and WebSocket streams hold none while they wait.
   int worker_threads = 32;
+  // Open long-polls and WebSocket streams, in all and per token (429
+  // beyond either); 0: no cap.
+  std::size_t max_streams = 1000;
+  std::size_t max_streams_per_token = 100;
+  // Open connections, in all and per client address: one past either cap
+  // is answered 503 and closed at once. The total is also kept under the
+  // process's open-file limit. 0: no cap.
+  std::size_t max_connections = 4000;
+  std::size_t max_connections_per_address = 200;
+  // A request body must arrive at this many bytes per second or more,
+  // over every 10 s (408 and closed otherwise); 0: no minimum.
+  std::size_t min_body_rate = 1024;
   // Checked in order, before the built-in /v1 routes.
   std::vector<ApiRoute> routes;
   // The longest matching prefix wins; /v1/, /healthz and /metrics never
   // reach them.
   std::vector<StaticMount> static_mounts;
+  // false: /healthz and /metrics only (every other path 404), as
+  // `arscout engine --listen` serves them.
+  bool serve_api = true;
+  // Appended to /metrics (another component's, e.g. the engine worker's),
+  // and merged into /healthz's JSON (e.g. {"engine": {...}}).
+  std::function<std::string()> extra_metrics;
+  std::function<Json()> health_details;
 };
 
 class Server {
