@@ -16,26 +16,35 @@ void write_value(std::ostringstream& out, const char* name, const char* type,
 
 std::string render_metrics(const WorkerStats& s, const PhaseClocks& phases,
                            std::optional<std::int64_t> head) {
+  struct Value {
+    const char* name;
+    const char* type;
+    const char* help;
+    std::int64_t value;
+  };
+  const Value values[] = {
+      {"arscout_engine_captures_waiting", "gauge",
+       "Captures placed and not yet in a committed increment.",
+       s.captures_waiting},
+      {"arscout_engine_sites", "gauge", "Sites this worker knows.", s.sites},
+      {"arscout_engine_sites_held", "gauge", "Site leases this worker holds.",
+       s.sites_held},
+      {"arscout_engine_site_leases_taken_total", "counter",
+       "Site leases claimed.", s.sites_taken},
+      {"arscout_engine_changes_seen_total", "counter",
+       "Capture changes read from the feed.", s.changes_seen},
+      {"arscout_engine_captures_placed_total", "counter",
+       "Captures placed on a site.", s.captures_placed},
+      {"arscout_engine_model_versions_total", "counter",
+       "Model versions committed.", s.increments},
+      {"arscout_engine_failures_total", "counter",
+       "Phases that failed (retried later).", s.failures},
+      {"arscout_engine_checkpoint_seq", "gauge",
+       "The feed position saved as done.", s.checkpoint},
+  };
   std::ostringstream out;
-  write_value(out, "arscout_engine_captures_waiting", "gauge",
-              "Captures placed and not yet in a committed increment.",
-              s.captures_waiting);
-  write_value(out, "arscout_engine_sites", "gauge", "Sites this worker knows.",
-              s.sites);
-  write_value(out, "arscout_engine_sites_held", "gauge",
-              "Site leases this worker holds.", s.sites_held);
-  write_value(out, "arscout_engine_site_leases_taken_total", "counter",
-              "Site leases claimed.", s.sites_taken);
-  write_value(out, "arscout_engine_changes_seen_total", "counter",
-              "Capture changes read from the feed.", s.changes_seen);
-  write_value(out, "arscout_engine_captures_placed_total", "counter",
-              "Captures placed on a site.", s.captures_placed);
-  write_value(out, "arscout_engine_model_versions_total", "counter",
-              "Model versions committed.", s.increments);
-  write_value(out, "arscout_engine_failures_total", "counter",
-              "Phases that failed (retried later).", s.failures);
-  write_value(out, "arscout_engine_checkpoint_seq", "gauge",
-              "The feed position saved as done.", s.checkpoint);
+  for (const Value& v : values)
+    write_value(out, v.name, v.type, v.help, v.value);
   if (head)
     write_value(out, "arscout_engine_seq_lag", "gauge",
                 "Changes committed past the checkpoint.", *head - s.checkpoint);

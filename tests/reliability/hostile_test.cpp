@@ -409,7 +409,7 @@ TEST_F(HostileClients, ScoutsCannotTakeEachOthersCaptureIds) {
 // on one change watch, holding no thread; past a per-token cap they get
 // 429.
 TEST_F(HostileClients, LongPollsAndStreamsHoldNoWorkerThread) {
-  constexpr int kPolls = 48, kStreams = 16;
+  constexpr int kPolls = 64, kStreams = 16;
   auto store = db::Store::open(url_);
   const std::string scout =
       ingest::create_token(*store, ingest::Role::kScout, "sam");

@@ -108,7 +108,9 @@ TEST(EngineKill, ThreeKillsLoseNothingAndChangeNothing) {
   const std::string url = "sqlite:" + work + "/store.db";
   auto store = db::Store::open(url);
   put_camera(*store, scene.camera);
-  const std::vector<std::string> args = {"engine", "--db", url};
+  // At info the log says what the engine did (its progress lines).
+  const std::vector<std::string> args = {"--log-level", "info", "engine",
+                                         "--db", url};
   auto engine = std::make_unique<testing::ToolProcess>(ARSCOUT_CLI, args,
                                                        work + "/engine.log");
   std::thread scout([&] {

@@ -109,8 +109,9 @@ TEST(EngineTakeover, TwoWorkersSplitTheSitesAndOneFinishesTheOthers) {
   for (const std::string name : {"engine-a", "engine-b"})
     workers[name] = std::make_unique<testing::ToolProcess>(
         ARSCOUT_CLI,
-        std::vector<std::string>{"engine", "--db", url, "--engine-name", name,
-                                 "--lease-ttl", "3", "--site-threads", "1"},
+        std::vector<std::string>{"--log-level", "info", "engine", "--db", url,
+                                 "--engine-name", name, "--lease-ttl", "3",
+                                 "--site-threads", "1"},
         work + "/" + name + ".log");
   auto logs = [&] {
     return "engine-a:\n" + testing::slurp(work + "/engine-a.log") +
