@@ -133,14 +133,7 @@ void put_camera(arscout::db::Store& store, const Options& o,
   if (!size) throw std::runtime_error("cannot read " + first.path.string());
   const auto K = arscout::engine::read_k_matrix(o.scene + "/images/K.txt",
                                                 size->width, size->height);
-  store.put("/cameras/bench", "camera",
-            Json{{"fx", K.fx},
-                 {"fy", K.fy},
-                 {"cx", K.cx},
-                 {"cy", K.cy},
-                 {"width", K.width},
-                 {"height", K.height},
-                 {"source", "calibrated"}});
+  store.put("/cameras/bench", "camera", arscout::documents::to_json(K));
 }
 
 void on_model(arscout::db::Store& store, const arscout::db::Change& change,

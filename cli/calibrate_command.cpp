@@ -150,7 +150,7 @@ int run_calibrate(const CalibrateArgs& a) {
   auto calibration = calibrate(images, *board, a.square_m, report);
   print_result(calibration, static_cast<int>(images.size()), out);
 
-  Json camera = ingest::to_json(calibration);
+  Json camera = documents::to_json(calibration);
   if (!a.server.empty()) {
     put_over_http(a, camera, out);
   } else if (!a.db.empty()) {

@@ -8,6 +8,7 @@
 #include <iostream>
 
 #include "arscout/db/errors.h"
+#include "arscout/util/file.h"
 #include "commands.h"
 
 namespace arscout::cli {
@@ -84,6 +85,22 @@ db::Json parse_json_argument(const std::string& text, const std::string& what) {
     throw db::StoreError(db::ErrorCode::kInvalidJson,
                          what + " is not valid JSON (at byte " +
                              std::to_string(e.byte) + "): " + e.what());
+  }
+}
+
+std::string read_input_file(const std::string& path) {
+  try {
+    return util::read_file(path);
+  } catch (const std::runtime_error& e) {
+    throw db::StoreError(db::ErrorCode::kInvalidArgument, e.what());
+  }
+}
+
+void write_output_file(const std::string& path, std::string_view bytes) {
+  try {
+    util::write_file_atomic(path, bytes);
+  } catch (const std::runtime_error& e) {
+    throw db::StoreError(db::ErrorCode::kUnavailable, e.what());
   }
 }
 

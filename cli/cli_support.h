@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "arscout/db/document.h"
@@ -23,6 +24,16 @@ db::Json parse_json_argument(const std::string& text, const std::string& what);
 // `dir`, sorted by name so runs are reproducible. Throws
 // StoreError(kInvalidArgument) when there are none.
 std::vector<std::string> list_image_files(const std::string& dir);
+
+// The bytes of a file named on the command line; StoreError
+// (kInvalidArgument, exit code 2) naming it when it cannot be read.
+std::string read_input_file(const std::string& path);
+
+// Replaces the file at `path` with `bytes` atomically and durably
+// (util::write_file_atomic): a reader never sees half a file, and a failed
+// write leaves the older one intact. StoreError (kUnavailable, exit code 5)
+// naming it when it cannot be written.
+void write_output_file(const std::string& path, std::string_view bytes);
 
 // Installs SIGINT/SIGTERM handlers; stop_requested() turns true after one.
 void install_stop_handlers();

@@ -5,6 +5,8 @@
 // main() adds them in `order` (then name) so --help lists them stably.
 #pragma once
 
+// All of CLI11, though CommandAdder needs only CLI::App's name: every file
+// that includes this defines commands with it.
 #include <CLI/CLI.hpp>
 
 namespace arscout::cli {

@@ -2,8 +2,6 @@
 // themselves (command_registry.h).
 #pragma once
 
-#include <CLI/CLI.hpp>
-
 namespace arscout::cli {
 
 // Exit codes shared by every subcommand (documented in docs/cli.md).

@@ -1,11 +1,16 @@
-// `arscout demo`: the store end to end on an embedded SQLite file, until the
-// engine exists: two scouts write captures, a subscriber tails the change
-// feed, a planner queries by place, and a stale write is refused.
+// `arscout demo`: the document store alone, end to end on an embedded SQLite
+// file: two scouts write captures, a subscriber tails the change feed, a
+// planner queries by place, and a stale write is refused. No engine runs:
+// the store's contract in a minute, without photos (the whole pipeline is
+// `arscout serve --with-engine`, or `arscout engine` beside a server).
 #include <iostream>
 #include <mutex>
 #include <thread>
 
 #include "arscout/db/store.h"
+#include "arscout/documents/camera.h"
+#include "arscout/documents/capture.h"
+#include "arscout/documents/site.h"
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
@@ -21,16 +26,33 @@ struct DemoArgs {
 
 Json capture_attrs(const std::string& scout, double lat, double lon,
                    double h_acc) {
-  return Json{{"scout", scout},
-              {"camera", "/cameras/phone-1"},
-              {"status", "stored"},
-              {"gps",
-               {{"lat", lat},
-                {"lon", lon},
-                {"alt", 353.0},
-                {"h_acc", h_acc},
-                {"v_acc", h_acc * 2},
-                {"satellites", 8}}}};
+  documents::Capture capture;
+  capture.scout = scout;
+  capture.camera = "phone-1";
+  capture.status = documents::kStatusStored;
+  capture.gps = documents::GpsFix{lat, lon, 353.0, h_acc, h_acc * 2, 8, "", ""};
+  return documents::to_json(capture);
+}
+
+// The demo phone's camera as a camera document holds it: the EXIF focal
+// length of a 3264 x 2448 photo, no distortion known.
+Json phone_camera() {
+  documents::Camera camera;
+  camera.width = 3264;
+  camera.height = 2448;
+  camera.fx = camera.fy = 2800;
+  camera.cx = 1631.5;
+  camera.cy = 1223.5;
+  camera.source = "exif";
+  return documents::to_json(camera);
+}
+
+Json graz_site() {
+  documents::Site site;
+  site.name = "graz-1";
+  site.centre = documents::GeoPoint{47.0707, 15.4395, 353.0};
+  site.state = "collecting";
+  return documents::to_json(site);
 }
 
 int run_demo(const DemoArgs& a) {
@@ -49,12 +71,7 @@ int run_demo(const DemoArgs& a) {
   store->put("/scouts/alice", "scout",
              Json{{"name", "Alice"}, {"role", "scout"}});
   store->put("/scouts/bob", "scout", Json{{"name", "Bob"}, {"role", "scout"}});
-  store->put("/cameras/phone-1", "camera",
-             Json{{"source", "exif"},
-                  {"fx", 2800.0},
-                  {"fy", 2800.0},
-                  {"cx", 1632.0},
-                  {"cy", 1224.0}});
+  store->put("/cameras/phone-1", "camera", phone_camera());
 
   // Two scouts upload concurrently, each photo a blob plus a capture document.
   // Capture ids carry the run, so the demo can run again on the same file.
@@ -75,13 +92,10 @@ int run_demo(const DemoArgs& a) {
   alice.join();
   bob.join();
 
-  auto site = store->batch(
-      {db::WriteOp::put("/sites/graz-1", "site",
-                        Json{{"name", "graz-1"},
-                             {"gps", {{"lat", 47.0707}, {"lon", 15.4395}}},
-                             {"state", "collecting"}}),
-       db::WriteOp::patch("/captures/alice-" + run + "-0",
-                          Json{{"site", "graz-1"}})});
+  auto site =
+      store->batch({db::WriteOp::put("/sites/graz-1", "site", graz_site()),
+                    db::WriteOp::patch("/captures/alice-" + run + "-0",
+                                       Json{{"site", "graz-1"}})});
 
   try {  // a planner editing from a stale copy of the site is refused
     store->patch("/sites/graz-1", Json{{"state", "stale"}},
@@ -113,8 +127,9 @@ void add_demo_command(CLI::App& app) {
   static DemoArgs args;
   CLI::App* cmd = app.add_subcommand(
       "demo",
-      "run the document-store demo: scouts write captures, a subscriber tails "
-      "the change feed, a planner queries by place");
+      "run the document-store demo (the store alone, no engine): scouts "
+      "write captures, a subscriber tails the change feed, a planner queries "
+      "by place");
   cmd->add_option("--db", args.url, "database URL")->capture_default_str();
   cmd->callback([] { run_command([] { return run_demo(args); }); });
 }

@@ -33,15 +33,6 @@ struct DepthArgs {
   engine::DenseOptions options;
 };
 
-std::string read_bytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw StoreError(ErrorCode::kNotFound, path.string() + ": cannot read");
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
-  return bytes.str();
-}
-
 // --model may name the reconstruct output folder or its sparse/ folder.
 fs::path sparse_folder(const fs::path& model) {
   if (fs::exists(model / "images.txt")) return model;
@@ -120,7 +111,7 @@ int run_depth(const DepthArgs& a) {
   }
   const fs::path images = images_folder(a, sparse);
   const engine::ImageSource source = [&](const std::string& id) {
-    return read_bytes(images / id);
+    return read_input_file((images / id).string());
   };
   engine::DepthMap map;
   try {

@@ -2,10 +2,13 @@
 // `arscout serve --with-engine`.
 #pragma once
 
-#include <CLI/CLI.hpp>
-
 #include "arscout/engine/service.h"
 #include "arscout/ingest/server.h"
+
+// Its users define their commands with CLI11 (command_registry.h) already.
+namespace CLI {
+class App;
+}
 
 namespace arscout::cli {
 

@@ -25,23 +25,6 @@ struct ExportArgs {
   std::string output;
 };
 
-// Writes next to `path` and renames, so a reader never sees half a file
-// and a failed export leaves an older one intact.
-void write_atomically(const std::string& path, const std::string& bytes) {
-  const std::string temporary = path + ".part";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.flush();
-    if (!out) {
-      std::error_code ignored;
-      fs::remove(temporary, ignored);
-      throw StoreError(ErrorCode::kUnavailable, path + ": cannot write");
-    }
-  }
-  fs::rename(temporary, path);
-}
-
 int run_export(const ExportArgs& a) {
   const auto format = viewer::parse_export_format(a.format);
   if (!format)
@@ -58,7 +41,7 @@ int run_export(const ExportArgs& a) {
                     static_cast<std::streamsize>(file.bytes.size()));
     return kExitOk;
   }
-  write_atomically(a.output, file.bytes);
+  write_output_file(a.output, file.bytes);
   std::cerr << "wrote " << file.bytes.size() << " bytes (" << file.filename
             << ") to " << a.output << std::endl;
   return kExitOk;

@@ -47,15 +47,6 @@ struct ReconstructArgs {
   double refine_budget_s = 2.0;
 };
 
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw StoreError(ErrorCode::kInvalidArgument, path + ": cannot read");
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
-  return bytes.str();
-}
-
 // Receivers that do not report accuracy get a consumer receiver's typical
 // figures (documented in docs/engine.md).
 engine::GeoFix to_engine_fix(const ingest::GpsFix& fix) {
@@ -83,7 +74,7 @@ class InputSource {
   engine::CaptureInput load(const std::string& path) {
     engine::CaptureInput input;
     input.id = fs::path(path).filename().string();
-    input.image_bytes = read_file(path);
+    input.image_bytes = read_input_file(path);
     const auto size = engine::read_image_size(input.image_bytes);
     const ingest::ExifInfo exif = ingest::read_exif(input.image_bytes);
     input.camera_id = camera_id(exif, size);
@@ -231,7 +222,7 @@ void refine_to_convergence(engine::Reconstruction& site) {
 // them again at its own resolution.
 engine::ImageSource folder_images(const std::string& dir) {
   return [dir](const std::string& id) {
-    return read_file((fs::path(dir) / id).string());
+    return read_input_file((fs::path(dir) / id).string());
   };
 }
 
@@ -244,7 +235,8 @@ void write_sources(const ReconstructArgs& a) {
 engine::Reconstruction start(const ReconstructArgs& a) {
   if (a.resume.empty()) return engine::Reconstruction(a.options);
   try {
-    return engine::Reconstruction::restore(read_file(a.resume), a.options);
+    return engine::Reconstruction::restore(read_input_file(a.resume),
+                                           a.options);
   } catch (const std::runtime_error& e) {
     throw StoreError(ErrorCode::kInvalidArgument, a.resume + ": " + e.what());
   }

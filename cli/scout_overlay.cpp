@@ -5,6 +5,8 @@
 #include <fstream>
 #include <iostream>
 
+#include "arscout/documents/capture.h"
+#include "arscout/util/file.h"
 #include "cli_support.h"
 
 namespace arscout::cli {
@@ -22,16 +24,6 @@ namespace {
 
 // One line, written at once: the upload thread prints too.
 void say(const std::string& line) { std::cout << line + "\n" << std::flush; }
-
-void write_file(const fs::path& path, const std::string& bytes) {
-  const fs::path part = path.string() + ".part";
-  {
-    std::ofstream out(part, std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    if (!out) throw std::runtime_error(part.string() + ": cannot write");
-  }
-  fs::rename(part, path);
-}
 
 }  // namespace
 
@@ -94,14 +86,13 @@ bool OverlaySaver::poll(ingest::Client& client, const Pending& p) {
   const std::string name = p.file_name;
   try {
     const auto doc = client.get("/v1/docs/captures/" + p.id);
-    const nlohmann::json attrs =
+    const documents::Capture capture = documents::capture_from_json(
         doc.status == 200 ? doc.json().value("attrs", nlohmann::json::object())
-                          : nlohmann::json::object();
-    const std::string status = attrs.value("status", "");
+                          : nlohmann::json::object());
+    const std::string& status = capture.status;
     if (status == "rejected" || status == "withdrawn" ||
         status == "needs-gps") {
-      say(name + "  no overlay: " + status + " " +
-          attrs.value("status_reason", ""));
+      say(name + "  no overlay: " + status + " " + capture.status_reason);
       return true;
     }
     if (status == "registered") {
@@ -109,7 +100,7 @@ bool OverlaySaver::poll(ingest::Client& client, const Pending& p) {
       if (overlay.status == 200) {
         const fs::path out =
             fs::path(dir_) / (fs::path(name).stem().string() + ".overlay.jpg");
-        write_file(out, overlay.body);
+        util::write_file_atomic(out.string(), overlay.body);
         say(name + "  overlay " + out.string());
         std::lock_guard lock(mutex_);
         ++saved_;

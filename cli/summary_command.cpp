@@ -11,6 +11,9 @@
 
 #include "arscout/db/path.h"
 #include "arscout/db/store.h"
+#include "arscout/documents/capture.h"
+#include "arscout/documents/model.h"
+#include "arscout/documents/site.h"
 #include "arscout/engine/ply.h"
 #include "arscout/engine/service.h"
 #include "cli_support.h"
@@ -44,7 +47,9 @@ int sites_awaiting_dense(db::Store& store) {
   int behind = 0;
   for (const db::Document& site : store.list_children("/sites")) {
     auto model = store.get(site.path + "/model");
-    if (model && model->attrs.value("dense_state", "") == "pending") ++behind;
+    if (model &&
+        documents::model_from_json(model->attrs).dense_state == "pending")
+      ++behind;
   }
   return behind;
 }
@@ -82,12 +87,14 @@ bool wait_for_engine(db::Store& store, const SummaryArgs& a) {
 }
 
 // How many of the site's captures have each status.
-std::map<std::string, int> capture_statuses(db::Store& store,
-                                            const Json& captures) {
+std::map<std::string, int> capture_statuses(
+    db::Store& store, const std::vector<std::string>& captures) {
   std::map<std::string, int> counts;
-  for (const Json& id : captures) {
-    auto doc = store.get("/captures/" + id.get<std::string>());
-    ++counts[doc ? doc->attrs.value("status", "?") : "missing"];
+  for (const std::string& id : captures) {
+    auto doc = store.get("/captures/" + id);
+    const std::string status =
+        doc ? documents::capture_from_json(doc->attrs).status : "missing";
+    ++counts[status.empty() ? "?" : status];
   }
   return counts;
 }
@@ -128,6 +135,34 @@ void print_clouds(db::Store& store, const SummaryArgs& a,
   std::cout << "\n";
 }
 
+// A site's captures by status and its model's version and counts.
+void print_site(db::Store& store, const SummaryArgs& a,
+                const db::Document& site_doc) {
+  const std::string id(db::leaf_name(site_doc.path));
+  const documents::Site site = documents::site_from_json(site_doc.attrs, id);
+  std::cout << "\nsite " << id << " (" << site.name << ")";
+  if (site.centre)
+    std::cout << std::fixed << std::setprecision(6) << ", centre "
+              << site.centre->lat << ", " << site.centre->lon
+              << std::defaultfloat;
+  std::cout << "\n  captures " << site.captures.size() << ":";
+  for (const auto& [status, n] : capture_statuses(store, site.captures))
+    std::cout << " " << n << " " << status;
+  std::cout << "\n";
+  auto model = store.get(site_doc.path + "/model");
+  if (!model) {
+    std::cout << "  no model yet (a site needs 3 captures)\n";
+    return;
+  }
+  const documents::ModelDocument m = documents::model_from_json(model->attrs);
+  std::cout << "  model version " << model->version << ": "
+            << m.statistics.registered << " registered, "
+            << m.statistics.sparse_points << " sparse points, "
+            << m.statistics.dense_points << " dense points, frame "
+            << (m.geo_registered ? "enu" : "local") << "\n";
+  print_clouds(store, a, id, *model);
+}
+
 int run_summary(const SummaryArgs& a) {
   auto store = db::Store::open(a.db);
   if (a.wait_s > 0 && !wait_for_engine(*store, a)) {
@@ -138,32 +173,7 @@ int run_summary(const SummaryArgs& a) {
   const auto sites = store->list_children("/sites");
   std::cout << sites.size() << " site" << (sites.size() == 1 ? "" : "s")
             << " in " << a.db << "\n";
-  for (const db::Document& site : sites) {
-    const std::string id(db::leaf_name(site.path));
-    const Json& attrs = site.attrs;
-    std::cout << "\nsite " << id << " (" << attrs.value("name", id) << ")";
-    if (attrs.contains("gps"))
-      std::cout << std::fixed << std::setprecision(6) << ", centre "
-                << attrs["gps"].value("lat", 0.0) << ", "
-                << attrs["gps"].value("lon", 0.0) << std::defaultfloat;
-    std::cout << "\n  captures " << attrs.value("capture_count", 0) << ":";
-    for (const auto& [status, n] :
-         capture_statuses(*store, attrs.value("captures", Json::array())))
-      std::cout << " " << n << " " << status;
-    std::cout << "\n";
-    auto model = store->get(site.path + "/model");
-    if (!model) {
-      std::cout << "  no model yet (a site needs 3 captures)\n";
-      continue;
-    }
-    const Json s = model->attrs.value("statistics", Json::object());
-    std::cout << "  model version " << model->version << ": "
-              << s.value("registered", 0) << " registered, "
-              << s.value("sparse_points", 0) << " sparse points, "
-              << s.value("dense_points", 0) << " dense points, frame "
-              << model->attrs.value("frame", "?") << "\n";
-    print_clouds(*store, a, id, *model);
-  }
+  for (const db::Document& site : sites) print_site(*store, a, site);
   std::cout << std::flush;
   return kExitOk;
 }

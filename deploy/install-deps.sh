@@ -15,6 +15,8 @@ packages=(
   libgeographiclib-dev libboost-dev nlohmann-json3-dev libexiv2-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libspdlog-dev
   libssl-dev openssl
+  # expat: the XML parser of the GPX reader (ingest/src/gps_gpx.cpp)
+  libexpat1-dev
   # the scout app's pairing QR code (token create --qr), and zbarimg to
   # read it back in the test
   libqrencode-dev zbar-tools

@@ -8,7 +8,7 @@
 # of the sites, their model versions and registered counts, and writes the
 # models as PLY files.
 #
-#   deploy/main-job.sh            (after cmake --build build)
+#   deploy/main-job.sh            (after cmake --build build --target arscout)
 #
 # Environment: ARSCOUT_BIN (default build/cli/arscout), ARSCOUT_MAIN_JOB_DIR
 # (default arscout-main-job: the database, logs and models),
@@ -19,7 +19,7 @@ cd "$(dirname "$0")/.."
 bin=${ARSCOUT_BIN:-build/cli/arscout}
 work=${ARSCOUT_MAIN_JOB_DIR:-arscout-main-job}
 data=${ARSCOUT_DATA:-../shared/data}
-[ -x "$bin" ] || { echo "main job: $bin not built (cmake --build build)" >&2; exit 1; }
+[ -x "$bin" ] || { echo "main job: $bin not built (cmake --build build --target arscout)" >&2; exit 1; }
 
 rm -rf "$work"
 mkdir -p "$work"

@@ -15,8 +15,8 @@
 #include <spdlog/spdlog.h>
 #include <pqxx/pqxx>
 
+#include "arscout/util/sha256.h"
 #include "backends.h"
-#include "sha256.h"
 #include "sql_store.h"
 
 namespace arscout::db::internal {
@@ -94,7 +94,7 @@ class PgSession : public SqlSession {
   pqxx::result run(const SqlStatement& st) {
     // Statements are prepared once per connection, named by their text.
     std::string name(1, 's');  // appended: dodges a GCC 12 -Wrestrict bug
-    name += std::string_view(sha256_hex(st.sql)).substr(0, 24);
+    name += std::string_view(util::sha256_hex(st.sql)).substr(0, 24);
     if (prepared_.insert(name).second) conn_.prepare(name, st.sql);
     auto call = tx_.prepared(name);
     std::vector<pqxx::binarystring> keep;  // binary params must outlive exec

@@ -3,8 +3,8 @@
 #include <spdlog/spdlog.h>
 
 #include "arscout/db/path.h"
+#include "arscout/util/sha256.h"
 #include "migrations.h"
-#include "sha256.h"
 #include "store_core.h"
 
 namespace arscout::db::internal {
@@ -142,7 +142,7 @@ bool is_request_error(ErrorCode code) {
 }
 
 void require_valid_hash(std::string_view sha256) {
-  if (!is_sha256_hex(sha256))
+  if (!util::is_sha256_hex(sha256))
     throw StoreError(ErrorCode::kInvalidArgument,
                      "blob hash '" + std::string(sha256.substr(0, 80)) +
                          "' is not 64 lower-case hex digits");

@@ -10,8 +10,8 @@
 #include <spdlog/spdlog.h>
 
 #include "arscout/db/path.h"
+#include "arscout/util/sha256.h"
 #include "backends.h"
-#include "sha256.h"
 
 namespace arscout::db {
 namespace {
@@ -149,7 +149,7 @@ WriteResult Store::remove(const std::string& path,
 // document that refers to it is written, that write fails with
 // kUnknownBlob and is retried.
 std::string Store::put_blob(std::string_view bytes) {
-  std::string sha = internal::sha256_hex(bytes);
+  std::string sha = util::sha256_hex(bytes);
   if (blob_info(sha)) return sha;
   ViewBuffer buffer(bytes);
   std::istream in(&buffer);

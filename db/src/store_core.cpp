@@ -8,7 +8,8 @@
 
 #include "arscout/db/errors.h"
 #include "arscout/db/path.h"
-#include "sha256.h"
+#include "arscout/util/geodesy.h"
+#include "arscout/util/sha256.h"
 
 namespace arscout::db::internal {
 namespace {
@@ -40,8 +41,8 @@ void validate_attrs(const std::string& path, const Json& attrs) {
   try {
     bytes = attrs.dump().size();
   } catch (const Json::exception& e) {  // e.g. a string of invalid UTF-8
-    invalid_document(path, std::string("attributes cannot be stored: ") +
-                               e.what());
+    invalid_document(path,
+                     std::string("attributes cannot be stored: ") + e.what());
   }
   if (bytes > kMaxAttributesBytes)
     throw StoreError(ErrorCode::kTooLarge,
@@ -60,7 +61,7 @@ void validate_blob_refs(WriteTxn& txn, const std::string& path,
       invalid_document(path,
                        "blob name '" + name +
                            "' must be 1-64 characters of A-Z a-z 0-9 . _ -");
-    if (!is_sha256_hex(hash))
+    if (!util::is_sha256_hex(hash))
       invalid_document(path, "blob '" + name + "' hash '" + hash +
                                  "' is not 64 lower-case hex digits");
     if (!txn.blob_exists(hash))
@@ -149,7 +150,7 @@ const Json* find_dotted(const Json& attrs, const std::string& key) {
   }
 }
 
-constexpr double kEarthRadiusM = 6371008.8;  // WGS84 mean radius
+constexpr double kEarthRadiusM = util::kEarthMeanRadiusM;
 constexpr double kPi = 3.14159265358979323846;
 double radians(double deg) { return deg * kPi / 180.0; }
 
@@ -213,7 +214,8 @@ bool matches_query(const Query& query, const Document& doc) {
     auto pos = gps_position(doc.attrs);
     if (!pos) return false;
     const GeoRadius& g = *query.near;
-    if (great_circle_m(g.lat, g.lon, pos->first, pos->second) > g.radius_m)
+    if (util::great_circle_m(g.lat, g.lon, pos->first, pos->second) >
+        g.radius_m)
       return false;
   }
   return true;
@@ -231,14 +233,6 @@ std::optional<std::pair<double, double>> gps_position(const Json& attrs) {
   double la = lat->get<double>(), lo = lon->get<double>();
   if (!(std::abs(la) <= 90) || !(std::abs(lo) <= 180)) return std::nullopt;
   return std::make_pair(la, lo);
-}
-
-double great_circle_m(double lat1, double lon1, double lat2, double lon2) {
-  double dlat = radians(lat2 - lat1), dlon = radians(lon2 - lon1);
-  double a = std::sin(dlat / 2) * std::sin(dlat / 2) +
-             std::cos(radians(lat1)) * std::cos(radians(lat2)) *
-                 std::sin(dlon / 2) * std::sin(dlon / 2);
-  return 2 * kEarthRadiusM * std::asin(std::min(1.0, std::sqrt(a)));
 }
 
 LatLonBox bounding_box(const GeoRadius& near) {
@@ -298,7 +292,7 @@ StreamedBlob stream_chunks(
     std::istream& in,
     const std::function<void(std::int64_t, std::string_view)>& write_chunk) {
   StreamedBlob result;
-  Sha256 hash;
+  util::Sha256 hash;
   std::string chunk(kBlobChunkBytes, '\0');
   while (in) {
     in.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));

@@ -55,7 +55,6 @@ bool matches_query(const Query& query, const Document& doc);
 
 // attrs.gps.{lat,lon} when both are finite numbers within WGS84 ranges.
 std::optional<std::pair<double, double>> gps_position(const Json& attrs);
-double great_circle_m(double lat1, double lon1, double lat2, double lon2);
 struct LatLonBox {
   double min_lat, max_lat, min_lon, max_lon;
 };

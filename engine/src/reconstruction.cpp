@@ -6,14 +6,14 @@
 #include <set>
 #include <stdexcept>
 
-#include "estimators.h"
-#include "feature_extractor.h"
-#include "image_loader.h"
-#include "mapper.h"
-#include "matcher.h"
-#include "model_builder.h"
-#include "scene.h"
-#include "serialization.h"
+#include "estimators/estimators.h"
+#include "features/feature_extractor.h"
+#include "features/image_loader.h"
+#include "features/matcher.h"
+#include "io/serialization.h"
+#include "sfm/mapper.h"
+#include "sfm/model_builder.h"
+#include "sfm/scene.h"
 #include "stopwatch.h"
 
 namespace arscout::engine {
@@ -86,19 +86,19 @@ struct Reconstruction::Impl {
 
   int camera_for(const CaptureInput& capture, const WorkingImage& image);
   const Undistorter& undistorter(int camera, cv::Size size);
-  Eigen::Vector3d position(int image) const;
+  Eigen::Vector3d position(int index) const;
   bool near_duplicate(int a, int b) const;
-  std::vector<std::pair<double, int>> by_distance(int image) const;
-  std::set<int> spatial_neighbours(int image, std::set<int> chosen) const;
+  std::vector<std::pair<double, int>> by_distance(int index) const;
+  std::set<int> spatial_neighbours(int index, std::set<int> chosen) const;
   std::vector<int> loop_candidates(
-      int image, const std::vector<std::pair<double, int>>& ranked,
+      int index, const std::vector<std::pair<double, int>>& ranked,
       const std::set<int>& chosen) const;
-  std::vector<Candidate> neighbours(int image) const;
+  std::vector<Candidate> neighbours(int index) const;
   std::vector<int> covisible_with(const std::set<int>& images) const;
-  std::pair<int, int> best_rotation(int image, int other) const;
-  std::vector<Candidate> visual_screen(int image,
+  std::pair<int, int> best_rotation(int index, int other) const;
+  std::vector<Candidate> visual_screen(int index,
                                        const std::set<int>& skip) const;
-  int match_image(int image, StageTimings& timings);
+  int match_image(int index, StageTimings& timings);
   void set_gps(SceneImage& image, const std::optional<GeoFix>& fix);
 };
 

@@ -7,14 +7,10 @@
 #include "api_handlers.h"
 #include "arscout/db/path.h"
 #include "arscout/util/log_value.h"
+#include "route_table.h"
 
 namespace arscout::ingest {
 namespace {
-
-constexpr std::string_view kDocs = "/v1/docs";
-constexpr std::string_view kCaptures = "/v1/captures";
-constexpr std::string_view kBlobs = "/v1/blobs/";
-constexpr std::string_view kCameras = "/v1/cameras/";
 
 bool starts_with(const std::string& s, std::string_view prefix) {
   return s.compare(0, prefix.size(), prefix) == 0;
@@ -31,7 +27,17 @@ HttpResponse forbidden(const std::string& why) {
   return HttpResponse::error(403, "forbidden", why);
 }
 
-bool may_write_docs(const Principal& who) { return who.role == Role::kAdmin; }
+HttpResponse unauthorized(const HttpRequest& request) {
+  return HttpResponse::error(401, "unauthorized",
+                             request.header("authorization").empty()
+                                 ? "an Authorization: Bearer token is required"
+                                 : "the bearer token is not valid");
+}
+
+HttpResponse operations_only() {
+  return HttpResponse::error(404, "not_found",
+                             "only /healthz and /metrics are served here");
+}
 
 HttpResponse health(db::Store& store, const std::function<Json()>& details) {
   try {
@@ -45,36 +51,19 @@ HttpResponse health(db::Store& store, const std::function<Json()>& details) {
   }
 }
 
-}  // namespace
+// A built-in route's handler: the context, the request, and what the
+// pattern's last "*" matched (the document path, the capture or camera id,
+// the blob hash).
+using Handler = std::function<HttpResponse(ApiContext&, const HttpRequest&,
+                                           const std::string& rest)>;
 
-bool can_read(const Principal& who, const std::string& doc_path) {
-  return who.role == Role::kAdmin ||
-         !(doc_path == "/auth" || starts_with(doc_path, "/auth/"));
+HttpResponse docs_route(ApiContext& ctx, const HttpRequest& req,
+                        const std::string& rest) {
+  const std::string doc_path = "/" + rest;
+  if (!can_read(ctx.who, doc_path))
+    return forbidden("only admins may read or write " + doc_path);
+  return docs_request(ctx, req, doc_path);
 }
-
-// A method as a metrics label: one of a fixed set, so that a client cannot
-// grow /metrics by inventing methods (any token is a valid HTTP method).
-std::string method_label(const std::string& method) {
-  for (const char* known :
-       {"GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS"})
-    if (method == known) return method;
-  return "OTHER";
-}
-
-std::string route_template(const std::string& verb, const std::string& path) {
-  const std::string method = method_label(verb);
-  if (starts_with(path, kDocs)) return method + " /v1/docs/*";
-  if (path == kCaptures) return method + " /v1/captures";
-  if (starts_with(path, kCaptures)) return method + " /v1/captures/*";
-  if (starts_with(path, kBlobs)) return method + " /v1/blobs/*";
-  if (starts_with(path, kCameras)) return method + " /v1/cameras/*";
-  for (const char* fixed :
-       {"/v1/changes", "/v1/subscribe", "/v1/sites", "/healthz", "/metrics"})
-    if (path == fixed) return method + " " + fixed;
-  return "other";
-}
-
-namespace {
 
 // The access log: one line per answered request, at info (quiet by
 // default).
@@ -88,29 +77,96 @@ void log_access(const HttpRequest& request, int status, double seconds) {
 
 }  // namespace
 
-HttpResponse error_for(const db::StoreError& e) {
-  using db::ErrorCode;
-  switch (e.code()) {
-    case ErrorCode::kConflict: {
-      Json extra = Json::object();
-      if (auto* c = dynamic_cast<const db::ConflictError*>(&e))
-        extra["current_version"] = c->current_version();
-      return HttpResponse::error(409, "conflict", e.what(), extra);
-    }
-    case ErrorCode::kNotFound:
-    case ErrorCode::kUnknownBlob:
-      return HttpResponse::error(404, db::to_string(e.code()), e.what());
-    case ErrorCode::kTooLarge:
-      return HttpResponse::error(413, "too_large", e.what());
-    case ErrorCode::kInvalidDocument:
-      return HttpResponse::error(422, "invalid_document", e.what());
-    case ErrorCode::kUnavailable:
-      return HttpResponse::error(503, "unavailable", e.what());
-    case ErrorCode::kInternal:
-      return HttpResponse::error(500, "internal", e.what());
-    default:
-      return HttpResponse::error(400, db::to_string(e.code()), e.what());
-  }
+bool can_read(const Principal& who, const std::string& doc_path) {
+  return who.role == Role::kAdmin ||
+         !(doc_path == "/auth" || starts_with(doc_path, "/auth/"));
+}
+
+Api::Api(db::Store& store, Metrics& metrics, std::vector<ApiRoute> routes,
+         std::vector<StaticMount> static_mounts)
+    : store_(store),
+      metrics_(metrics),
+      routes_(builtin_routes(std::move(routes))),
+      static_mounts_(std::move(static_mounts)) {}
+
+Api::Api(db::Store& store, Metrics& metrics, const ServerOptions& options)
+    : Api(store, metrics, options.routes, options.static_mounts) {
+  serve_api_ = options.serve_api;
+  extra_metrics_ = options.extra_metrics;
+  health_details_ = options.health_details;
+}
+
+// The API of docs/api.md, one row per route. The operations come first (no
+// token, and served without the API too), then the routes other libraries
+// added (so that theirs under /v1/captures/ win), then the v1 API.
+std::vector<ApiRoute> Api::builtin_routes(std::vector<ApiRoute> added) {
+  const auto row = [this](std::vector<std::string> methods, std::string pattern,
+                          std::optional<Role> min_role, std::string forbidden,
+                          Handler handler) {
+    ApiRoute r;
+    r.methods = std::move(methods);
+    r.pattern = std::move(pattern);
+    r.min_role = min_role;
+    r.forbidden = std::move(forbidden);
+    r.handle = [this, pattern = r.pattern, handler = std::move(handler)](
+                   const HttpRequest& req, const Principal& who) {
+      ApiContext ctx{store_, metrics_, who};
+      std::string rest;
+      pattern_matches(pattern, req.path, &rest);
+      return handler(ctx, req, rest);
+    };
+    return r;
+  };
+  using R = const HttpRequest&;
+  using S = const std::string&;
+  const std::optional<Role> no_token, any = Role::kPlanner;
+  std::vector<ApiRoute> routes = {
+      row({"GET"}, "/healthz", no_token, "",
+          [this](ApiContext&, R, S) {
+            return health(store_, health_details_);
+          }),
+      row({"GET"}, "/metrics", no_token, "",
+          [this](ApiContext&, R, S) { return render_metrics(); }),
+  };
+  for (ApiRoute& r : added) routes.push_back(std::move(r));
+  std::vector<ApiRoute> v1 = {
+      row({"GET", "HEAD"}, "/v1/docs/*", any, "", docs_route),
+      row({}, "/v1/docs/*", Role::kAdmin,
+          "writing documents needs the admin role", docs_route),
+      row({"POST"}, "/v1/captures", Role::kScout,
+          "planners may not upload captures",
+          [](ApiContext& ctx, R req, S) { return post_capture(ctx, req); }),
+      row({"DELETE"}, "/v1/captures/*", any, "", withdraw_capture),
+      row({"GET"}, "/v1/blobs/*", any, "", get_blob),
+      row({"PUT"}, "/v1/cameras/*", Role::kScout,
+          "planners may not change cameras", put_camera),
+      row({"GET"}, "/v1/changes", any, "",
+          [](ApiContext& ctx, R req, S) { return get_changes(ctx, req); }),
+      row({"GET"}, "/v1/sites", any, "",
+          [](ApiContext& ctx, R req, S) { return get_sites(ctx, req); }),
+      row({}, "/v1/subscribe", any, "",
+          [](ApiContext&, R, S) {
+            return HttpResponse::error(
+                400, "bad_request", "/v1/subscribe needs a WebSocket upgrade");
+          }),
+  };
+  for (ApiRoute& r : v1) routes.push_back(std::move(r));
+  return routes;
+}
+
+HttpResponse Api::render_metrics() const {
+  HttpResponse r;
+  r.content_type = "text/plain; version=0.0.4";
+  r.body = metrics_.render() + (extra_metrics_ ? extra_metrics_() : "");
+  return r;
+}
+
+std::string Api::route_template(const std::string& method,
+                                const std::string& path) const {
+  HttpRequest request;
+  request.method = method;
+  request.path = path;
+  return route_label(choose_route(routes_, request), method);
 }
 
 std::optional<std::int64_t> int_param(const HttpRequest& req,
@@ -162,12 +218,12 @@ std::optional<Json> parse_json_body(const std::string& text,
 
 HttpResponse Api::handle(const HttpRequest& request) {
   auto start = std::chrono::steady_clock::now();
-  std::string route = route_template(request.method, request.path);
+  std::string route = "other";  // dispatch names it once it is known
   HttpResponse response;
   try {
     response = dispatch(request, &route);
   } catch (const db::StoreError& e) {
-    response = error_for(e);
+    response = error_response(e);
   } catch (const std::exception& e) {
     spdlog::error("event=handler_failed route=\"{}\" error=\"{}\"", route,
                   e.what());
@@ -184,11 +240,12 @@ HttpResponse Api::handle(const HttpRequest& request) {
 }
 
 std::optional<HttpResponse> Api::refuse_before_body(const HttpRequest& head) {
-  const std::string& path = head.path;
-  if (!serve_api_ && path != "/healthz" && path != "/metrics")
-    return HttpResponse::error(404, "not_found",
-                               "only /healthz and /metrics are served here");
-  if (!starts_with(path, "/v1/")) return std::nullopt;  // no token needed
+  const RouteChoice choice = choose_route(routes_, head);
+  const bool open = choice.owner && !choice.owner->min_role;
+  if (!serve_api_ && !open) return operations_only();
+  // Only /v1/ needs a token: an unknown /v1/ path too, so that no client
+  // without one gets its body read.
+  if (!starts_with(head.path, "/v1/")) return std::nullopt;
   std::optional<Principal> who;
   try {
     who = authenticate(store_, head.header("authorization"));
@@ -196,109 +253,41 @@ std::optional<HttpResponse> Api::refuse_before_body(const HttpRequest& head) {
     return std::nullopt;  // the store is down: the request gets its 503
   }
   if (!who) {
-    HttpResponse r =
-        HttpResponse::error(401, "unauthorized",
-                            head.header("authorization").empty()
-                                ? "an Authorization: Bearer token is required"
-                                : "the bearer token is not valid");
-    metrics_.record_request(route_template(head.method, path), 401, 0);
-    return r;
+    metrics_.record_request(route_label(choice, head.method), 401, 0);
+    return unauthorized(head);
   }
-  std::string why;
-  if (starts_with(path, kDocs) && head.method != "GET" &&
-      head.method != "HEAD" && !may_write_docs(*who))
-    why = "writing documents needs the admin role";
-  else if (who->role == Role::kPlanner &&
-           (path == kCaptures || starts_with(path, kCameras)))
-    why = "planners may not upload captures or change cameras";
-  if (why.empty()) return std::nullopt;
-  metrics_.record_request(route_template(head.method, path), 403, 0);
-  return forbidden(why);
+  const ApiRoute* route = choice.route;
+  if (!route || !route->min_role || role_at_least(who->role, *route->min_role))
+    return std::nullopt;
+  metrics_.record_request(route_label(choice, head.method), 403, 0);
+  return forbidden(route->forbidden);
 }
 
 HttpResponse Api::dispatch(const HttpRequest& req, std::string* route) {
-  const std::string& path = req.path;
-  const std::string& m = req.method;
-  if (path == "/healthz")
-    return m == "GET" ? health(store_, health_details_)
-                      : method_not_allowed("GET");
-  if (path == "/metrics") {
-    if (m != "GET") return method_not_allowed("GET");
-    HttpResponse r;
-    r.content_type = "text/plain; version=0.0.4";
-    r.body = metrics_.render() + (extra_metrics_ ? extra_metrics_() : "");
-    return r;
-  }
-  if (!serve_api_) {
-    *route = "other";
-    return HttpResponse::error(404, "not_found",
-                               "only /healthz and /metrics are served here");
-  }
-  if (!starts_with(path, "/v1/")) {
+  const RouteChoice choice = choose_route(routes_, req);
+  const bool open = choice.owner && !choice.owner->min_role;
+  if (!serve_api_ && !open) return operations_only();
+  // The web viewer's files: anything outside /v1/ but the operations.
+  if (!open && !starts_with(req.path, "/v1/")) {
     if (auto file = serve_static(static_mounts_, req)) {
-      *route = method_label(m) + " (static file)";
+      *route = method_label(req.method) + " (static file)";
       return *file;
     }
   }
-  bool known =
-      starts_with(path, std::string(kDocs) + "/") || path == kCaptures ||
-      starts_with(path, std::string(kCaptures) + "/") ||
-      starts_with(path, kBlobs) || starts_with(path, kCameras) ||
-      path == "/v1/changes" || path == "/v1/sites" || path == "/v1/subscribe";
-  const ApiRoute* extra = nullptr;
-  for (const ApiRoute& r : routes_)
-    if (!extra && r.matches(req)) extra = &r;
-  if (!known && !extra) {
-    *route = "other";
-    return HttpResponse::error(404, "not_found", "no route " + path);
+  if (!choice.owner)
+    return HttpResponse::error(404, "not_found", "no route " + req.path);
+  *route = route_label(choice, req.method);
+  Principal who{Role::kPlanner, ""};  // anonymous, for the open routes
+  if (!open) {
+    auto token = authenticate(store_, req.header("authorization"));
+    if (!token) return unauthorized(req);
+    who = *token;
   }
-  auto who = authenticate(store_, req.header("authorization"));
-  if (!who)
-    return HttpResponse::error(
-        401, "unauthorized",
-        req.header("authorization").empty()
-            ? "an Authorization: Bearer token is required"
-            : "the bearer token is not valid");
-  if (extra) {
-    *route = extra->name;
-    return extra->handle(req, *who);
-  }
-  ApiContext ctx{store_, metrics_, *who};
-
-  if (starts_with(path, kDocs)) {
-    std::string doc_path = path.substr(kDocs.size());
-    if (!can_read(*who, doc_path))
-      return forbidden("only admins may read or write " + doc_path);
-    if (m != "GET" && m != "HEAD" && !may_write_docs(*who))
-      return forbidden("writing documents needs the admin role");
-    return docs_request(ctx, req, doc_path);
-  }
-  if (path == kCaptures) {
-    if (m != "POST") return method_not_allowed("POST");
-    if (who->role == Role::kPlanner)
-      return forbidden("planners may not upload captures");
-    return post_capture(ctx, req);
-  }
-  if (starts_with(path, kCaptures)) {
-    if (m != "DELETE") return method_not_allowed("DELETE");
-    return withdraw_capture(ctx, req, path.substr(kCaptures.size() + 1));
-  }
-  if (starts_with(path, kBlobs)) {
-    if (m != "GET") return method_not_allowed("GET");
-    return get_blob(ctx, req, path.substr(kBlobs.size()));
-  }
-  if (starts_with(path, kCameras)) {
-    if (m != "PUT") return method_not_allowed("PUT");
-    if (who->role == Role::kPlanner)
-      return forbidden("planners may not change cameras");
-    return put_camera(ctx, req, path.substr(kCameras.size()));
-  }
-  if (path == "/v1/changes")
-    return m == "GET" ? get_changes(ctx, req) : method_not_allowed("GET");
-  if (path == "/v1/sites")
-    return m == "GET" ? get_sites(ctx, req) : method_not_allowed("GET");
-  return HttpResponse::error(400, "bad_request",
-                             "/v1/subscribe needs a WebSocket upgrade");
+  if (!choice.route) return method_not_allowed(choice.allowed);
+  const std::optional<Role>& least = choice.route->min_role;
+  if (least && !role_at_least(who.role, *least))
+    return forbidden(choice.route->forbidden);
+  return choice.route->handle(req, who);
 }
 
 std::variant<Api::Subscribe, HttpResponse> Api::check_subscribe(
@@ -327,7 +316,7 @@ std::variant<Api::Subscribe, HttpResponse> Api::check_subscribe(
   try {
     db::validate_pattern(s.pattern);
   } catch (const db::StoreError& e) {
-    return error_for(e);
+    return error_response(e);
   }
   return s;
 }

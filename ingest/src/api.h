@@ -1,5 +1,5 @@
 // The v1 API (docs/api.md) as a function from request to response. Knows
-// nothing of sockets; beast_server.cpp feeds it.
+// nothing of sockets; beast_session.cpp feeds it.
 #pragma once
 
 #include <cstdint>
@@ -19,19 +19,14 @@ namespace arscout::ingest {
 
 class Api {
  public:
+  // `routes` go before ingest's own /v1 routes (ServerOptions::routes).
   Api(db::Store& store, Metrics& metrics, std::vector<ApiRoute> routes = {},
-      std::vector<StaticMount> static_mounts = {})
-      : store_(store),
-        metrics_(metrics),
-        routes_(std::move(routes)),
-        static_mounts_(std::move(static_mounts)) {}
+      std::vector<StaticMount> static_mounts = {});
   // From ServerOptions: serve_api, extra_metrics, health_details.
-  Api(db::Store& store, Metrics& metrics, const ServerOptions& options)
-      : Api(store, metrics, options.routes, options.static_mounts) {
-    serve_api_ = options.serve_api;
-    extra_metrics_ = options.extra_metrics;
-    health_details_ = options.health_details;
-  }
+  Api(db::Store& store, Metrics& metrics, const ServerOptions& options);
+  // The route table's handlers hold `this`.
+  Api(const Api&) = delete;
+  Api& operator=(const Api&) = delete;
 
   // Answers one request; never throws. Records it in the metrics.
   HttpResponse handle(const HttpRequest& request);
@@ -55,15 +50,21 @@ class Api {
   // when the body is needed to decide. Touches the store (the token).
   std::optional<HttpResponse> refuse_before_body(const HttpRequest& head);
 
+  // The metrics label of a request's route ("GET /v1/docs/*", "other").
+  std::string route_template(const std::string& method,
+                             const std::string& path) const;
+
   db::Store& store() { return store_; }
   Metrics& metrics() { return metrics_; }
 
  private:
   HttpResponse dispatch(const HttpRequest& request, std::string* route);
+  std::vector<ApiRoute> builtin_routes(std::vector<ApiRoute> added);
+  HttpResponse render_metrics() const;
 
   db::Store& store_;
   Metrics& metrics_;
-  std::vector<ApiRoute> routes_;
+  std::vector<ApiRoute> routes_;  // /healthz, /metrics, added, ingest's /v1
   std::vector<StaticMount> static_mounts_;
   bool serve_api_ = true;
   std::function<std::string()> extra_metrics_;
@@ -74,8 +75,5 @@ class Api {
 // matching prefix), or nullopt when no mount covers the path.
 std::optional<HttpResponse> serve_static(const std::vector<StaticMount>& mounts,
                                          const HttpRequest& request);
-
-// The route template of a path, for metrics ("/v1/docs/*", "other").
-std::string route_template(const std::string& method, const std::string& path);
 
 }  // namespace arscout::ingest

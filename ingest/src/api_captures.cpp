@@ -4,8 +4,9 @@
 
 #include "api_handlers.h"
 #include "arscout/db/path.h"
+#include "arscout/documents/capture.h"
 #include "arscout/ingest/gps.h"
-#include "digest.h"
+#include "arscout/util/sha256.h"
 #include "image_probe.h"
 #include "multipart.h"
 
@@ -79,7 +80,7 @@ std::optional<HttpResponse> string_field(const Json& meta, const char* key,
 HttpResponse replay_or_conflict(const db::Document& existing,
                                 const Principal& who, const std::string& hash) {
   auto image = existing.blobs.find("image");
-  bool same = existing.attrs.value("scout", "") == who.name &&
+  bool same = documents::capture_from_json(existing.attrs).scout == who.name &&
               image != existing.blobs.end() && image->second == hash;
   if (!same)
     return HttpResponse::error(
@@ -137,26 +138,23 @@ std::optional<HttpResponse> read_fields(const Json& meta, CaptureFields* f) {
 Json capture_attrs(const CaptureFields& f, const Principal& who,
                    const ImageProbe& probe, const ExifInfo& exif,
                    std::size_t bytes) {
-  std::optional<GpsFix> gps = f.gps ? f.gps : exif.gps;
-  if (gps && !validate_gps(*gps).empty()) gps.reset();  // implausible EXIF
-  Json attrs{{"scout", who.name},
-             {"received", format_time_utc(std::time(nullptr))},
-             {"format", probe.format},
-             {"width", probe.width},
-             {"height", probe.height},
-             {"bytes", bytes},
-             {"status", gps ? "stored" : "needs-gps"},
-             {"status_reason", gps ? "" : "no GPS in the request or the EXIF"}};
-  attrs["taken"] = f.taken.empty() ? exif.taken : f.taken;
-  if (gps) attrs["gps"] = to_json(*gps);
-  if (!f.camera.empty()) attrs["camera"] = f.camera;
-  if (!f.site_hint.empty()) attrs["site_hint"] = f.site_hint;
-  if (!f.filename.empty()) attrs["filename"] = f.filename;
-  if (exif.focal_35mm) attrs["exif"]["focal_35mm"] = *exif.focal_35mm;
-  if (exif.focal_mm) attrs["exif"]["focal_mm"] = *exif.focal_mm;
-  if (!exif.make.empty()) attrs["exif"]["make"] = exif.make;
-  if (!exif.model.empty()) attrs["exif"]["model"] = exif.model;
-  return attrs;
+  documents::Capture c;
+  c.gps = f.gps ? f.gps : exif.gps;
+  if (c.gps && !validate_gps(*c.gps).empty()) c.gps.reset();  // odd EXIF
+  c.scout = who.name;
+  c.received = format_time_utc(std::time(nullptr));
+  c.format = probe.format;
+  c.width = probe.width;
+  c.height = probe.height;
+  c.bytes = bytes;
+  c.status = c.gps ? documents::kStatusStored : documents::kStatusNeedsGps;
+  c.status_reason = c.gps ? "" : "no GPS in the request or the EXIF";
+  c.taken = f.taken.empty() ? exif.taken : f.taken;
+  c.camera = f.camera;
+  c.site_hint = f.site_hint;
+  c.filename = f.filename;
+  c.exif = {exif.focal_35mm, exif.focal_mm, exif.make, exif.model};
+  return documents::to_json(c);
 }
 
 }  // namespace
@@ -180,7 +178,7 @@ HttpResponse post_capture(ApiContext& ctx, const HttpRequest& req) {
   std::string path = "/captures/" + f.id;
   if (!f.id.empty())
     if (auto existing = ctx.store.get(path))
-      return replay_or_conflict(*existing, ctx.who, sha256_hex(up.image));
+      return replay_or_conflict(*existing, ctx.who, util::sha256_hex(up.image));
 
   ImageProbe probe = probe_image(up.image);
   if (!probe.ok) return HttpResponse::error(422, "unprocessable", probe.error);
@@ -222,18 +220,18 @@ HttpResponse withdraw_capture(ApiContext& ctx, const HttpRequest& /*req*/,
     auto doc = ctx.store.get(path);
     if (!doc || doc->kind != "capture")
       return HttpResponse::error(404, "not_found", "no capture " + id);
+    const documents::Capture capture = documents::capture_from_json(doc->attrs);
     if (ctx.who.role != Role::kAdmin &&
-        !(ctx.who.role == Role::kScout &&
-          doc->attrs.value("scout", "") == ctx.who.name))
+        !(ctx.who.role == Role::kScout && capture.scout == ctx.who.name))
       return HttpResponse::error(
           403, "forbidden",
           "only its own scout or an admin may withdraw " + id);
-    if (doc->attrs.value("status", "") == "withdrawn")
+    if (capture.status == documents::kStatusWithdrawn)
       return HttpResponse::json(200, to_json(*doc));
     db::WriteOp op = db::WriteOp::patch(
         path,
-        Json{{"status", "withdrawn"},
-             {"status_reason", "withdrawn by " + ctx.who.name}},
+        documents::status_patch(documents::kStatusWithdrawn,
+                                "withdrawn by " + ctx.who.name),
         doc->version);
     op.author = ctx.who.name;
     try {

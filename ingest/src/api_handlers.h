@@ -1,5 +1,6 @@
 // The API's handlers, one file per resource. Each gets the authenticated
-// principal; dispatch (api.cpp) has already checked the route and method.
+// principal; dispatch (api.cpp, from its route table) has already checked
+// the route, the method and the least role.
 #pragma once
 
 #include <string>
@@ -33,8 +34,8 @@ HttpResponse get_blob(ApiContext& ctx, const HttpRequest& req,
 HttpResponse put_camera(ApiContext& ctx, const HttpRequest& req,
                         const std::string& id);
 
-// Shared helpers (api.cpp).
-HttpResponse error_for(const db::StoreError& e);
+// Shared helpers (api.cpp). Store errors are answered with
+// error_response (http_types.h).
 // Parses a query parameter as an integer in [min, max]; nullopt + *error.
 std::optional<std::int64_t> int_param(const HttpRequest& req,
                                       const std::string& name,

@@ -148,7 +148,7 @@ HttpResponse put_camera(ApiContext& ctx, const HttpRequest& req,
   std::string error;
   auto body = parse_json_body(req.body, &error);
   if (!body) return HttpResponse::error(400, "invalid_json", error);
-  error = validate_camera_json(*body);
+  error = documents::validate_camera(*body);
   if (!error.empty()) return HttpResponse::error(422, "unprocessable", error);
   // A camera belongs to the scout that created it; only that scout or an
   // admin may change it (one without an owner, written straight into the

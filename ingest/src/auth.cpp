@@ -7,7 +7,7 @@
 
 #include "arscout/db/path.h"
 #include "arscout/ingest/gps.h"
-#include "digest.h"
+#include "arscout/util/sha256.h"
 
 namespace arscout::ingest {
 namespace {
@@ -15,7 +15,7 @@ namespace {
 constexpr const char* kTokens = "/auth/tokens";
 
 std::string token_path(const std::string& token) {
-  return std::string(kTokens) + "/" + sha256_hex(token);
+  return std::string(kTokens) + "/" + util::sha256_hex(token);
 }
 
 std::int64_t now_s() { return static_cast<std::int64_t>(std::time(nullptr)); }
@@ -82,7 +82,7 @@ std::string create_token(db::Store& store, Role role, const std::string& name,
   if (RAND_bytes(random, sizeof random) != 1)
     throw db::StoreError(db::ErrorCode::kInternal,
                          "no randomness for a token (RAND_bytes failed)");
-  std::string token = "ars_" + to_hex(random, sizeof random);
+  std::string token = "ars_" + util::to_hex(random, sizeof random);
   db::Json attrs{{"role", to_string(role)},
                  {"name", name},
                  {"created", format_time_utc(now_s())}};

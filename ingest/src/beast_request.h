@@ -1,6 +1,6 @@
 // How the server reads an HTTP request with Boost.Beast: the parser's limits
 // and the conversion to the API's HttpRequest. Header-only, so that Beast
-// stays in the translation units that compile it already (beast_server.cpp)
+// stays in the translation units that compile it already (beast_session.cpp)
 // and the HTTP fuzz target (tests/fuzz), which must parse exactly as the
 // server does.
 #pragma once

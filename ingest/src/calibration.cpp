@@ -20,87 +20,6 @@ namespace {
 // the corners are then refined on the full image.
 constexpr int kDetectMaxSide = 1600;
 constexpr int kMinViews = 3;
-constexpr std::size_t kMaxDistortion = 8;
-constexpr char kSources[] = "calibrated, exif or estimated";
-
-// --- validate_camera_json ---------------------------------------------------
-
-bool is_finite_number(const Json& j) {
-  return j.is_number() && std::isfinite(j.get<double>());
-}
-
-bool is_whole_number(const Json& j, double min) {
-  if (!is_finite_number(j)) return false;
-  double v = j.get<double>();
-  return v >= min && v == std::floor(v) && v <= 1e9;
-}
-
-std::string check_positive(const Json& camera, const char* key,
-                           const char* what) {
-  auto it = camera.find(key);
-  if (it == camera.end())
-    return std::string(key) + " is missing (" + what + ")";
-  if (!is_finite_number(*it) || it->get<double>() <= 0)
-    return std::string(key) + " must be a positive finite number (" + what +
-           ")";
-  return "";
-}
-
-std::string check_size(const Json& camera, const char* key) {
-  auto it = camera.find(key);
-  if (it == camera.end())
-    return std::string(key) + " is missing (image size in pixels)";
-  if (!is_whole_number(*it, 1))
-    return std::string(key) + " must be a positive whole number of pixels";
-  return "";
-}
-
-std::string check_principal(const Json& camera, const char* key,
-                            const char* size_key) {
-  auto it = camera.find(key);
-  if (it == camera.end())
-    return std::string(key) + " is missing (principal point in pixels)";
-  double limit = camera[size_key].get<double>();
-  if (!is_finite_number(*it) || it->get<double>() < 0 ||
-      it->get<double>() > limit)
-    return std::string(key) + " must lie inside the image: 0 <= " + key +
-           " <= " + size_key + " (" + std::to_string(static_cast<int>(limit)) +
-           ")";
-  return "";
-}
-
-std::string check_distortion(const Json& camera) {
-  auto it = camera.find("distortion");
-  if (it == camera.end() || it->is_null()) return "";
-  if (!it->is_array() || it->size() > kMaxDistortion)
-    return "distortion must be an array of 0 to 8 finite numbers "
-           "[k1, k2, p1, p2, k3, ...]";
-  for (std::size_t i = 0; i < it->size(); ++i)
-    if (!is_finite_number((*it)[i]))
-      return "distortion[" + std::to_string(i) + "] must be a finite number";
-  return "";
-}
-
-std::string check_source(const Json& camera) {
-  auto it = camera.find("source");
-  if (it == camera.end())
-    return std::string("source is missing (") + kSources + ")";
-  if (!it->is_string() ||
-      (*it != "calibrated" && *it != "exif" && *it != "estimated"))
-    return std::string("source must be one of ") + kSources;
-  return "";
-}
-
-std::string check_optional_stats(const Json& camera) {
-  auto rms = camera.find("rms_px");
-  if (rms != camera.end() && !rms->is_null() &&
-      (!is_finite_number(*rms) || rms->get<double>() < 0))
-    return "rms_px must be a finite number >= 0 (pixels)";
-  auto used = camera.find("images_used");
-  if (used != camera.end() && !used->is_null() && !is_whole_number(*used, 0))
-    return "images_used must be a whole number >= 0";
-  return "";
-}
 
 // --- calibrate_chessboard ---------------------------------------------------
 
@@ -238,35 +157,6 @@ CameraCalibration fit(const std::vector<Corners>& image_points, BoardSize board,
 }
 
 }  // namespace
-
-Json to_json(const CameraCalibration& c) {
-  return Json{{"fx", c.fx},
-              {"fy", c.fy},
-              {"cx", c.cx},
-              {"cy", c.cy},
-              {"width", c.width},
-              {"height", c.height},
-              {"distortion", {c.k1, c.k2, c.p1, c.p2, c.k3}},
-              {"source", c.source},
-              {"rms_px", c.rms_px},
-              {"images_used", c.images_used}};
-}
-
-std::string validate_camera_json(const Json& camera) {
-  if (!camera.is_object()) return "a camera must be a JSON object";
-  // Sizes first: the principal point is checked against them.
-  for (const std::string& problem :
-       {check_size(camera, "width"), check_size(camera, "height"),
-        check_positive(camera, "fx", "focal length in pixels"),
-        check_positive(camera, "fy", "focal length in pixels")})
-    if (!problem.empty()) return problem;
-  for (const std::string& problem :
-       {check_principal(camera, "cx", "width"),
-        check_principal(camera, "cy", "height"), check_distortion(camera),
-        check_source(camera), check_optional_stats(camera)})
-    if (!problem.empty()) return problem;
-  return "";
-}
 
 std::optional<BoardSize> parse_board_size(const std::string& text) {
   auto x = text.find_first_of("xX");

@@ -23,6 +23,8 @@
 #include <openssl/x509.h>
 #include <openssl/x509v3.h>
 
+#include "arscout/util/file.h"
+
 namespace arscout::ingest {
 namespace {
 
@@ -173,22 +175,6 @@ std::string pem(Write write) {
   return std::string(data, static_cast<size_t>(size));
 }
 
-// Written beside, synced and renamed over: a crash leaves the old file or
-// the new one, never half of one.
-void write_atomically(const fs::path& path, const std::string& text,
-                      mode_t mode) {
-  const fs::path part = path.string() + ".part";
-  const int fd = ::open(part.c_str(), O_WRONLY | O_CREAT | O_TRUNC, mode);
-  if (fd < 0) fail("cannot write " + part.string());
-  bool ok = ::fchmod(fd, mode) == 0 &&
-            ::write(fd, text.data(), text.size()) ==
-                static_cast<ssize_t>(text.size()) &&
-            ::fsync(fd) == 0;
-  ok = ::close(fd) == 0 && ok;
-  if (!ok) fail("cannot write " + part.string());
-  fs::rename(part, path);
-}
-
 SelfSignedCertificate make_certificate(const fs::path& dir,
                                        const std::vector<std::string>& names) {
   KeyPtr key(EVP_EC_gen("P-256"));
@@ -198,16 +184,16 @@ SelfSignedCertificate make_certificate(const fs::path& dir,
   X509_set_pubkey(cert.get(), key.get());
   if (!X509_sign(cert.get(), key.get(), EVP_sha256())) fail("cannot sign");
   fs::create_directories(dir);
-  write_atomically(dir / "key.pem", pem([&](BIO* b) {
-                     return PEM_write_bio_PrivateKey(b, key.get(), nullptr,
-                                                     nullptr, 0, nullptr,
-                                                     nullptr) == 1;
-                   }),
-                   0600);
-  write_atomically(dir / "cert.pem", pem([&](BIO* b) {
-                     return PEM_write_bio_X509(b, cert.get()) == 1;
-                   }),
-                   0644);
+  util::write_file_atomic((dir / "key.pem").string(), pem([&](BIO* b) {
+                            return PEM_write_bio_PrivateKey(
+                                       b, key.get(), nullptr, nullptr, 0,
+                                       nullptr, nullptr) == 1;
+                          }),
+                          0600);
+  util::write_file_atomic((dir / "cert.pem").string(), pem([&](BIO* b) {
+                            return PEM_write_bio_X509(b, cert.get()) == 1;
+                          }),
+                          0644);
   SelfSignedCertificate out;
   out.fingerprint = fingerprint_of(cert.get());
   out.created = true;

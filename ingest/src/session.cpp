@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "api_handlers.h"
+#include "arscout/documents/capture.h"
 #include "arscout/ingest/gps.h"
 
 namespace arscout::ingest {
@@ -47,10 +48,12 @@ std::string input_kind(const db::Change& c,
                        const std::optional<db::Document>& doc) {
   const bool capture = c.path.rfind("/captures/", 0) == 0;
   if (capture && c.op == db::OpType::kPut && c.version == 1) return "capture";
-  if (capture && c.op == db::OpType::kPatch && doc &&
-      doc->attrs.value("status", "") == "withdrawn" &&
-      doc->attrs.value("status_reason", "") == "withdrawn by " + c.author)
-    return "withdrawal";
+  if (capture && c.op == db::OpType::kPatch && doc) {
+    const documents::Capture now = documents::capture_from_json(doc->attrs);
+    if (now.status == documents::kStatusWithdrawn &&
+        now.status_reason == "withdrawn by " + c.author)
+      return "withdrawal";
+  }
   if (c.path.rfind("/cameras/", 0) == 0 && c.op == db::OpType::kPut)
     return "camera";
   return "";
@@ -151,19 +154,23 @@ void check_session(const std::string& path) {
 // The upload a scout made: image bytes and the metadata header.
 HttpRequest upload_request(const std::string& id, const Json& attrs,
                            const std::string& image) {
+  const documents::Capture capture = documents::capture_from_json(attrs);
   Json meta{{"capture_id", id}};
-  for (const char* key : {"camera", "site_hint", "filename", "taken"})
-    if (attrs.contains(key)) meta[key] = attrs[key];
+  for (const auto& [key, value] : {std::pair{"camera", &capture.camera},
+                                   {"site_hint", &capture.site_hint},
+                                   {"filename", &capture.filename},
+                                   {"taken", &capture.taken}})
+    if (!value->empty()) meta[key] = *value;
   // A fix read from the EXIF is read again; one the scout sent is sent.
-  if (attrs.contains("gps") && attrs["gps"].value("source", "") == "request") {
-    meta["gps"] = attrs["gps"];
+  if (capture.gps && capture.gps->source == "request") {
+    meta["gps"] = documents::to_json(*capture.gps);
     meta["gps"].erase("source");
   }
   HttpRequest req;
   req.method = "POST";
   req.path = req.target = "/v1/captures";
   req.headers["content-type"] =
-      attrs.value("format", "jpeg") == "png" ? "image/png" : "image/jpeg";
+      capture.format == "png" ? "image/png" : "image/jpeg";
   req.headers["x-capture-metadata"] = meta.dump();
   req.body = image;
   return req;

@@ -332,7 +332,9 @@ TEST_P(StoreConformance, RejectsBadInputAndChangesNothing) {
   expect_rejected([&] { store_->put("/keep", "doc", Json::object(), -2); },
                   ErrorCode::kInvalidArgument);
   expect_rejected(
-      [&] { store_->put("/a", "doc", Json{{"s", std::string("\xff\xfe")}}); },
+      [&] {
+        store_->put("/a", "doc", Json{{"s", std::string("\xff\xfe")}});
+      },
       ErrorCode::kInvalidDocument, "cannot be stored");
   EXPECT_EQ(store_->get("/keep")->attrs["v"], 1);
   EXPECT_THROW(store_->get("/bad path"), StoreError);

@@ -2,7 +2,7 @@
 // knocked off its true shape must come back to it (up to the gauge), GPS
 // priors must put it where the fixes say, and a wrong focal length must be
 // refined away.
-#include "bundle_adjuster.h"
+#include "estimators/bundle_adjuster.h"
 
 #include <cmath>
 #include <iostream>

@@ -28,6 +28,7 @@
 #include "arscout/engine/point_render.h"
 #include "arscout/engine/reconstruction.h"
 #include "arscout/engine/synthetic_site.h"
+#include "dense/consistency.h"
 
 namespace arscout::engine {
 namespace {

@@ -13,6 +13,7 @@
 #include "arscout/engine/dense.h"
 #include "arscout/engine/dense_reconstruction.h"
 #include "arscout/engine/synthetic_site.h"
+#include "dense/consistency.h"
 
 namespace arscout::engine {
 namespace {

@@ -1,7 +1,7 @@
 // The geometric estimators against synthetic views with exact ground truth:
 // relative pose, absolute pose, triangulation and similarity, each with the
 // noise and outlier rates a real facade capture has.
-#include "estimators.h"
+#include "estimators/estimators.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,7 @@
 // Patch alignment on images with a known sub-pixel shift: a smooth random
 // texture rendered twice, the second moved, brighter and with more
 // contrast, and keypoints placed off the true spot as a detector would.
-#include "keypoint_refinement.h"
+#include "features/keypoint_refinement.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,7 @@
 // Descriptor matching on synthetic RootSIFT-like rows where the true
 // correspondence is known: b holds noisy copies of some of a's rows in a
 // shuffled order, plus distractors.
-#include "matcher.h"
+#include "features/matcher.h"
 
 #include <algorithm>
 #include <cmath>

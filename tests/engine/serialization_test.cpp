@@ -1,9 +1,9 @@
 // The Scene's byte layout: a round trip restores every field to the bit,
 // and bytes that are not a whole, consistent scene are refused with
 // std::runtime_error, never a crash or a scene that would crash later.
-#include "serialization.h"
+#include "io/serialization.h"
 
-#include "keypoint_refinement.h"
+#include "features/keypoint_refinement.h"
 
 #include <algorithm>
 #include <bit>

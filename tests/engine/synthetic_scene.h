@@ -17,7 +17,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "scene.h"
+#include "sfm/scene.h"
 
 namespace arscout::engine::synthetic {
 

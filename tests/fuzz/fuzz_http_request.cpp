@@ -1,7 +1,7 @@
 // An HTTP request as the server reads and answers it, from a connection
 // that delivers the input and then closes: Beast's request parser with the
 // server's limits (beast_request.h), header first and then body as
-// beast_server.cpp reads them, the conversion to HttpRequest, the target's
+// beast_session.cpp reads them, the conversion to HttpRequest, the target's
 // path and query (parse_target), and then the API itself (Api::handle and
 // Api::check_subscribe) on a SQLite store. The parser refuses with error
 // codes and parse_target with nullopt; Api promises never to throw, and a
@@ -101,8 +101,8 @@ void check_target_round_trip(const ingest::ParsedTarget& parsed) {
 }
 
 // What the API reads from a request before a handler runs.
-void check_api_view(const ingest::HttpRequest& req) {
-  const std::string route = ingest::route_template(req.method, req.path);
+void check_api_view(const ingest::Api& api, const ingest::HttpRequest& req) {
+  const std::string route = api.route_template(req.method, req.path);
   check(!route.empty(), "every request has a route name for the metrics");
   for (const char* name : {"since", "limit", "depth", "wait"}) {
     std::string error;
@@ -210,10 +210,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data,
   check_target_round_trip(*parsed);
   req.path = std::move(parsed->path);
   req.query = std::move(parsed->query);
-  check_api_view(req);
 
   // HttpSession::on_body hands the request to the API.
   ingest::Api& api = api_under_test.next();
+  check_api_view(api, req);
   api_under_test.authorize(req);
   req.query.erase("wait");
   check_answer(api.handle(req));

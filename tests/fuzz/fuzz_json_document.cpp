@@ -2,7 +2,7 @@
 // JSON parser (parse_json_body), the body rules of the docs handler and the
 // store's document validation, on a real SQLite store. docs_request is
 // called as Api::handle calls it, so a refusal is a 4xx response or a
-// db::StoreError (which Api answers with error_for); any other exception
+// db::StoreError (which Api answers with error_response); any other exception
 // escapes and is a finding, as is a 5xx. A write that is accepted must read
 // back as what was sent: the attributes of a PUT, the merge patch applied
 // for a PATCH.
@@ -39,7 +39,7 @@ ingest::HttpResponse request(db::Store& store, const std::string& method,
   try {
     return ingest::docs_request(ctx, req, kPath);
   } catch (const db::StoreError& e) {
-    return ingest::error_for(e);
+    return ingest::error_response(e);
   }
 }
 

@@ -378,19 +378,20 @@ TEST(CalibrationJson, DocumentFormMatchesTheApi) {
   EXPECT_EQ(j["source"], "calibrated");
   EXPECT_EQ(j["rms_px"], 0.1);
   EXPECT_EQ(j["images_used"], 10);
-  EXPECT_EQ(validate_camera_json(j), "");
+  EXPECT_EQ(documents::validate_camera(j), "");
 }
 
 TEST(CalibrationJson, AcceptsMinimalAndExtendedDocuments) {
   Json exif = Json::parse(R"({"fx": 2800, "fy": 2800.5, "cx": 1632,
       "cy": 1224, "width": 3264, "height": 2448.0, "source": "exif"})");
-  EXPECT_EQ(validate_camera_json(exif), "");
+  EXPECT_EQ(documents::validate_camera(exif), "");
   exif["distortion"] = Json::array();
   exif["model"] = "Pixel 8";
-  EXPECT_EQ(validate_camera_json(exif), "");
-  exif["distortion"] = Json::parse("[0.1, -0.2, 0, 0, 0.01, 0, 0, 0.3]");
+  EXPECT_EQ(documents::validate_camera(exif), "");
+  // OpenCV's eight terms, the rational ones zero (docs/api.md).
+  exif["distortion"] = Json::parse("[0.1, -0.2, 0, 0, 0.01, 0, 0, 0]");
   exif["source"] = "estimated";
-  EXPECT_EQ(validate_camera_json(exif), "");
+  EXPECT_EQ(documents::validate_camera(exif), "");
 }
 
 // Each (field, bad value) must be refused with a message naming the field.
@@ -416,6 +417,7 @@ TEST(CalibrationJson, RejectsEachBadFieldByName) {
       {"distortion", 0.1},
       {"distortion", "[]"},
       {"distortion", Json::array({0, 0, 0, 0, 0, 0, 0, 0, 0})},
+      {"distortion", Json::array({0, 0, 0, 0, 0, 0, 0, 0.3})},
       {"source", "guess"},
       {"source", 1},
       {"rms_px", -0.1},
@@ -426,7 +428,7 @@ TEST(CalibrationJson, RejectsEachBadFieldByName) {
   for (const auto& [field, value] : bad) {
     Json j = good_camera();
     j[field] = value;
-    std::string problem = validate_camera_json(j);
+    std::string problem = documents::validate_camera(j);
     EXPECT_NE(problem.find(field), std::string::npos)
         << field << "=" << j[field].dump() << " gave '" << problem << "'";
   }
@@ -434,16 +436,16 @@ TEST(CalibrationJson, RejectsEachBadFieldByName) {
   with_inf["distortion"][2] = std::numeric_limits<double>::infinity();
   // nlohmann stores infinity as a number, which JSON text cannot carry; the
   // handler may still meet it from code.
-  EXPECT_NE(validate_camera_json(with_inf).find("distortion[2]"),
+  EXPECT_NE(documents::validate_camera(with_inf).find("distortion[2]"),
             std::string::npos);
   for (const char* field :
        {"fx", "fy", "cx", "cy", "width", "height", "source"}) {
     Json j = good_camera();
     j.erase(field);
-    EXPECT_NE(validate_camera_json(j).find(field), std::string::npos)
+    EXPECT_NE(documents::validate_camera(j).find(field), std::string::npos)
         << "missing " << field;
   }
-  EXPECT_NE(validate_camera_json(Json::array()), "");
+  EXPECT_NE(documents::validate_camera(Json::array()), "");
 }
 
 TEST_F(CalibrationTest, CliWritesTheCameraDocument) {
@@ -467,7 +469,7 @@ TEST_F(CalibrationTest, CliWritesTheCameraDocument) {
   ASSERT_TRUE(doc);
   EXPECT_EQ(doc->kind, "camera");
   const Json& a = doc->attrs;
-  EXPECT_EQ(validate_camera_json(a), "") << a.dump();
+  EXPECT_EQ(documents::validate_camera(a), "") << a.dump();
   EXPECT_NEAR(a["fx"].get<double>(), kFocal, 0.005 * kFocal);
   EXPECT_NEAR(a["cy"].get<double>(), kCy, 2.0);
   EXPECT_EQ(a["width"], kWidth);

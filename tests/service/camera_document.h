@@ -9,20 +9,19 @@
 
 namespace arscout::testing {
 
-// Puts /cameras/{id}: K's focal lengths, principal point and size, source
-// "calibrated", and `distortion` ([k1 k2 p1 p2 k3]) when it is not null.
+// Puts /cameras/{id}: K with source "calibrated" and, when `distortion` is
+// not null, its terms [k1 k2 p1 p2 k3], in the camera document's one form
+// (documents/camera.h).
 inline void put_calibrated_camera(db::Store& store, const std::string& id,
-                                  const engine::CameraIntrinsics& K,
+                                  engine::CameraIntrinsics K,
                                   const db::Json& distortion = nullptr) {
-  db::Json attrs{{"fx", K.fx},
-                 {"fy", K.fy},
-                 {"cx", K.cx},
-                 {"cy", K.cy},
-                 {"width", K.width},
-                 {"height", K.height},
-                 {"source", "calibrated"}};
-  if (!distortion.is_null()) attrs["distortion"] = distortion;
-  store.put("/cameras/" + id, "camera", attrs);
+  K.source = "calibrated";
+  if (!distortion.is_null()) {
+    double* terms[] = {&K.k1, &K.k2, &K.p1, &K.p2, &K.k3};
+    for (size_t i = 0; i < 5 && i < distortion.size(); ++i)
+      *terms[i] = distortion[i].get<double>();
+  }
+  store.put("/cameras/" + id, "camera", documents::to_json(K));
 }
 
 }  // namespace arscout::testing

@@ -1,4 +1,4 @@
-// The dense cloud's tiles (engine/service/dense_tiles.h): a dense phase
+// The dense cloud's tiles (engine/service/src/dense_tiles.h): a dense phase
 // stores only the tiles whose points changed, whatever their order.
 #include "dense_tiles.h"
 

@@ -6,6 +6,8 @@
 
 #include <cmath>
 
+#include "arscout/util/geodesy.h"
+
 namespace arscout::engine::service {
 namespace {
 
@@ -20,9 +22,9 @@ GeoFix offset(double north_m, double east_m) {
 
 TEST(SiteDirectory, DistanceIsGreatCircle) {
   const GeoFix a = offset(0, 0), b = offset(30, 40);
-  EXPECT_NEAR(distance_m(a.lat, a.lon, b.lat, b.lon), 50, 0.2);
+  EXPECT_NEAR(util::great_circle_m(a.lat, a.lon, b.lat, b.lon), 50, 0.2);
   // Graz to Lausanne, about 690 km.
-  EXPECT_NEAR(distance_m(47.07, 15.44, 46.52, 6.57) / 1000, 677, 15);
+  EXPECT_NEAR(util::great_circle_m(47.07, 15.44, 46.52, 6.57) / 1000, 677, 15);
 }
 
 TEST(SiteDirectory, NearCapturesShareASiteFarOnesFoundNewOnes) {
@@ -39,7 +41,8 @@ TEST(SiteDirectory, NearCapturesShareASiteFarOnesFoundNewOnes) {
   const auto site = sites.site(*first);
   ASSERT_TRUE(site);
   const GeoFix mid = offset(10, 5);
-  EXPECT_NEAR(distance_m(site->lat, site->lon, mid.lat, mid.lon), 0, 0.01);
+  EXPECT_NEAR(util::great_circle_m(site->lat, site->lon, mid.lat, mid.lon), 0,
+              0.01);
   EXPECT_EQ(site->captures, (std::vector<std::string>{"a", "b"}));
 }
 
@@ -81,7 +84,7 @@ TEST(SiteDirectory, PlacingAgainGivesTheSameSiteAndSurvivesAReload) {
   EXPECT_EQ(sites.place("a", offset(900, 0), ""), "s-a");  // placed before
   std::map<std::string, Json> stored;
   for (const Site& s : sites.sites())
-    stored[s.id] = SiteDirectory::to_attrs(s, 50);
+    stored[s.id] = documents::to_json(SiteDirectory::to_document(s, 50));
   SiteDirectory reloaded(50);
   reloaded.load(stored);
   EXPECT_EQ(reloaded.site_of("b"), "s-a");

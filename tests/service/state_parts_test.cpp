@@ -1,4 +1,4 @@
-// The engine state in content-defined parts (engine/service/state_parts.h):
+// The engine state in content-defined parts (engine/service/src/state_parts.h):
 // the parts join back to the bytes, and an edit changes only the parts
 // around it, so the store writes a bounded share of a grown state.
 #include "state_parts.h"

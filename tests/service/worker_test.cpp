@@ -315,7 +315,7 @@ TEST(EngineWorker,
     feature_bytes += store->get_blob(doc.blobs.at("features")).size();
   const auto state = store->get(sites[0].path + "/engine");
   ASSERT_TRUE(state);
-  size_t state_bytes = 0;  // its parts (engine/service/state_parts.h)
+  size_t state_bytes = 0;  // its parts (engine/service/src/state_parts.h)
   for (const auto& [name, sha] : state->blobs)
     state_bytes += store->get_blob(sha).size();
   EXPECT_GT(state_bytes, 0u);

@@ -10,6 +10,7 @@
 #include "arscout/db/errors.h"
 #include "arscout/engine/geo.h"
 #include "arscout/engine/model_io.h"
+#include "arscout/util/file.h"
 #include "tar_writer.h"
 
 namespace arscout::viewer {
@@ -40,15 +41,6 @@ class ScratchDir {
   fs::path path_;
 };
 
-std::string read_file(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
-  if (!in.good() && !in.eof())
-    throw StoreError(ErrorCode::kInternal, path.string() + ": cannot read");
-  return bytes.str();
-}
-
 // The full model, read again if the engine committed in between.
 engine::Model consistent_full_model(db::Store& store, const std::string& site,
                                     SiteModel* model) {
@@ -63,14 +55,14 @@ engine::Model consistent_full_model(db::Store& store, const std::string& site,
 }
 
 engine::Geodetic origin_of(const SiteModel& model) {
-  const Json origin = model.attrs.value("enu_origin", Json());
-  if (!model.attrs.value("geo_registered", false) || !origin.is_object())
+  const auto& origin = model.document.enu_origin;
+  if (!model.document.geo_registered || !origin)
     throw StoreError(ErrorCode::kInvalidArgument,
                      "site " + model.site +
                          ": the model is not geo-registered yet (fewer than "
                          "three registered captures with GPS), so it has no "
                          "geographic frame to export");
-  return {origin.at("lat"), origin.at("lon"), origin.at("alt")};
+  return {origin->lat, origin->lon, origin->alt};
 }
 
 ExportFile colmap_tar(db::Store& store, const std::string& site) {
@@ -83,7 +75,8 @@ ExportFile colmap_tar(db::Store& store, const std::string& site) {
   const long long mtime = model.updated_us / 1000000;
   TarWriter tar;
   for (const char* name : {"cameras.txt", "images.txt", "points3D.txt"})
-    tar.add(site + "/" + name, read_file(scratch.path() / name), mtime);
+    tar.add(site + "/" + name,
+            util::read_file((scratch.path() / name).string()), mtime);
   return {site + "-v" + std::to_string(model.version) + "-colmap.tar",
           "application/x-tar", tar.finish()};
 }
@@ -96,7 +89,7 @@ ExportFile geo_csv(db::Store& store, const std::string& site) {
   const fs::path file = scratch.path() / "cameras_geo.csv";
   engine::write_geo_csv(full, file.string());
   return {site + "-v" + std::to_string(model.version) + "-cameras.csv",
-          "text/csv; charset=utf-8", read_file(file)};
+          "text/csv; charset=utf-8", util::read_file(file.string())};
 }
 
 std::string cloud_name(const SiteModel& model, Cloud cloud) {

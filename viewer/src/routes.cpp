@@ -31,38 +31,6 @@ std::string id_between(const std::string& path, const std::string& collection,
   return id.find('/') == std::string::npos ? id : "";
 }
 
-HttpResponse error_response(const StoreError& e) {
-  switch (e.code()) {
-    case ErrorCode::kInvalidPath:  // an id such as ".." in the URL
-      return HttpResponse::error(400, "bad_request", e.what());
-    case ErrorCode::kNotFound:
-    case ErrorCode::kUnknownBlob:
-      return HttpResponse::error(404, "not_found", e.what());
-    case ErrorCode::kInvalidArgument:
-      return HttpResponse::error(422, "unprocessable", e.what());
-    case ErrorCode::kUnavailable:
-      return HttpResponse::error(503, "unavailable", e.what());
-    default:
-      return HttpResponse::error(500, "internal", e.what());
-  }
-}
-
-// Runs `make` for a GET; other methods get 405, store errors their status.
-template <typename Make>
-HttpResponse get_only(const HttpRequest& req, Make make) {
-  if (req.method != "GET") {
-    HttpResponse r = HttpResponse::error(405, "method_not_allowed",
-                                         "this resource allows GET");
-    r.headers.emplace_back("Allow", "GET");
-    return r;
-  }
-  try {
-    return make();
-  } catch (const StoreError& e) {
-    return error_response(e);
-  }
-}
-
 // An integer query parameter in [lo, hi], else a 400 through *bad.
 int int_query(const HttpRequest& req, const std::string& name, int fallback,
               int lo, int hi, std::optional<HttpResponse>* bad) {
@@ -184,22 +152,25 @@ HttpResponse site_captures(db::Store& store, const std::string& site) {
   return HttpResponse::json(200, Json{{"captures", docs}});
 }
 
+// GET /v1/{collection}/{id}/{leaf}. Other methods get ingest's 405, and a
+// db::StoreError the API's status for it, as on every other route.
 ingest::ApiRoute route(
     const std::string& name, const std::string& collection,
     const std::string& leaf,
     std::function<HttpResponse(const HttpRequest&, const std::string&)> make) {
   ingest::ApiRoute r;
   r.name = name;
-  r.matches = [collection, leaf](const HttpRequest& req) {
-    return !id_between(req.path, collection, leaf).empty();
-  };
+  r.methods = {"GET"};
+  r.pattern = "/v1/" + collection + "/*/" + leaf;
   r.handle = [collection, leaf, make](const HttpRequest& req,
                                       const ingest::Principal&) {
     const std::string id = id_between(req.path, collection, leaf);
-    return get_only(req, [&] {
+    try {
       db::validate_path("/" + collection + "/" + id);  // ".." is no id
       return make(req, id);
-    });
+    } catch (const StoreError& e) {
+      return ingest::error_response(e);
+    }
   };
   return r;
 }

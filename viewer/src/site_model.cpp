@@ -4,6 +4,7 @@
 
 #include "arscout/db/errors.h"
 #include "arscout/db/path.h"
+#include "arscout/documents/document_error.h"
 #include "arscout/engine/service.h"
 
 namespace arscout::viewer {
@@ -17,25 +18,14 @@ std::string blob_of(const db::Document& doc, const std::string& name) {
   return it == doc.blobs.end() ? std::string() : it->second;
 }
 
-engine::CameraIntrinsics intrinsics_of(const Json& c) {
-  engine::CameraIntrinsics k;
-  k.width = c.at("width");
-  k.height = c.at("height");
-  k.fx = c.at("fx");
-  k.fy = c.at("fy");
-  k.cx = c.at("cx");
-  k.cy = c.at("cy");
-  const std::vector<double> d =
-      c.value("distortion", std::vector<double>(5, 0.0));
-  if (d.size() == 5) {
-    k.k1 = d[0];
-    k.k2 = d[1];
-    k.p1 = d[2];
-    k.p2 = d[3];
-    k.k3 = d[4];
+documents::ModelDocument read_model_document(const db::Document& doc,
+                                             const std::string& site) {
+  try {
+    return documents::model_from_json(doc.attrs);
+  } catch (const documents::DocumentError& e) {
+    throw StoreError(ErrorCode::kInternal,
+                     "the model of site " + site + " is damaged: " + e.what());
   }
-  k.source = c.value("source", "calibrated");
-  return k;
 }
 
 }  // namespace
@@ -55,6 +45,7 @@ SiteModel load_site_model(db::Store& store, const std::string& site) {
   model.version = doc->version;
   model.updated_us = doc->updated_us;
   model.attrs = doc->attrs;
+  model.document = read_model_document(*doc, site);
   model.sparse_blob = blob_of(*doc, "sparse");
   model.dense_blobs = engine::dense_cloud_blobs(*doc);
   return model;
@@ -67,8 +58,8 @@ engine::Model load_full_model(db::Store& store, const SiteModel& model) {
                      "site " + model.site + " has no engine state");
   engine::Model full = state->model();
   std::vector<std::string> stated, restored;
-  for (const Json& image : model.attrs.value("images", Json::array()))
-    stated.push_back(image.at("id"));
+  for (const documents::ModelImageEntry& image : model.document.images)
+    stated.push_back(image.id);
   for (const engine::ModelImage& image : full.images)
     restored.push_back(image.id);
   if (stated != restored)
@@ -90,26 +81,20 @@ std::vector<engine::ColoredPoint> load_cloud(db::Store& store,
 
 std::optional<ImageCamera> image_camera(const SiteModel& model,
                                         const std::string& capture) {
-  const Json& cameras = model.attrs.at("cameras");
-  for (const Json& image : model.attrs.value("images", Json::array())) {
-    if (image.at("id") != capture) continue;
-    ImageCamera camera;
-    camera.id = capture;
-    // "camera" names an entry of "cameras" by its id.
-    for (const Json& c : cameras)
-      if (c.at("id") == image.at("camera"))
-        camera.intrinsics = intrinsics_of(c);
-    if (camera.intrinsics.width <= 0)
-      throw db::StoreError(db::ErrorCode::kInternal,
-                           "model of " + model.site + ": image " + capture +
-                               " names an unknown camera");
-    const auto q = image.at("qvec").get<std::array<double, 4>>();
-    camera.R = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
-    const auto t = image.at("tvec").get<std::array<double, 3>>();
-    camera.t = Eigen::Vector3d(t[0], t[1], t[2]);
-    return camera;
-  }
-  return std::nullopt;
+  const documents::ModelImageEntry* image = model.document.image(capture);
+  if (!image) return std::nullopt;
+  const documents::ModelCameraEntry* entry = model.document.camera_of(*image);
+  if (!entry)
+    throw db::StoreError(db::ErrorCode::kInternal,
+                         "model of " + model.site + ": image " + capture +
+                             " names an unknown camera");
+  ImageCamera camera;
+  camera.id = capture;
+  camera.intrinsics = entry->camera;
+  const auto& q = image->qvec;
+  camera.R = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
+  camera.t = Eigen::Vector3d(image->tvec[0], image->tvec[1], image->tvec[2]);
+  return camera;
 }
 
 }  // namespace arscout::viewer

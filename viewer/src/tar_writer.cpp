@@ -1,5 +1,6 @@
 #include "tar_writer.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <stdexcept>
@@ -25,17 +26,18 @@ void TarWriter::add(const std::string& name, const std::string& bytes,
   if (name.empty() || name.size() > 100)
     throw std::invalid_argument("tar: bad entry name '" + name + "'");
   char header[kBlock] = {};
-  std::memcpy(header, name.data(), name.size());
+  // Fixed-width fields, NUL-padded by the zeroed header, not terminated.
+  std::copy_n(name.data(), name.size(), header);
   put_octal(header + 100, 8, 0644);           // mode
   put_octal(header + 108, 8, 0);              // uid
   put_octal(header + 116, 8, 0);              // gid
   put_octal(header + 124, 12, bytes.size());  // size
   put_octal(header + 136, 12, static_cast<unsigned long long>(mtime_s));
   header[156] = '0';                        // regular file
-  std::memcpy(header + 257, "ustar", 6);    // magic, NUL
-  std::memcpy(header + 263, "00", 2);       // version
-  std::memcpy(header + 265, "arscout", 7);  // uname
-  std::memcpy(header + 297, "arscout", 7);  // gname
+  std::copy_n("ustar", 6, header + 257);    // magic, NUL
+  std::copy_n("00", 2, header + 263);       // version
+  std::copy_n("arscout", 7, header + 265);  // uname
+  std::copy_n("arscout", 7, header + 297);  // gname
   // The checksum is taken with its own field read as eight spaces.
   std::memset(header + 148, ' ', 8);
   unsigned sum = 0;

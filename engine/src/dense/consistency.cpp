@@ -1,11 +1,11 @@
 // Depth maps checked against each other, and the voxel grid they are fused
 // into.
+#include "dense/consistency.h"
+
 #include <algorithm>
 #include <cmath>
 
 #include <Eigen/Dense>
-
-#include "arscout/engine/dense.h"
 
 namespace arscout::engine {
 namespace {

@@ -10,10 +10,11 @@
 
 #include <Eigen/Dense>
 
+#include "dense/consistency.h"
 #include "dense/depth_map_io.h"
 #include "dense/map_fusion.h"
 #include "dense/view_coverage.h"
-#include "image_loader.h"
+#include "features/image_loader.h"
 #include "stopwatch.h"
 
 namespace arscout::engine {

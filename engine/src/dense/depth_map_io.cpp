@@ -5,7 +5,10 @@
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
-#include <type_traits>
+#include <string>
+#include <string_view>
+
+#include "arscout/util/bytes.h"
 
 namespace arscout::engine {
 namespace {
@@ -14,18 +17,21 @@ constexpr uint32_t kMaxSide = 65536;
 constexpr size_t kHeaderBytes = 8 + 4 + 8;  // magic, version, size
 constexpr size_t kChecksumBytes = 4;
 constexpr bool kLittleEndian = std::endian::native == std::endian::little;
+// Begins the message of every std::runtime_error decode_depth_map throws.
+constexpr char kNotADepthMap[] = "not a depth map of this format: ";
 
-template <typename T>
-using Bits = std::conditional_t<sizeof(T) == 8, uint64_t, uint32_t>;
+[[noreturn]] void fail(const std::string& what) {
+  throw std::runtime_error(kNotADepthMap + what);
+}
 
+// The format's pieces over util::ByteWriter: strings as a u32 length then
+// the bytes, Eigen matrices row-major as f64, planes as CV_32F rows.
 class Writer {
  public:
   template <typename T>
   void put(T value) {
     static_assert(sizeof(T) == 4 || sizeof(T) == 8);
-    const auto bits = std::bit_cast<Bits<T>>(value);
-    for (size_t i = 0; i < sizeof(T); ++i)
-      out_.push_back(static_cast<char>((bits >> (8 * i)) & 0xff));
+    out_.put(value);
   }
   void text(const std::string& s) {
     put(static_cast<uint32_t>(s.size()));
@@ -37,44 +43,41 @@ class Writer {
       for (Eigen::Index c = 0; c < m.cols(); ++c)
         put(static_cast<double>(m(r, c)));
   }
+  // A little-endian host writes each row at once: the planes are most of
+  // the bytes.
   void plane(const cv::Mat& mat) {
     for (int y = 0; y < mat.rows; ++y) {
       const float* row = mat.ptr<float>(y);
       if constexpr (kLittleEndian) {
-        out_.append(reinterpret_cast<const char*>(row),
-                    sizeof(float) * mat.cols);
+        out_.append(row, sizeof(float) * mat.cols);
       } else {
         for (int x = 0; x < mat.cols; ++x) put(row[x]);
       }
     }
   }
-  std::string& bytes() { return out_; }
+  util::ByteWriter& bytes() { return out_; }
 
  private:
-  std::string out_;
+  util::ByteWriter out_;
 };
 
+// The inverse of Writer over util::ByteReader. Each read names its field,
+// so that running out of bytes says which one ("sizes inconsistent: id runs
+// past the end of the map"): checked here before util's own "truncated".
 class Reader {
  public:
-  explicit Reader(std::string_view in) : in_(in) {}
+  explicit Reader(std::string_view in) : in_(in, kNotADepthMap) {}
 
   template <typename T>
   T get(const char* what) {
     static_assert(sizeof(T) == 4 || sizeof(T) == 8);
     need(sizeof(T), what);
-    Bits<T> bits = 0;
-    for (size_t i = 0; i < sizeof(T); ++i)
-      bits |= static_cast<Bits<T>>(static_cast<unsigned char>(in_[pos_ + i]))
-              << (8 * i);
-    pos_ += sizeof(T);
-    return std::bit_cast<T>(bits);
+    return in_.get<T>();
   }
   std::string text(const char* what) {
     const uint32_t n = get<uint32_t>(what);
     need(n, what);
-    std::string s(in_.substr(pos_, n));
-    pos_ += n;
-    return s;
+    return std::string(in_.take(n));
   }
   template <typename Matrix>
   Matrix row_major(const char* what) {
@@ -90,19 +93,15 @@ class Reader {
     for (int y = 0; y < rows; ++y) {
       float* row = mat.ptr<float>(y);
       if constexpr (kLittleEndian) {
-        std::memcpy(row, in_.data() + pos_, sizeof(float) * cols);
-        pos_ += sizeof(float) * cols;
+        const std::string_view raw = in_.take(sizeof(float) * cols);
+        std::memcpy(row, raw.data(), raw.size());
       } else {
-        for (int x = 0; x < cols; ++x) row[x] = get<float>(what);
+        for (int x = 0; x < cols; ++x) row[x] = in_.get<float>();
       }
     }
     return mat;
   }
-  size_t left() const { return in_.size() - pos_; }
-
-  [[noreturn]] static void fail(const std::string& what) {
-    throw std::runtime_error("not a depth map of this format: " + what);
-  }
+  size_t left() const { return in_.left(); }
 
  private:
   void need(size_t n, const char* what) const {
@@ -111,8 +110,7 @@ class Reader {
            " runs past the end of the map");
   }
 
-  std::string_view in_;
-  size_t pos_ = 0;
+  util::ByteReader in_;
 };
 
 constexpr std::array<uint32_t, 256> crc_table() {
@@ -171,67 +169,63 @@ std::string encode_depth_map(const SweptDepthMap& swept) {
   w.plane(map.score);
   w.plane(map.margin);
 
-  std::string& out = w.bytes();
-  const uint64_t size = out.size() + kChecksumBytes;
-  for (size_t i = 0; i < 8; ++i)
-    out[12 + i] = static_cast<char>((size >> (8 * i)) & 0xff);
-  w.put(depth_map_crc32(out));
-  return std::move(out);
+  util::ByteWriter& out = w.bytes();
+  out.put_at<uint64_t>(sizeof(kDepthMapMagic) + 4, out.size() + kChecksumBytes);
+  out.put(depth_map_crc32(out.bytes()));
+  return out.take();
 }
 
 SweptDepthMap decode_depth_map(std::string_view bytes) {
   if (bytes.size() < sizeof(kDepthMapMagic) ||
       std::memcmp(bytes.data(), kDepthMapMagic, sizeof(kDepthMapMagic)) != 0)
-    Reader::fail(bytes.size() < sizeof(kDepthMapMagic)
-                     ? "truncated: " + std::to_string(bytes.size()) +
-                           " bytes, shorter than the magic"
-                     : std::string("wrong magic (expected \"ARSDEPTH\")"));
+    fail(bytes.size() < sizeof(kDepthMapMagic)
+             ? "truncated: " + std::to_string(bytes.size()) +
+                   " bytes, shorter than the magic"
+             : std::string("wrong magic (expected \"ARSDEPTH\")"));
   Reader r(bytes.substr(sizeof(kDepthMapMagic)));
   if (bytes.size() < sizeof(kDepthMapMagic) + 4)
-    Reader::fail("truncated: " + std::to_string(bytes.size()) +
-                 " bytes, shorter than the header");
+    fail("truncated: " + std::to_string(bytes.size()) +
+         " bytes, shorter than the header");
   const uint32_t version = r.get<uint32_t>("version");
   if (version != 1 && version != kDepthMapFormatVersion)
-    Reader::fail("format version " + std::to_string(version) +
-                 ", this build reads versions 1 to " +
-                 std::to_string(kDepthMapFormatVersion));
+    fail("format version " + std::to_string(version) +
+         ", this build reads versions 1 to " +
+         std::to_string(kDepthMapFormatVersion));
   if (bytes.size() < kHeaderBytes)
-    Reader::fail("truncated: " + std::to_string(bytes.size()) +
-                 " bytes, shorter than the header");
+    fail("truncated: " + std::to_string(bytes.size()) +
+         " bytes, shorter than the header");
   const uint64_t size = r.get<uint64_t>("size");
   if (bytes.size() < size)
-    Reader::fail("truncated: " + std::to_string(bytes.size()) + " of " +
-                 std::to_string(size) + " bytes");
+    fail("truncated: " + std::to_string(bytes.size()) + " of " +
+         std::to_string(size) + " bytes");
   if (bytes.size() > size)
-    Reader::fail(std::to_string(bytes.size() - size) +
-                 " bytes after the end of the map");
+    fail(std::to_string(bytes.size() - size) +
+         " bytes after the end of the map");
   if (size < kHeaderBytes + kChecksumBytes)
-    Reader::fail("sizes inconsistent: a size of " + std::to_string(size) +
-                 " bytes");
+    fail("sizes inconsistent: a size of " + std::to_string(size) + " bytes");
   const std::string_view body = bytes.substr(0, size - kChecksumBytes);
   Reader tail(bytes.substr(body.size()));
   if (tail.get<uint32_t>("checksum") != depth_map_crc32(body))
-    Reader::fail("checksum mismatch (the bytes are damaged)");
+    fail("checksum mismatch (the bytes are damaged)");
 
   Reader b(body.substr(kHeaderBytes));
   SweptDepthMap swept;
   DepthMap& map = swept.map;
   swept.sequence = b.get<uint64_t>("sequence");
   map.id = b.text("id");
-  if (map.id.empty()) Reader::fail("an empty id");
+  if (map.id.empty()) fail("an empty id");
   const uint32_t neighbours = b.get<uint32_t>("neighbour count");
   // Each neighbour takes at least its length: bounds the reservation.
   if (neighbours > b.left() / 4)
-    Reader::fail("sizes inconsistent: " + std::to_string(neighbours) +
-                 " neighbours");
+    fail("sizes inconsistent: " + std::to_string(neighbours) + " neighbours");
   swept.neighbours.reserve(neighbours);
   for (uint32_t i = 0; i < neighbours; ++i)
     swept.neighbours.push_back(b.text("a neighbour's id"));
   const uint32_t rows = b.get<uint32_t>("rows");
   const uint32_t cols = b.get<uint32_t>("cols");
   if (rows < 1 || cols < 1 || rows > kMaxSide || cols > kMaxSide)
-    Reader::fail("sizes inconsistent: " + std::to_string(cols) + " x " +
-                 std::to_string(rows) + " pixels");
+    fail("sizes inconsistent: " + std::to_string(cols) + " x " +
+         std::to_string(rows) + " pixels");
   map.K = b.row_major<Eigen::Matrix3d>("K");
   map.R = b.row_major<Eigen::Matrix3d>("R");
   map.t = b.row_major<Eigen::Vector3d>("t");
@@ -239,16 +233,14 @@ SweptDepthMap decode_depth_map(std::string_view bytes) {
     swept.sparse_depth_ratio = b.get<double>("sparse ratio");
     if (!std::isfinite(swept.sparse_depth_ratio) ||
         swept.sparse_depth_ratio < 0)
-      Reader::fail("a sparse ratio of " +
-                   std::to_string(swept.sparse_depth_ratio));
+      fail("a sparse ratio of " + std::to_string(swept.sparse_depth_ratio));
   }
   const uint64_t planes = 3 * sizeof(float) * uint64_t{rows} * cols;
   if (b.left() != planes)
-    Reader::fail("sizes inconsistent: " + std::to_string(cols) + " x " +
-                 std::to_string(rows) + " pixels need " +
-                 std::to_string(planes) +
-                 " bytes of depth, score and margin, " +
-                 std::to_string(b.left()) + " are there");
+    fail("sizes inconsistent: " + std::to_string(cols) + " x " +
+         std::to_string(rows) + " pixels need " + std::to_string(planes) +
+         " bytes of depth, score and margin, " + std::to_string(b.left()) +
+         " are there");
   map.depth = b.plane(rows, cols, "depth");
   map.score = b.plane(rows, cols, "score");
   map.margin = b.plane(rows, cols, "margin");

@@ -16,7 +16,7 @@
 #include <Eigen/Dense>
 #include <opencv2/core.hpp>
 
-#include "arscout/engine/dense.h"
+#include "dense/consistency.h"
 
 namespace arscout::engine {
 

@@ -1,4 +1,4 @@
-#include "view_coverage.h"
+#include "dense/view_coverage.h"
 
 #include <cmath>
 

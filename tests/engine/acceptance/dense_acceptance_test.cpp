@@ -20,6 +20,7 @@
 #include "arscout/engine/model_io.h"
 #include "arscout/engine/ply.h"
 #include "arscout/engine/point_render.h"
+#include "dense/consistency.h"
 #include "run_cli.h"
 #include "test_stores.h"
 #include "tool_process.h"

@@ -12,27 +12,13 @@
 #include <optional>
 #include <string>
 
+#include "arscout/documents/camera.h"
+
 namespace arscout::engine {
 
-struct CameraIntrinsics {
-  int width = 0;  // of the original photo, pixels
-  int height = 0;
-  double fx = 0;
-  double fy = 0;
-  double cx = 0;
-  double cy = 0;
-  double k1 = 0;
-  double k2 = 0;
-  double p1 = 0;
-  double p2 = 0;
-  double k3 = 0;
-  // "calibrated", "exif" or "estimated": how far to trust the numbers.
-  std::string source = "calibrated";
-
-  bool has_distortion() const {
-    return k1 != 0 || k2 != 0 || p1 != 0 || p2 != 0 || k3 != 0;
-  }
-};
+// The camera document's form (documents/camera.h): one struct for the
+// camera the API stores, the engine refines and the model publishes.
+using CameraIntrinsics = documents::Camera;
 
 // "" when usable, else what is wrong (sizes, focal lengths, principal point
 // outside the image, non-finite numbers).

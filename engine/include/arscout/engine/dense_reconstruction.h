@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "arscout/engine/dense.h"
+#include "arscout/engine/ply.h"
 #include "arscout/engine/reconstruction.h"
 
 namespace arscout::engine {

@@ -48,8 +48,8 @@ struct TokenInfo {
   std::string created;  // RFC 3339 UTC
   std::string expires;  // RFC 3339 UTC, or "" for never
   std::string revoked;  // RFC 3339 UTC, or "" while not revoked
-  // "active", "revoked" or "expired" at `now_s`.
-  std::string state(std::int64_t now_s) const;
+  // "active", "revoked" or "expired" at `at_s`.
+  std::string state(std::int64_t at_s) const;
 };
 
 // Every token, revoked and expired ones included, oldest first.

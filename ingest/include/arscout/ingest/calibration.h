@@ -15,43 +15,16 @@
 
 #include <nlohmann/json.hpp>
 
+#include "arscout/documents/camera.h"
+
 namespace arscout::ingest {
 
 using Json = nlohmann::json;
 
-// Intrinsics in pixels of one camera at one image size. Pixel centres are at
-// integer coordinates (OpenCV's convention), so cx = (width - 1) / 2 is the
-// exact centre.
-struct CameraCalibration {
-  int width = 0;
-  int height = 0;
-  double fx = 0;
-  double fy = 0;
-  double cx = 0;
-  double cy = 0;
-  // Brown-Conrady coefficients in OpenCV's order.
-  double k1 = 0;
-  double k2 = 0;
-  double p1 = 0;
-  double p2 = 0;
-  double k3 = 0;
-  std::string source = "calibrated";  // calibrated | exif | estimated
-  double rms_px = 0;    // RMS reprojection error of the fit, pixels
-  int images_used = 0;  // views with the board found
-};
-
-// The camera document's attributes: {"fx", "fy", "cx", "cy", "width",
-// "height", "distortion": [k1, k2, p1, p2, k3], "source", "rms_px",
-// "images_used"}.
-Json to_json(const CameraCalibration& calibration);
-
-// Checks a camera document's attributes; "" when valid, else a message that
-// names the first bad field. Required: fx, fy (positive finite), width,
-// height (positive whole numbers), cx, cy (inside the image: 0 <= cx <=
-// width, 0 <= cy <= height), source (calibrated, exif or estimated).
-// Optional: distortion (an array of 0 to 8 finite numbers), rms_px (finite,
-// >= 0), images_used (a whole number >= 0). Other fields are allowed.
-std::string validate_camera_json(const Json& camera);
+// The result of a calibration is a camera document's form,
+// documents::Camera (with rms_px and images_used set); documents::to_json
+// writes it and documents::validate_camera checks one sent to the API.
+using CameraCalibration = documents::Camera;
 
 // Inner corners of a chessboard: a board of 10 x 7 squares has 9 x 6.
 struct BoardSize {

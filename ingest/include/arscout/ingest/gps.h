@@ -11,33 +11,19 @@
 
 #include <nlohmann/json.hpp>
 
+#include "arscout/documents/gps.h"
+#include "arscout/util/time.h"
+
 namespace arscout::ingest {
 
 using Json = nlohmann::json;
 
-// One fix, WGS84. Accuracies are 1-sigma metres as the receiver reports
-// them; `time` is RFC 3339 UTC or empty; `source` says where it came from:
-// "request", "exif", "csv", "gpx".
-struct GpsFix {
-  double lat = 0;
-  double lon = 0;
-  std::optional<double> alt;  // ellipsoidal height, metres
-  std::optional<double> h_acc;
-  std::optional<double> v_acc;
-  std::optional<int> satellites;
-  std::string time;
-  std::string source;
-};
-
-// {"lat", "lon", "alt"?, "h_acc"?, "v_acc"?, "satellites"?, "time"?,
-//  "source"?}: the form stored in capture documents (attrs.gps).
-Json to_json(const GpsFix& fix);
-// Parses and validates that form (source is left as given). Returns nullopt
-// and sets *error naming the field when it is invalid: lat/lon missing or
-// out of range, NaN/infinite values, negative accuracies or satellites.
-std::optional<GpsFix> gps_from_json(const Json& j, std::string* error);
-// The same checks on a fix built in code ("" when valid).
-std::string validate_gps(const GpsFix& fix);
+// The fix form stored in capture documents (attrs.gps) is
+// documents::GpsFix, with its one JSON writer and reader.
+using documents::gps_from_json;
+using documents::GpsFix;
+using documents::to_json;
+using documents::validate_gps;
 
 // What the EXIF of a JPEG (or PNG with an eXIf chunk) says, as far as it
 // says it. Never throws on bad metadata: fields stay empty.
@@ -65,7 +51,10 @@ std::map<std::string, GpsFix> read_gps_csv(const std::string& path);
 // A GPX 1.0/1.1 track (trkpt with lat/lon, ele, time, hdop, sat), sorted by
 // time. h_acc (v_acc) is 5 m times hdop (vdop). Points without a time are
 // skipped; throws std::runtime_error naming the line of a malformed point,
-// or when no point has a time.
+// or when no point has a time. Read as XML (expat), from an untrusted
+// source: also throws for XML that is not well-formed, a DOCTYPE that
+// declares entities, or a file over 256 MiB. A file cut off between points
+// (a logger that lost power) keeps its complete points.
 struct TrackPoint {
   std::int64_t time_s = 0;  // seconds since the Unix epoch, UTC
   GpsFix fix;
@@ -76,11 +65,9 @@ std::vector<TrackPoint> read_gpx(const std::string& path);
 std::optional<GpsFix> fix_at(const std::vector<TrackPoint>& track,
                              std::int64_t time_s, std::int64_t max_gap_s = 60);
 
-// Seconds since the Unix epoch of "YYYY-MM-DDTHH:MM:SS[.fff][Z|+hh:mm|-hh:mm]"
-// (RFC 3339; fractions are dropped). A time without an offset, such as
-// ExifInfo::taken, is read as UTC. nullopt when malformed or out of range.
-std::optional<std::int64_t> parse_time_utc(std::string_view text);
-// "YYYY-MM-DDTHH:MM:SSZ".
-std::string format_time_utc(std::int64_t time_s);
+// RFC 3339 times (util/time.h), as the GPS readers and capture documents
+// write them.
+using util::format_time_utc;
+using util::parse_time_utc;
 
 }  // namespace arscout::ingest

@@ -1,5 +1,5 @@
 // Plain HTTP request and response values. The API handlers see only these,
-// so only beast_server.cpp compiles Boost.Beast; routes added by other
+// so only beast_session.cpp compiles Boost.Beast; routes added by other
 // libraries (ServerOptions::routes) see them too.
 #pragma once
 
@@ -11,6 +11,8 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "arscout/db/errors.h"
 
 namespace arscout::ingest {
 
@@ -56,5 +58,14 @@ struct ParsedTarget {
   std::map<std::string, std::string> query;
 };
 std::optional<ParsedTarget> parse_target(const std::string& target);
+
+// The one mapping of store errors to HTTP (docs/api.md), for the built-in
+// routes and those other libraries add: invalid_path and invalid_json 400,
+// not_found and unknown_blob 404, conflict 409, too_large 413,
+// invalid_document and invalid_argument 422, unavailable 503, internal 500.
+int http_status(db::ErrorCode code);
+// That status with {"error": the code's name, "message": e.what()}, and
+// "current_version" for a conflict.
+HttpResponse error_response(const db::StoreError& e);
 
 }  // namespace arscout::ingest

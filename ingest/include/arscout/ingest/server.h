@@ -6,7 +6,9 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "arscout/db/store.h"
@@ -15,13 +17,41 @@
 
 namespace arscout::ingest {
 
-// A read-only resource added to the v1 API by another library (the
-// viewer's overlays, thumbnails and exports), so ingest need not link it.
-// It is asked after the built-in routes' authentication: every request it
-// sees carries a valid token (any role). It runs on the handler pool.
+// A route of the v1 API: ingest's own (api.cpp) and those other libraries
+// add (the viewer's overlays, thumbnails and exports), so ingest need not
+// link them. A request whose path no route matches is 404. The first
+// matching route owns the path, together with the routes right after it
+// that have the same pattern (ingest's documents: one route to read, one
+// to write); a method none of them takes is 405 with Allow. A request
+// without a valid token is 401, a role below the route's 403; the handler
+// runs on the handler pool, and a db::StoreError it throws is answered
+// with error_response (http_types.h).
 struct ApiRoute {
-  std::string name;  // for metrics, e.g. "GET /v1/sites/*/export"
+  ApiRoute() = default;
+  // A route found by `matches` alone, for any method and any valid token.
+  ApiRoute(
+      std::string name, std::function<bool(const HttpRequest&)> matches,
+      std::function<HttpResponse(const HttpRequest&, const Principal&)> handle)
+      : name(std::move(name)),
+        matches(std::move(matches)),
+        handle(std::move(handle)) {}
+
+  // For metrics, e.g. "GET /v1/sites/*/export"; empty: the request's method
+  // and the pattern, "PUT /v1/cameras/*".
+  std::string name;
+  // The methods it answers; empty: any (the handler answers 405 itself).
+  std::vector<std::string> methods;
+  // The path: literal segments, "*" for one non-empty segment, and a last
+  // "*" for the rest of the path, '/' included, even none:
+  // "/v1/blobs/*" matches "/v1/blobs/" and "/v1/blobs/a/b".
+  std::string pattern;
+  // Decides instead where `pattern` is empty.
   std::function<bool(const HttpRequest&)> matches;
+  // The least role that may call it (planner < scout < admin), or nullopt
+  // for no token at all (only /healthz and /metrics, which then get an
+  // anonymous planner as principal).
+  std::optional<Role> min_role = Role::kPlanner;
+  std::string forbidden;  // the 403's message for a lesser role
   std::function<HttpResponse(const HttpRequest&, const Principal&)> handle;
 };
 
@@ -62,7 +92,8 @@ struct ServerOptions {
   // A request body must arrive at this many bytes per second or more,
   // over every 10 s (408 and closed otherwise); 0: no minimum.
   std::size_t min_body_rate = 1024;
-  // Checked in order, before the built-in /v1 routes.
+  // Checked in order, before the built-in /v1 routes (a viewer route under
+  // /v1/captures/ wins over DELETE /v1/captures/{id}).
   std::vector<ApiRoute> routes;
   // The longest matching prefix wins; /v1/, /healthz and /metrics never
   // reach them.

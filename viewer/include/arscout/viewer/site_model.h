@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "arscout/db/store.h"
+#include "arscout/documents/model.h"
 #include "arscout/engine/camera.h"
 #include "arscout/engine/ply.h"
 #include "arscout/engine/reconstruction.h"
@@ -29,7 +30,8 @@ struct SiteModel {
   std::int64_t version = 0;     // the model version (the document's version)
   std::int64_t updated_us = 0;  // when it was committed (Unix microseconds)
   Json attrs;                   // the document's attributes
-  std::string sparse_blob;      // SHA-256 of the sparse PLY ("" if none)
+  documents::ModelDocument document;  // the same, read (documents/model.h)
+  std::string sparse_blob;            // SHA-256 of the sparse PLY ("" if none)
   // SHA-256 of each PLY that holds the dense cloud: its tiles (none before
   // the first dense phase; engine::dense_cloud_blobs).
   std::vector<std::string> dense_blobs;
@@ -37,7 +39,7 @@ struct SiteModel {
 
 // Throws db::StoreError kNotFound ("site S has no model yet") when there is
 // no model document, kInvalidArgument for a site id that is not a path
-// segment.
+// segment, kInternal when the document does not hold the model form.
 SiteModel load_site_model(db::Store& store, const std::string& site);
 
 // The full model (keypoints and tracks included), restored from the

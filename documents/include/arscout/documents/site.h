@@ -1,0 +1,46 @@
+// The site form: the attributes of /sites/{id} (docs/service.md), written
+// by the engine service when it places captures and commits a model.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+namespace arscout::documents {
+
+// A point on the WGS84 ellipsoid: degrees, and metres of ellipsoidal height.
+struct GeoPoint {
+  double lat = 0;
+  double lon = 0;
+  double alt = 0;
+};
+
+struct Site {
+  std::string name;
+  double radius_m = 0;  // captures within it of the centre join the site
+  int fixes = 0;        // GPS fixes averaged into the centre
+  double extent_m = 0;  // the farthest fix from the centre
+  std::vector<std::string> captures;
+  std::optional<GeoPoint> centre;  // none before the first fix
+  // Of the last model the engine committed.
+  int registered = 0;
+  std::int64_t model_version = 0;
+  std::string state;   // "waiting" (no model yet) or "modelled"
+  std::string engine;  // the worker that committed it
+};
+
+// {"name", "radius", "fixes", "extent_m", "captures", "capture_count",
+//  "gps": {"lat", "lon", "alt"} (with a centre), "registered",
+//  "model_version", "state", "engine"}.
+nlohmann::json to_json(const Site& site);
+
+// Reads what a site document holds (lenient, like capture_from_json: a
+// missing field reads as its default; "name" defaults to `id`). Throws
+// DocumentError when `attrs` is not an object or "captures" is not a list
+// of strings: the engine places captures by that list.
+Site site_from_json(const nlohmann::json& attrs, const std::string& id);
+
+}  // namespace arscout::documents

@@ -1,0 +1,792 @@
+// EngineWorker: the feed subscription places captures in sites (on the
+// subscription's thread); a small pool runs the sites' increments, one at a
+// time per site, each folding in everything queued for its site meanwhile.
+//
+// A site's dense phase runs in a lane of its own (its own threads, at a
+// lower CPU priority), beside the site's next sparse phases: a photo's
+// registration never waits for a depth map. The lanes take turns only to
+// publish (SiteJob::publication). Deterministic runs keep the dense phase
+// inline, after the sparse phase, so that what it sweeps never depends on
+// timing.
+//
+// The checkpoint: every change up to the last one placed is either done or
+// queued; queued changes are "in flight" until the increment holding them
+// commits. A commit saves, in its own batch, the position just below the
+// oldest change still in flight, so a crash never skips work (it may redo
+// some: delivery is at least once, and the restored state skips what it
+// already holds).
+//
+// Sites are reconstructed only while this worker holds their lease (see
+// site_leases.h). Work for a site it does not hold is "deferred": it stays
+// in flight, holding the checkpoint back, until the heartbeat either claims
+// the site (the work then runs here) or sees the holder's committed state
+// pass it (attrs.through_seq of the site's engine document).
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <thread>
+
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
+
+#include "arscout/db/path.h"
+#include "arscout/db/store.h"
+#include "arscout/documents/capture.h"
+#include "arscout/engine/service.h"
+#include "capture_document.h"
+#include "site_directory.h"
+#include "site_job.h"
+#include "site_leases.h"
+#include "worker_metrics.h"
+
+namespace arscout::engine {
+
+using service::PhaseClocks;
+using service::Work;
+
+namespace {
+// The dense lanes yield the CPU to the sparse ones, whose latency a scout
+// waits on (a nice value, per thread on Linux; elsewhere nothing).
+void lower_thread_priority() {
+#ifdef __linux__
+  constexpr int kDenseNice = 10;
+  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kDenseNice);
+#endif
+}
+}  // namespace
+
+struct EngineWorker::Impl {
+  Impl(db::Store& s, WorkerOptions o)
+      : store(s),
+        options(std::move(o)),
+        directory(options.site_radius_m),
+        leases(store, options.name, options.lease_ttl) {}
+
+  struct SiteQueue {
+    // Shared by the lanes: a lane keeps it alive while it runs.
+    std::shared_ptr<service::SiteJob> job;
+    std::deque<Work> pending;
+    std::deque<Work> deferred;   // while another worker holds the site
+    bool dense_retry = false;    // a dense phase failed: run one again
+    bool refine_wanted = false;  // a refinement waits for the dense lane
+    bool running = false;        // its sparse lane
+    bool ready = false;
+    bool dense_running = false;  // its dense lane
+    bool dense_queued = false;
+    bool dense_turn = false;  // the dense lane waits for publication()
+  };
+
+  db::Store& store;
+  const WorkerOptions options;
+  service::SiteDirectory directory;
+  service::SiteLeases leases;  // used by the heartbeat thread only
+
+  mutable std::mutex mutex;
+  std::condition_variable changed;
+  std::map<std::string, SiteQueue> sites;
+  std::deque<std::string> ready;
+  std::deque<std::string> dense_ready;
+  std::multiset<std::int64_t> in_flight;
+  std::int64_t last_placed = 0;  // every change <= it is done or in flight
+  std::int64_t saved_checkpoint = 0;
+  bool stopping = false;
+  std::set<std::string> held;  // sites whose lease this worker holds
+  bool claim_wanted = false;   // work was deferred since the last beat
+  std::condition_variable beat_cv;
+  WorkerStats stats;
+  PhaseClocks phases;  // thread-safe on its own
+  std::unique_ptr<db::Subscription> subscription;
+  std::vector<std::thread> threads;
+
+  void log(const std::string& line) const {
+    if (options.progress) options.progress(line);
+  }
+
+  // --- placing (subscription thread) -----------------------------------
+  void on_change(const db::Change& change) {
+    {
+      std::lock_guard lock(mutex);
+      ++stats.changes_seen;
+    }
+    std::optional<std::pair<std::string, Work>> queued;
+    // Placing reads the store; while it fails (a restarting database) the
+    // feed waits here, in order, rather than skipping the change.
+    for (int attempt = 1;; ++attempt) {
+      try {
+        queued = place(change);
+        break;
+      } catch (const std::exception& e) {
+        log("placing seq " + std::to_string(change.seq) + " failed (attempt " +
+            std::to_string(attempt) + "), retrying: " + e.what());
+        std::unique_lock lock(mutex);
+        if (changed.wait_for(lock, std::chrono::seconds(1),
+                             [&] { return stopping; }))
+          return;
+      }
+    }
+    std::lock_guard lock(mutex);
+    if (queued) {
+      SiteQueue& q = sites[queued->first];
+      in_flight.insert(change.seq);
+      if (held.count(queued->first)) {
+        q.pending.push_back(queued->second);
+        make_ready(queued->first, q);
+      } else {
+        q.deferred.push_back(queued->second);
+        claim_wanted = true;
+        beat_cv.notify_all();
+      }
+    }
+    last_placed = std::max(last_placed, change.seq);
+    changed.notify_all();
+  }
+
+  // The work a capture change asks for, and its site; nullopt for changes
+  // that need none (the engine's own status updates among them).
+  std::optional<std::pair<std::string, Work>> place(const db::Change& change) {
+    // Its own status updates need no work.
+    if (change.op == db::OpType::kDelete || change.author == options.name)
+      return std::nullopt;
+    auto doc = store.get(change.path);
+    if (!doc || doc->kind != "capture") return std::nullopt;
+    const std::string id(db::leaf_name(change.path));
+    const documents::Capture capture = documents::capture_from_json(doc->attrs);
+    if (capture.status == documents::kStatusWithdrawn) {
+      auto site = directory.site_of(id);
+      if (!site) return std::nullopt;
+      return std::make_pair(*site, Work{Work::Kind::kWithdraw, id, change.seq});
+    }
+    if (capture.status != documents::kStatusStored &&
+        capture.status != documents::kStatusNeedsGps)
+      return std::nullopt;
+    // The engine patches `site` in the batch that commits the capture into
+    // its site's state: a capture carrying it (a photo still waiting for
+    // neighbours, as another worker published it) needs nothing more.
+    if (!capture.site.empty() && directory.site_of(id) == capture.site)
+      return std::nullopt;
+    // A capture placed before (the change seen again after a restart) goes
+    // to its site again: the site's state says whether it was processed.
+    auto site =
+        directory.place(id, service::geo_fix(capture.gps), capture.site_hint);
+    if (!site) {
+      store.batch({db::WriteOp::patch(
+          change.path,
+          documents::status_patch(documents::kStatusRejected,
+                                  "no GPS fix and no site hint: the engine "
+                                  "cannot tell which site it shows"))});
+      log("capture " + id + ": rejected (no GPS fix, no site hint)");
+      return std::nullopt;
+    }
+    {
+      std::lock_guard lock(mutex);
+      ++stats.captures_placed;
+    }
+    log("capture " + id + " -> site " + *site);
+    return std::make_pair(*site, Work{Work::Kind::kAdd, id, change.seq});
+  }
+
+  void make_ready(const std::string& site, SiteQueue& q) {
+    if (q.running || q.ready ||
+        (q.pending.empty() && !q.dense_retry && !q.refine_wanted))
+      return;
+    q.ready = true;
+    ready.push_back(site);
+  }
+
+  // --- increments (pool threads) -----------------------------------------
+  void run_sites() {
+    std::unique_lock lock(mutex);
+    while (true) {
+      changed.wait_for(lock, std::chrono::seconds(1),
+                       [&] { return stopping || !ready.empty(); });
+      if (stopping) return;
+      if (ready.empty()) {
+        save_idle_checkpoint(lock);
+        continue;
+      }
+      const std::string site = ready.front();
+      ready.pop_front();
+      SiteQueue& q = sites[site];
+      q.ready = false;
+      if (!held.count(site)) {
+        defer(q);
+        continue;
+      }
+      q.running = true;
+      const bool retry_dense = q.dense_retry;
+      q.dense_retry = q.refine_wanted = false;
+      // Deterministic runs take one capture per increment: folding
+      // whatever arrived meanwhile depends on timing, and so would the
+      // dense phase's choice of views.
+      const auto take = options.reconstruction.deterministic
+                            ? std::min<std::ptrdiff_t>(1, q.pending.size())
+                            : static_cast<std::ptrdiff_t>(q.pending.size());
+      std::vector<Work> work(q.pending.begin(), q.pending.begin() + take);
+      q.pending.erase(q.pending.begin(), q.pending.begin() + take);
+      if (!q.job)
+        q.job = std::make_shared<service::SiteJob>(site, store, options);
+      const std::shared_ptr<service::SiteJob> held_job = q.job;
+      service::SiteJob& job = *held_job;
+      // A dense phase waiting to publish goes first: the lanes take turns.
+      changed.wait(lock, [&] { return stopping || !q.dense_turn; });
+      bool ok = true;  // nothing to add: a refinement that gave way resumes
+      if (!work.empty() || retry_dense) {
+        lock.unlock();
+        ok = run_increment(site, job, work, lock);  // returns locked
+      }
+      if (ok && held.count(site) &&
+          (q.pending.empty() || options.reconstruction.deterministic))
+        run_refinement(site, job, q, lock);
+      q.running = false;
+      if (!ok) {
+        q.pending.insert(q.pending.begin(), work.begin(), work.end());
+      }
+      if (!ok || q.dense_retry) {
+        // After a pause: the store may be briefly unavailable (a
+        // restarting server).
+        lock.unlock();
+        std::this_thread::sleep_for(std::chrono::seconds(1));
+        lock.lock();
+      }
+      if (held.count(site)) {
+        make_ready(site, q);
+      } else {
+        defer(q);
+        q.job.reset();
+      }
+      changed.notify_all();
+    }
+  }
+
+  // --- leases (heartbeat thread) ------------------------------------------
+  // Moves a site's queued work aside: another worker holds the site.
+  static void defer(SiteQueue& q) {
+    q.deferred.insert(q.deferred.end(), q.pending.begin(), q.pending.end());
+    q.pending.clear();
+    std::sort(q.deferred.begin(), q.deferred.end(),
+              [](const Work& a, const Work& b) { return a.seq < b.seq; });
+  }
+
+  // The site became this worker's: its deferred work runs here.
+  void gain(const std::string& site) {
+    SiteQueue& q = sites[site];
+    q.pending.insert(q.pending.end(), q.deferred.begin(), q.deferred.end());
+    q.deferred.clear();
+    std::sort(q.pending.begin(), q.pending.end(),
+              [](const Work& a, const Work& b) { return a.seq < b.seq; });
+    make_ready(site, q);
+    changed.notify_all();
+  }
+
+  void lose(const std::string& site) {
+    log("site " + site + ": lease lost to another worker");
+    SiteQueue& q = sites[site];
+    defer(q);
+    // A running one is dropped when done.
+    if (!q.running && !q.dense_running) q.job.reset();
+  }
+
+  // Work another worker has committed needs nothing more from this one.
+  void settle(const std::string& site, std::int64_t through_seq) {
+    SiteQueue& q = sites[site];
+    while (!q.deferred.empty() && q.deferred.front().seq <= through_seq) {
+      in_flight.erase(in_flight.find(q.deferred.front().seq));
+      q.deferred.pop_front();
+    }
+    changed.notify_all();
+  }
+
+  void renew_leases() {
+    const std::set<std::string> now_held = leases.renew();
+    std::lock_guard lock(mutex);
+    for (const std::string& site : held)
+      if (!now_held.count(site)) lose(site);
+    // Held before this process started (a restart under the same name).
+    for (const std::string& site : now_held)
+      if (!held.count(site)) gain(site);
+    held = now_held;
+    stats.sites_held = static_cast<std::int64_t>(held.size());
+  }
+
+  // Claims the sites with deferred work, within this worker's share; for
+  // the others, settles what their holders have committed.
+  void claim_sites() {
+    std::vector<std::string> wanted;
+    std::size_t held_count = 0;
+    {
+      std::lock_guard lock(mutex);
+      claim_wanted = false;
+      for (const auto& [id, q] : sites)
+        if (!q.deferred.empty() && !held.count(id)) wanted.push_back(id);
+      held_count = held.size();
+    }
+    if (wanted.empty()) return;
+    const std::set<std::string> taken =
+        leases.claim(wanted, directory.sites().size(), held_count);
+    std::map<std::string, std::int64_t> settled;
+    for (const std::string& site : wanted)
+      if (!taken.count(site)) settled[site] = leases.settled_through(site);
+    std::lock_guard lock(mutex);
+    for (const std::string& site : taken) {
+      log("site " + site + ": lease taken");
+      held.insert(site);
+      gain(site);
+    }
+    for (const auto& [site, through] : settled) settle(site, through);
+    stats.sites_held = static_cast<std::int64_t>(held.size());
+    stats.sites_taken += static_cast<std::int64_t>(taken.size());
+  }
+
+  void heartbeat() {
+    const auto period =
+        std::max(options.lease_ttl / 3, std::chrono::milliseconds(10));
+    auto next_renewal = std::chrono::steady_clock::now() + period;
+    std::unique_lock lock(mutex);
+    while (!stopping) {
+      beat_cv.wait_until(lock, next_renewal,
+                         [&] { return stopping || claim_wanted; });
+      if (stopping) return;
+      const bool renew = std::chrono::steady_clock::now() >= next_renewal;
+      lock.unlock();
+      try {
+        if (renew) renew_leases();
+        claim_sites();
+      } catch (const std::exception& e) {
+        log(std::string("lease heartbeat failed, retrying: ") + e.what());
+      }
+      if (renew) next_renewal = std::chrono::steady_clock::now() + period;
+      lock.lock();
+    }
+  }
+
+  // Runs one increment of a site: the sparse phase, committed with the
+  // checkpoint, then starts the dense phase (a further model version).
+  // Returns false, with the lock held, when the sparse phase failed.
+  bool run_increment(const std::string& site, service::SiteJob& job,
+                     const std::vector<Work>& work,
+                     std::unique_lock<std::mutex>& lock) {
+    bool dense_due = false;
+    try {
+      std::unique_lock publication(job.publication());
+      service::Increment increment = timed([&] { return job.run(work); });
+      phases.sparse.observe(increment.seconds);
+      lock.lock();
+      std::multiset<std::int64_t> others = in_flight;
+      for (const Work& w : work) others.erase(others.find(w.seq));
+      const std::int64_t checkpoint =
+          others.empty() ? last_placed : *others.begin() - 1;
+      lock.unlock();
+      commit(site, job, increment, checkpoint);
+      dense_due = job.dense_due();
+      publication.unlock();
+      lock.lock();
+      for (const Work& w : work) in_flight.erase(in_flight.find(w.seq));
+      saved_checkpoint = std::max(saved_checkpoint, checkpoint);
+      stats.checkpoint = saved_checkpoint;
+      stats.increments += increment.model_written ? 1 : 0;
+    } catch (const std::exception& e) {
+      if (lock.owns_lock()) lock.unlock();
+      reset(job);
+      log("site " + site + ": increment failed, will retry: " + e.what());
+      lock.lock();
+      ++stats.failures;
+      return false;
+    }
+    if (dense_due) start_dense(site, job, lock);
+    return true;
+  }
+
+  // Forgets a job's state after a failure (its next phase restores it).
+  static void reset(service::SiteJob& job) {
+    std::lock_guard publication(job.publication());
+    job.reset();
+  }
+
+  bool dense_lanes() const {
+    return options.dense && !options.reconstruction.deterministic;
+  }
+
+  // A due dense phase: queued for the site's dense lane, or (deterministic
+  // runs) run here. Called and returns with the lock held.
+  void start_dense(const std::string& site, service::SiteJob& job,
+                   std::unique_lock<std::mutex>& lock) {
+    if (!dense_lanes()) {
+      run_dense_inline(site, job, lock);
+      return;
+    }
+    SiteQueue& q = sites[site];
+    if (q.dense_running || q.dense_queued) return;
+    q.dense_queued = true;
+    dense_ready.push_back(site);
+    changed.notify_all();
+  }
+
+  // The dense phase in the sparse lane, committed as a further model
+  // version. Called and returns with the lock held.
+  void run_dense_inline(const std::string& site, service::SiteJob& job,
+                        std::unique_lock<std::mutex>& lock) {
+    lock.unlock();
+    try {
+      std::lock_guard publication(job.publication());
+      service::Increment dense = timed([&] { return job.run_dense(); });
+      phases.dense.observe(dense.seconds);
+      if (!dense.ops.empty()) commit(site, job, dense, std::nullopt);
+      lock.lock();
+      stats.increments += dense.model_written ? 1 : 0;
+    } catch (const std::exception& e) {
+      dense_failed(site, job, lock, e);
+    }
+  }
+
+  // The sparse phase stands; the engine state says the dense cloud is
+  // behind, so the site's next increment (or a restart) catches up.
+  // Returns with the lock held.
+  void dense_failed(const std::string& site, service::SiteJob& job,
+                    std::unique_lock<std::mutex>& lock,
+                    const std::exception& e) {
+    if (lock.owns_lock()) lock.unlock();
+    reset(job);
+    log("site " + site + ": dense phase failed, will catch up: " + e.what());
+    lock.lock();
+    sites[site].dense_retry = true;
+    ++stats.failures;
+  }
+
+  // --- dense lanes (their own threads) -------------------------------------
+  void run_dense_lanes() {
+    lower_thread_priority();
+    std::unique_lock lock(mutex);
+    while (true) {
+      changed.wait(lock, [&] { return stopping || !dense_ready.empty(); });
+      if (stopping) return;
+      const std::string site = dense_ready.front();
+      dense_ready.pop_front();
+      SiteQueue& q = sites[site];
+      q.dense_queued = false;
+      if (!held.count(site) || !q.job) continue;
+      const std::shared_ptr<service::SiteJob> job = q.job;
+      q.dense_running = true;
+      lock.unlock();
+      DenseLaneEnd end;
+      try {
+        end = run_dense_lane(site, q, *job);
+        lock.lock();
+      } catch (const std::exception& e) {
+        dense_failed(site, *job, lock, e);
+      }
+      q.dense_running = q.dense_turn = false;
+      if (end.dense_due) start_dense(site, *job, lock);
+      // A refinement that gave way to this lane resumes, unless work came.
+      q.refine_wanted = end.refinement_due && q.pending.empty();
+      if (q.dense_retry || q.refine_wanted) make_ready(site, q);
+      changed.notify_all();
+    }
+  }
+
+  // What is due when a dense lane ends: another dense phase (the model
+  // changed meanwhile), the refinement (it gave way to this lane).
+  struct DenseLaneEnd {
+    bool dense_due = false;
+    bool refinement_due = false;
+  };
+
+  // One dense phase of the site, its sweeping beside the sparse lane.
+  DenseLaneEnd run_dense_lane(const std::string& site, SiteQueue& q,
+                              service::SiteJob& job) {
+    const auto start = std::chrono::steady_clock::now();
+    std::optional<service::DenseTask> task;
+    {
+      set_dense_turn(q, true);
+      std::lock_guard publication(job.publication());
+      set_dense_turn(q, false);
+      task = job.begin_dense();
+    }
+    if (!task) return {};
+    // OpenCV's shared pool runs at full priority, and while a sweep holds
+    // it the sparse lane's own parallel calls (SIFT) run serially: the
+    // sweep takes the pool only while the sparse lane is idle, asked again
+    // every quarter sweep or so (a photo may arrive at any moment).
+    task->parallel = [this, &q] {
+      std::lock_guard guard(mutex);
+      return !q.running && q.pending.empty();
+    };
+    job.compute_dense(*task);
+    set_dense_turn(q, true);  // a refinement gives way too
+    std::lock_guard publication(job.publication());
+    service::Increment dense = job.finish_dense(*task);
+    append_ready_time(dense, start);
+    phases.dense.observe(dense.seconds);
+    if (!dense.ops.empty()) commit(site, job, dense, std::nullopt);
+    std::lock_guard guard(mutex);
+    stats.increments += dense.model_written ? 1 : 0;
+    return {job.dense_due(), job.refinement_due()};
+  }
+
+  // The site's global refinement while it has no work waiting: it gives
+  // way (after the solver iteration under way) as soon as work arrives or
+  // the dense lane has work (dense_busy), and publishes what it reached as a
+  // model version. Deterministic runs let it finish, so that a replay
+  // gives the same models however fast it arrives. Called and returns with
+  // the lock held.
+  void run_refinement(const std::string& site, service::SiteJob& job,
+                      SiteQueue& q, std::unique_lock<std::mutex>& lock) {
+    const bool give_way = !options.reconstruction.deterministic;
+    lock.unlock();
+    bool dense_due = false;
+    try {
+      std::lock_guard publication(job.publication());
+      if (!job.refinement_due() || dense_busy(q)) {
+        lock.lock();
+        return;
+      }
+      service::Increment refined;
+      int written = 0;
+      // Registered waiting captures make the adjustment due: a
+      // deterministic run does it at once (the order must not depend on
+      // arrivals), the others after new work and the views' cloud.
+      do {
+        refined = timed([&] {
+          return job.run_refine([&] {
+            std::lock_guard guard(mutex);
+            return stopping ||
+                   (give_way && (!q.pending.empty() || dense_busy_locked(q)));
+          });
+        });
+        phases.refine.observe(refined.seconds);
+        if (!refined.ops.empty()) commit(site, job, refined, std::nullopt);
+        written += refined.model_written ? 1 : 0;
+      } while (refined.refine_again && !give_way);
+      dense_due = job.dense_due();
+      lock.lock();
+      stats.increments += written;
+      if (refined.refine_again && !dense_due) q.refine_wanted = true;
+    } catch (const std::exception& e) {
+      if (lock.owns_lock()) lock.unlock();
+      reset(job);
+      log("site " + site + ": refinement failed, will retry: " + e.what());
+      lock.lock();
+      return;
+    }
+    // The refined poses move the depth maps: the cloud follows them, unless
+    // work arrived (its increment's dense phase does it then).
+    if (dense_due && (!give_way || q.pending.empty()))
+      start_dense(site, job, lock);
+  }
+
+  // The dense lane asks for its turn at publication(): the sparse lane
+  // lets it go first (it would otherwise take the lock again at once).
+  void set_dense_turn(SiteQueue& q, bool waiting) {
+    std::lock_guard guard(mutex);
+    q.dense_turn = waiting;
+    if (!waiting) changed.notify_all();
+  }
+
+  // The site's dense lane has work (queued, sweeping, or waiting to
+  // publish). The refinement then waits: the new photos' cloud comes before
+  // the old photos' last millimetres, and every refined pose would only
+  // add maps to re-fuse. It resumes when the lane ends (refine_wanted).
+  bool dense_busy(const SiteQueue& q) {
+    std::lock_guard guard(mutex);
+    return dense_busy_locked(q);
+  }
+  static bool dense_busy_locked(const SiteQueue& q) {
+    return q.dense_turn || q.dense_running || q.dense_queued;
+  }
+
+  // Calls make() and appends its time to the increment's summary.
+  template <typename Make>
+  static service::Increment timed(Make make) {
+    const auto start = std::chrono::steady_clock::now();
+    service::Increment increment = make();
+    append_ready_time(increment, start);
+    return increment;
+  }
+
+  static void append_ready_time(service::Increment& increment,
+                                std::chrono::steady_clock::time_point start) {
+    increment.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+            .count();
+    increment.summary +=
+        ", ready in " +
+        std::to_string(static_cast<int>(increment.seconds * 1000)) + " ms";
+  }
+
+  // Commits an increment's writes with the site document (and the
+  // checkpoint, when given) in one batch, authored by this worker.
+  void commit(const std::string& site, service::SiteJob& job,
+              service::Increment& increment,
+              std::optional<std::int64_t> checkpoint) {
+    const auto info = directory.site(site);
+    documents::Site doc =
+        service::SiteDirectory::to_document(*info, directory.radius_m());
+    doc.registered = static_cast<int>(job.registered());
+    doc.model_version = job.model_version() + (increment.model_written ? 1 : 0);
+    doc.state = job.registered() > 0 ? "modelled" : "waiting";
+    doc.engine = options.name;
+    increment.ops.push_back(
+        db::WriteOp::put("/sites/" + site, "site", documents::to_json(doc)));
+    if (checkpoint)
+      increment.ops.push_back(db::WriteOp::put("/checkpoints/" + options.name,
+                                               "checkpoint",
+                                               db::Json{{"seq", *checkpoint}}));
+    for (db::WriteOp& op : increment.ops) op.author = options.name;
+    const auto start = std::chrono::steady_clock::now();
+    store.batch(increment.ops);
+    job.committed();
+    log(increment.summary + ", committed in " +
+        std::to_string(
+            static_cast<int>(std::chrono::duration<double, std::milli>(
+                                 std::chrono::steady_clock::now() - start)
+                                 .count())) +
+        " ms");
+  }
+
+  // With nothing in flight the feed position can move past changes that
+  // needed no work.
+  void save_idle_checkpoint(std::unique_lock<std::mutex>& lock) {
+    if (!in_flight.empty() || last_placed <= saved_checkpoint) return;
+    const std::int64_t seq = last_placed;
+    lock.unlock();
+    try {
+      db::WriteOp op = db::WriteOp::put("/checkpoints/" + options.name,
+                                        "checkpoint", db::Json{{"seq", seq}});
+      op.author = options.name;
+      store.batch({op});
+      lock.lock();
+      saved_checkpoint = std::max(saved_checkpoint, seq);
+      stats.checkpoint = saved_checkpoint;
+    } catch (const std::exception& e) {
+      log(std::string("checkpoint not saved: ") + e.what());
+      lock.lock();
+    }
+  }
+
+  // The seq of the last capture change committed so far.
+  std::int64_t last_capture_change() {
+    std::int64_t last = 0;
+    {
+      std::lock_guard lock(mutex);
+      last = last_placed;
+    }
+    const std::int64_t end = store.last_seq();
+    while (true) {
+      auto page = store.changes(last, "/captures/*", 1000);
+      if (page.empty()) break;
+      for (const db::Change& c : page)
+        if (c.seq <= end) last = c.seq;
+      if (page.back().seq >= end || page.size() < 1000) break;
+    }
+    return last;
+  }
+};
+
+EngineWorker::EngineWorker(db::Store& store, WorkerOptions options)
+    : impl_(std::make_unique<Impl>(store, std::move(options))) {}
+
+EngineWorker::~EngineWorker() { stop(); }
+
+void EngineWorker::start() {
+  Impl& w = *impl_;
+  std::map<std::string, db::Json> stored;
+  for (const db::Document& doc : w.store.list_children("/sites"))
+    if (doc.kind == "site")
+      stored[std::string(db::leaf_name(doc.path))] = doc.attrs;
+  w.directory.load(stored);
+  const std::int64_t since = w.store.load_checkpoint(w.options.name);
+  {
+    std::lock_guard lock(w.mutex);
+    w.last_placed = w.saved_checkpoint = w.stats.checkpoint = since;
+    w.stopping = false;
+    // A restarted worker begins afresh from the checkpoint.
+    w.sites.clear();
+    w.ready.clear();
+    w.dense_ready.clear();
+    w.in_flight.clear();
+    w.held.clear();
+  }
+  w.log("engine " + w.options.name + ": " + std::to_string(stored.size()) +
+        " sites, following /captures/* from seq " + std::to_string(since));
+  w.renew_leases();
+  w.threads.emplace_back([&w] { w.heartbeat(); });
+  for (int i = 0; i < std::max(1, w.options.site_threads); ++i) {
+    w.threads.emplace_back([&w] { w.run_sites(); });
+    if (w.dense_lanes()) w.threads.emplace_back([&w] { w.run_dense_lanes(); });
+  }
+  w.subscription = w.store.subscribe(
+      "/captures/*", since, [&w](const db::Change& c) { w.on_change(c); });
+}
+
+void EngineWorker::stop() {
+  Impl& w = *impl_;
+  if (w.subscription) {
+    w.subscription->stop();
+    w.subscription.reset();
+  }
+  {
+    std::lock_guard lock(w.mutex);
+    w.stopping = true;
+  }
+  w.changed.notify_all();
+  w.beat_cv.notify_all();
+  for (std::thread& t : w.threads) t.join();
+  const bool had_threads = !w.threads.empty();
+  w.threads.clear();
+  if (!had_threads) return;
+  // The sites go back at once, rather than when their leases expire.
+  try {
+    w.leases.release();
+  } catch (const std::exception& e) {
+    w.log(std::string("leases not released (they will expire): ") + e.what());
+  }
+  std::lock_guard lock(w.mutex);
+  for (auto& [id, q] : w.sites) {
+    w.defer(q);
+    q.job.reset();
+  }
+  w.held.clear();
+  w.stats.sites_held = 0;
+}
+
+bool EngineWorker::wait_idle(std::chrono::milliseconds timeout) {
+  Impl& w = *impl_;
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  const std::int64_t target = w.last_capture_change();
+  std::unique_lock lock(w.mutex);
+  return w.changed.wait_until(lock, deadline, [&] {
+    if (w.last_placed < target || !w.in_flight.empty()) return false;
+    for (const auto& [id, q] : w.sites)
+      if (q.running || !q.pending.empty() || q.dense_retry || q.dense_running ||
+          q.dense_queued || q.refine_wanted || q.ready)
+        return false;
+    return true;
+  });
+}
+
+WorkerStats EngineWorker::stats() const {
+  std::lock_guard lock(impl_->mutex);
+  WorkerStats s = impl_->stats;
+  s.sites = static_cast<std::int64_t>(impl_->sites.size());
+  // Every placed change is in flight until its increment commits.
+  s.captures_waiting = static_cast<std::int64_t>(impl_->in_flight.size());
+  return s;
+}
+
+std::string EngineWorker::metrics() const {
+  std::optional<std::int64_t> head;
+  try {
+    head = impl_->store.last_seq();
+  } catch (const std::exception&) {
+  }
+  return service::render_metrics(stats(), impl_->phases, head);
+}
+
+}  // namespace arscout::engine

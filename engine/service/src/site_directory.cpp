@@ -1,0 +1,129 @@
+#include "site_directory.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <limits>
+
+#include "arscout/util/geodesy.h"
+
+namespace arscout::engine::service {
+
+std::string SiteDirectory::sanitise(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    const bool ok = std::isalnum(static_cast<unsigned char>(c)) || c == '.' ||
+                    c == '_' || c == '-';
+    out += ok ? c : '_';
+  }
+  return out.substr(0, 120);
+}
+
+void SiteDirectory::load(const std::map<std::string, Json>& sites) {
+  std::lock_guard lock(mutex_);
+  for (const auto& [id, attrs] : sites) {
+    const documents::Site stored = documents::site_from_json(attrs, id);
+    Site site;
+    site.id = id;
+    site.name = stored.name;
+    if (stored.centre) {
+      site.lat = stored.centre->lat;
+      site.lon = stored.centre->lon;
+      site.alt = stored.centre->alt;
+    }
+    site.fixes = stored.fixes;
+    site.extent_m = stored.extent_m;
+    site.captures = stored.captures;
+    for (const std::string& capture : site.captures)
+      capture_site_[capture] = id;
+    sites_[id] = std::move(site);
+  }
+}
+
+std::optional<std::string> SiteDirectory::site_of(
+    const std::string& capture) const {
+  std::lock_guard lock(mutex_);
+  auto it = capture_site_.find(capture);
+  if (it == capture_site_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::optional<std::string> SiteDirectory::place(
+    const std::string& capture, const std::optional<GeoFix>& fix,
+    const std::string& hint) {
+  std::lock_guard lock(mutex_);
+  if (auto it = capture_site_.find(capture); it != capture_site_.end())
+    return it->second;
+  Site* chosen = nullptr;
+  if (fix) {
+    double best = std::numeric_limits<double>::infinity();
+    for (auto& [id, site] : sites_) {
+      if (site.fixes == 0) continue;  // a hint-only site has no centre
+      const double d =
+          util::great_circle_m(fix->lat, fix->lon, site.lat, site.lon) -
+          site.extent_m;
+      if (d <= radius_m_ && d < best) {
+        best = d;
+        chosen = &site;
+      }
+    }
+  } else if (!hint.empty()) {
+    for (auto& [id, site] : sites_)
+      if (site.name == hint) chosen = &site;
+  } else {
+    return std::nullopt;
+  }
+  if (!chosen) {
+    Site site;
+    site.id =
+        fix || hint.empty() ? "s-" + sanitise(capture) : "h-" + sanitise(hint);
+    site.name = fix || hint.empty() ? site.id : hint;
+    chosen = &(sites_[site.id] = std::move(site));
+  }
+  if (fix) {
+    // The running mean of the fixes: the centre follows the captures.
+    const double n = chosen->fixes;
+    const double old_lat = chosen->lat, old_lon = chosen->lon;
+    chosen->lat = (chosen->lat * n + fix->lat) / (n + 1);
+    chosen->lon = (chosen->lon * n + fix->lon) / (n + 1);
+    chosen->alt = (chosen->alt * n + fix->alt.value_or(chosen->alt)) / (n + 1);
+    const double moved =
+        n > 0 ? util::great_circle_m(old_lat, old_lon, chosen->lat, chosen->lon)
+              : 0;
+    chosen->extent_m = std::max(
+        chosen->extent_m + moved,
+        util::great_circle_m(fix->lat, fix->lon, chosen->lat, chosen->lon));
+    ++chosen->fixes;
+  }
+  chosen->captures.push_back(capture);
+  capture_site_[capture] = chosen->id;
+  return chosen->id;
+}
+
+std::optional<Site> SiteDirectory::site(const std::string& id) const {
+  std::lock_guard lock(mutex_);
+  auto it = sites_.find(id);
+  if (it == sites_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::vector<Site> SiteDirectory::sites() const {
+  std::lock_guard lock(mutex_);
+  std::vector<Site> out;
+  for (const auto& [id, site] : sites_) out.push_back(site);
+  return out;
+}
+
+documents::Site SiteDirectory::to_document(const Site& site, double radius_m) {
+  documents::Site doc;
+  doc.name = site.name;
+  doc.radius_m = radius_m;
+  doc.fixes = site.fixes;
+  doc.extent_m = site.extent_m;
+  doc.captures = site.captures;
+  if (site.fixes > 0)
+    doc.centre = documents::GeoPoint{site.lat, site.lon, site.alt};
+  return doc;
+}
+
+}  // namespace arscout::engine::service

@@ -1,0 +1,563 @@
+#include "site_job.h"
+
+#include <algorithm>
+#include <chrono>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+
+#include "arscout/db/path.h"
+#include "arscout/db/store.h"
+#include "arscout/documents/capture.h"
+#include "arscout/engine/ply.h"
+#include "capture_document.h"
+#include "state_parts.h"
+
+namespace arscout::engine::service {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// What a capture's document says about it, as the published status.
+std::string published_status(CaptureStatus status) {
+  switch (status) {
+    case CaptureStatus::kRegistered:
+      return "registered";
+    case CaptureStatus::kRejected:
+      return "rejected";
+    case CaptureStatus::kPending:
+      break;
+  }
+  return "stored";  // waiting for the site to have enough captures
+}
+
+std::string site_path(const std::string& site, const std::string& leaf) {
+  return "/sites/" + site + "/" + leaf;
+}
+
+}  // namespace
+
+SiteJob::SiteJob(std::string id, db::Store& store, const WorkerOptions& options)
+    : id_(std::move(id)), store_(store), options_(options) {}
+
+SiteJob::~SiteJob() = default;
+
+int SiteJob::registered() const {
+  return sparse_ ? sparse_->registered_count() : 0;
+}
+
+void SiteJob::reset() {
+  loaded_ = false;
+  dense_in_flight_ = false;
+  dense_finishing_ = false;
+  sparse_.reset();
+  dense_.reset();
+  statuses_.clear();
+  depth_maps_.clear();
+  std::lock_guard lock(images_mutex_);
+  images_.clear();
+}
+
+std::string SiteJob::image_bytes(const std::string& capture) {
+  std::string sha;
+  {
+    std::lock_guard lock(images_mutex_);
+    auto it = images_.find(capture);
+    if (it != images_.end()) sha = it->second;
+  }
+  if (sha.empty()) {
+    auto doc = store_.get("/captures/" + capture);
+    if (!doc || !doc->blobs.count("image"))
+      throw std::runtime_error("capture " + capture + " has no image");
+    sha = doc->blobs.at("image");
+    std::lock_guard lock(images_mutex_);
+    images_.emplace(capture, sha);
+  }
+  return store_.get_blob(sha);
+}
+
+// The dense options of this site's lane. A dense lane publishes after every
+// few sweeps, and sweeps a new view before re-fusing old maps that moved,
+// so each photo's part of the cloud shows sooner; deterministic runs keep
+// the options as given (their dense phase settles every update).
+DenseOptions SiteJob::lane_dense_options() const {
+  constexpr int kLaneSweepBudget = 2;
+  constexpr int kLaneRefuseBudgetSweeping = 2;
+  constexpr int kLaneCatchUpBacklog = 2;
+  DenseOptions options = options_.dense_options;
+  if (options_.reconstruction.deterministic) return options;
+  if (options.sweep_budget == 0) options.sweep_budget = kLaneSweepBudget;
+  if (options.refuse_budget_sweeping < 0)
+    options.refuse_budget_sweeping = kLaneRefuseBudgetSweeping;
+  if (options.catch_up_backlog < 0)
+    options.catch_up_backlog = kLaneCatchUpBacklog;
+  return options;
+}
+
+void SiteJob::restore() {
+  sparse_ = std::make_unique<Reconstruction>(options_.reconstruction);
+  ++generation_;
+  dense_.reset();
+  if (options_.dense)
+    dense_ = std::make_shared<DenseReconstruction>(lane_dense_options());
+  dense_tiles_.clear();
+  dense_points_ = 0;
+  dense_views_.clear();
+  if (auto model = store_.get(site_path(id_, "model"))) {
+    model_version_ = model->version;
+    const documents::ModelDocument doc =
+        documents::model_from_json(model->attrs);
+    dense_tiles_ = dense_tiles_from_json(
+        doc.dense_tiles.is_null() ? Json::array() : doc.dense_tiles);
+    dense_points_ = doc.statistics.dense_points;
+    for (const documents::ModelImageEntry& image : doc.images)
+      if (image.dense.value_or(false)) dense_views_.insert(image.id);
+  }
+  pending_dense_tiles_ = dense_tiles_;
+  auto state = store_.get(site_path(id_, "engine"));
+  engine_version_ = state ? state->version : 0;
+  through_seq_ = state ? state->attrs.value("through_seq", std::int64_t{0}) : 0;
+  // A crash between the two phases left the dense cloud behind.
+  dense_due_ =
+      options_.dense && state && state->attrs.value("dense_due", false);
+  dense_in_flight_ = false;
+  dense_finishing_ = false;
+  dense_added_.clear();
+  dense_withdrawn_.clear();
+  features_.clear();
+  pending_features_.clear();
+  pending_removed_features_.clear();
+  if (state && !state->blobs.empty()) {
+    // Of the state read above: a commit in between changes its version,
+    // and this job's next write, fenced on that version, fails and retries.
+    if (auto restored = load_site_reconstruction(
+            store_, id_, options_.reconstruction, &features_))
+      *sparse_ = std::move(*restored);
+    const Json statuses = state->attrs.value("statuses", Json::object());
+    for (const auto& [capture, status] : statuses.items())
+      statuses_[capture] = status.get<std::string>();
+  }
+  if (dense_) {
+    std::vector<std::string> maps;
+    for (const db::Document& doc :
+         store_.list_children(site_path(id_, "depth"))) {
+      if (!doc.blobs.count("map")) continue;
+      maps.push_back(store_.get_blob(doc.blobs.at("map")));
+      depth_maps_.insert(std::string(db::leaf_name(doc.path)));
+    }
+    if (!maps.empty()) {
+      dense_->restore_depth_maps(
+          maps, sparse_->model(),
+          [this](const std::string& c) { return image_bytes(c); });
+    }
+  }
+  loaded_ = true;
+}
+
+CaptureInput SiteJob::capture_input(const std::string& capture) {
+  auto doc = store_.get("/captures/" + capture);
+  if (!doc) throw std::invalid_argument("capture " + capture + " is gone");
+  CaptureInput input;
+  input.id = capture;
+  input.image_bytes = image_bytes(capture);
+  const documents::Capture attrs = documents::capture_from_json(doc->attrs);
+  input.gps = geo_fix(attrs.gps);
+  if (!attrs.camera.empty()) {
+    input.camera_id = attrs.camera;
+    if (auto cam = store_.get("/cameras/" + attrs.camera))
+      input.camera = camera_intrinsics(cam->attrs);
+  } else {
+    input.camera_id = "unnamed-" + std::to_string(attrs.width) + "x" +
+                      std::to_string(attrs.height);
+  }
+  return input;
+}
+
+void SiteJob::add(const std::string& capture, IncrementReport* report) {
+  for (const CaptureState& c : sparse_->captures())
+    if (c.id == capture) return;  // delivered again: already in the state
+  AddResult result;
+  try {
+    result = sparse_->add_capture(capture_input(capture));
+  } catch (const std::invalid_argument& e) {
+    // A photo the engine cannot use is rejected, not retried forever.
+    pending_statuses_[capture] = std::string("rejected\n") + e.what();
+    return;
+  }
+  report->added.push_back(capture);
+  const StageTimings& t = result.timings;
+  StageTimings& s = report->sparse;
+  s.decode_s += t.decode_s;
+  s.undistort_s += t.undistort_s;
+  s.features_s += t.features_s;
+  s.matching_s += t.matching_s;
+  s.pose_s += t.pose_s;
+  s.triangulation_s += t.triangulation_s;
+  s.bundle_adjustment_s += t.bundle_adjustment_s;
+  s.total_s += t.total_s;
+}
+
+Increment SiteJob::run(const std::vector<Work>& work) {
+  const auto start = Clock::now();
+  if (!loaded_) restore();
+  pending_statuses_.clear();
+  pending_depth_maps_.clear();
+  pending_removed_maps_.clear();
+  IncrementReport report;
+  pending_through_seq_ = through_seq_;
+  for (const Work& w : work) {
+    pending_through_seq_ = std::max(pending_through_seq_, w.seq);
+    if (w.kind == Work::Kind::kAdd) {
+      add(w.capture, &report);
+    } else if (sparse_->remove_capture(w.capture)) {
+      report.withdrawn.push_back(w.capture);
+    }
+  }
+  const Model model = sparse_->model();
+  const bool changed = !report.added.empty() || !report.withdrawn.empty();
+  if (dense_ && changed && (!model.images.empty() || !depth_maps_.empty())) {
+    dense_due_ = true;
+    for (const std::string& c : report.added) dense_added_.push_back(c);
+    for (const std::string& c : report.withdrawn) dense_withdrawn_.push_back(c);
+  }
+  report.dense_points = dense_points_;
+  report.total_s = seconds_since(start);
+
+  const auto writes_start = Clock::now();
+  Increment increment;
+  std::vector<db::WriteOp> ops;
+  const std::vector<CaptureState> captures = sparse_->captures();
+  add_status_ops(captures, &ops);
+  const bool publish_model =
+      changed && (!model.images.empty() || model_version_ > 0);
+  if (publish_model) {
+    ops.push_back(model_op(model, captures, report));
+    increment.model_written = true;
+  }
+  const size_t state_bytes = add_state_ops(model, report.added, &ops);
+  const double writes_s = seconds_since(writes_start);
+
+  pending_model_version_ = model_version_ + (publish_model ? 1 : 0);
+  std::ostringstream summary;
+  summary << "site " << id_ << ": +" << report.added.size() << " capture"
+          << (report.added.size() == 1 ? "" : "s");
+  if (!report.withdrawn.empty()) summary << ", -" << report.withdrawn.size();
+  summary << ", " << model.images.size() << " registered"
+          << (model.geo_registered ? " (ENU)" : " (local frame)") << ", "
+          << model.points.size() << " points";
+  if (publish_model) summary << ", model v" << pending_model_version_;
+  if (dense_due_) summary << ", dense to follow";
+  summary << " (" << static_cast<int>(report.total_s * 1000)
+          << " ms; its writes, with a state of " << std::fixed
+          << std::setprecision(1) << state_bytes / 1e6 << " MB, in "
+          << static_cast<int>(writes_s * 1000) << " ms)";
+  increment.summary = summary.str();
+  increment.ops = std::move(ops);
+  return increment;
+}
+
+// The capture statuses that changed since they were last published.
+void SiteJob::add_status_ops(const std::vector<CaptureState>& captures,
+                             std::vector<db::WriteOp>* ops) {
+  for (const CaptureState& c : captures) {
+    const std::string status = published_status(c.status);
+    const std::string key = status + "\n" + c.reason;
+    if (statuses_.count(c.id) && statuses_.at(c.id) == key) continue;
+    pending_statuses_[c.id] = key;
+  }
+  for (const auto& [capture, key] : pending_statuses_) {
+    const size_t cut = key.find('\n');
+    ops->push_back(db::WriteOp::patch(
+        "/captures/" + capture, Json{{"site", id_},
+                                     {"status", key.substr(0, cut)},
+                                     {"status_reason", key.substr(cut + 1)}}));
+  }
+}
+
+// The engine state, so that a restart needs no recomputation: each
+// capture's features once, under features/ (fixed once extracted, most of
+// the bytes), and the rest in content-defined parts (state_parts.h), of
+// which the store writes only the new ones.
+size_t SiteJob::add_state_ops(const Model& model,
+                              const std::vector<std::string>& added,
+                              std::vector<db::WriteOp>* ops) {
+  pending_features_.clear();
+  pending_removed_features_ = features_;
+  for (const std::string& capture : sparse_->captures_with_features()) {
+    pending_removed_features_.erase(capture);
+    if (features_.count(capture) &&
+        std::find(added.begin(), added.end(), capture) == added.end())
+      continue;
+    db::WriteOp op =
+        db::WriteOp::put(site_path(id_, "features/" + capture),
+                         "capture-features", Json{{"capture", capture}});
+    op.blobs = db::BlobRefs{
+        {"features", store_.put_blob(sparse_->capture_features(capture))}};
+    ops->push_back(std::move(op));
+    pending_features_.insert(capture);
+  }
+  for (const std::string& capture : pending_removed_features_)
+    ops->push_back(db::WriteOp::remove(site_path(id_, "features/" + capture)));
+  Json statuses = Json::object();
+  for (const auto& [c, s] : statuses_) statuses[c] = s;
+  for (const auto& [c, s] : pending_statuses_) statuses[c] = s;
+  db::WriteOp state =
+      db::WriteOp::put(site_path(id_, "engine"), "engine-state",
+                       Json{{"statuses", statuses},
+                            {"registered", model.images.size()},
+                            {"through_seq", pending_through_seq_},
+                            {"dense_due", dense_due_ || dense_in_flight_}},
+                       engine_version_);
+  const std::string bytes = sparse_->serialize(/*features_apart=*/true);
+  const std::vector<std::string_view> parts = cut_state_parts(bytes);
+  db::BlobRefs refs;
+  for (size_t i = 0; i < parts.size(); ++i)
+    refs[state_part_name(i)] = store_.put_blob(parts[i]);
+  state.blobs = std::move(refs);
+  ops->push_back(std::move(state));
+  return bytes.size();
+}
+
+bool SiteJob::refinement_due() const {
+  return loaded_ && sparse_ && sparse_->refinement_due();
+}
+
+Increment SiteJob::run_refine(const std::function<bool()>& stop) {
+  Increment increment;
+  if (!refinement_due()) return increment;
+  pending_statuses_.clear();
+  pending_depth_maps_.clear();
+  pending_removed_maps_.clear();
+  pending_through_seq_ = through_seq_;
+  const RefineResult refined = sparse_->refine(stop);
+  if (!refined.ran) return increment;
+  // The depth maps follow the moved cameras in the next dense phase, whose
+  // report names the waiting captures registered here (Reconstruction::
+  // refine) among those it adds.
+  if (dense_) {
+    dense_due_ = true;
+    for (const std::string& c : refined.registered) dense_added_.push_back(c);
+  }
+  const Model model = sparse_->model();
+  IncrementReport report;
+  report.dense_points = dense_points_;
+  report.total_s = refined.seconds;
+  const std::vector<CaptureState> captures = sparse_->captures();
+  add_status_ops(captures, &increment.ops);
+  increment.ops.push_back(model_op(model, captures, report));
+  add_state_ops(model, {}, &increment.ops);
+  increment.model_written = true;
+  increment.refine_again =
+      !refined.registered.empty() && sparse_->refinement_due();
+  pending_model_version_ = model_version_ + 1;
+  std::ostringstream summary;
+  summary << "site " << id_ << ": ";
+  if (refined.registered.empty()) {
+    summary << "global refinement of " << refined.images << " key views, "
+            << refined.iterations << " iterations";
+  } else {
+    summary << "registered " << refined.registered.size()
+            << " waiting captures";
+  }
+  summary << (refined.converged ? "" : " (gave way to new work)") << ", model v"
+          << pending_model_version_ << " ("
+          << static_cast<int>(refined.seconds * 1000) << " ms)";
+  increment.summary = summary.str();
+  return increment;
+}
+
+Increment SiteJob::run_dense() {
+  std::optional<DenseTask> task = begin_dense();
+  if (!task) return {};
+  task->settle = true;
+  compute_dense(*task);
+  return finish_dense(*task);
+}
+
+std::optional<DenseTask> SiteJob::begin_dense() {
+  if (!loaded_) restore();
+  if (!dense_ || !dense_due_ || dense_in_flight_) return std::nullopt;
+  DenseTask task;
+  task.dense = dense_;
+  task.generation = generation_;
+  task.published = dense_tiles_;
+  task.model = sparse_->model();
+  task.added = std::move(dense_added_);
+  task.withdrawn = std::move(dense_withdrawn_);
+  dense_added_.clear();
+  dense_withdrawn_.clear();
+  dense_due_ = false;
+  dense_in_flight_ = true;
+  return task;
+}
+
+void SiteJob::compute_dense(DenseTask& task) {
+  const auto start = Clock::now();
+  DenseReconstruction& dense = *task.dense;
+  dense.set_parallel_while(task.parallel);
+  const ImageSource images = [this](const std::string& c) {
+    return image_bytes(c);
+  };
+  task.update = task.settle ? update_until_settled(dense, task.model, images)
+                            : dense.update(task.model, images);
+  // The question is this phase's (it reads the worker's queue of now).
+  dense.set_parallel_while(nullptr);
+  for (const std::string& map : task.update.new_depth_maps)
+    task.map_blobs[map] = store_.put_blob(dense.serialize_depth_map(map));
+  task.kept_maps = dense.depth_map_ids();
+  task.views.insert(task.kept_maps.begin(), task.kept_maps.end());
+  const std::vector<std::string> covered = dense.covered_ids();
+  task.views.insert(covered.begin(), covered.end());
+  task.tiles = store_dense_tiles(
+      dense.points(), dense_tile_size(dense.voxel_size()), task.published,
+      [this](const std::string& bytes) { return store_.put_blob(bytes); });
+  task.voxel_size = dense.voxel_size();
+  task.seconds = seconds_since(start);
+}
+
+Increment SiteJob::finish_dense(DenseTask& task) {
+  Increment increment;
+  if (!loaded_ || task.generation != generation_) return increment;
+  pending_statuses_.clear();
+  pending_depth_maps_.clear();
+  pending_removed_maps_.clear();
+  pending_through_seq_ = through_seq_;
+  std::vector<db::WriteOp> ops;
+  for (const auto& [map, sha] : task.map_blobs) {
+    db::WriteOp op = db::WriteOp::put(site_path(id_, "depth/" + map),
+                                      "depth-map", Json{{"capture", map}});
+    op.blobs = db::BlobRefs{{"map", sha}};
+    ops.push_back(std::move(op));
+    pending_depth_maps_.insert(map);
+  }
+  for (const std::string& map : depth_maps_) {
+    if (std::find(task.kept_maps.begin(), task.kept_maps.end(), map) !=
+        task.kept_maps.end())
+      continue;
+    ops.push_back(db::WriteOp::remove(site_path(id_, "depth/" + map)));
+    pending_removed_maps_.insert(map);
+  }
+  add_tile_ops(task.tiles, &ops);
+  IncrementReport report;
+  report.added = task.added;
+  report.withdrawn = task.withdrawn;
+  report.dense = task.update;
+  report.dense_points = task.update.points;
+  report.total_s = task.seconds;
+  // Moved maps or views left for later: the lane runs again, and the
+  // cloud is published as pending until then.
+  if (task.update.deferred_maps > 0 || task.update.deferred_views > 0)
+    dense_due_ = true;
+  // The sparse model of now: the sparse lane may have moved on meanwhile.
+  const Model model = sparse_->model();
+  const bool publish_model = !model.images.empty() || model_version_ > 0;
+  if (publish_model) {
+    pending_dense_points_ = report.dense_points;
+    ops.push_back(
+        model_op(model, sparse_->captures(), report, &task.tiles, &task.views));
+    increment.model_written = true;
+  }
+  // Fenced like the sparse phase: a patch on the version this job wrote.
+  ops.push_back(db::WriteOp::patch(site_path(id_, "engine"),
+                                   Json{{"dense_due", dense_due_}},
+                                   engine_version_));
+  pending_model_version_ = model_version_ + (publish_model ? 1 : 0);
+  increment.summary = dense_summary(task, publish_model);
+  increment.ops = std::move(ops);
+  dense_finishing_ = true;
+  return increment;
+}
+
+// The tiles that changed since the published cloud, and those gone.
+void SiteJob::add_tile_ops(const DenseTiles& tiles,
+                           std::vector<db::WriteOp>* ops) const {
+  for (const auto& [name, tile] : tiles) {
+    const auto was = dense_tiles_.find(name);
+    if (was != dense_tiles_.end() && was->second.blob == tile.blob) continue;
+    db::WriteOp op =
+        db::WriteOp::put(site_path(id_, "dense/" + name), "dense-tile",
+                         Json{{"tile", name}, {"points", tile.points}});
+    op.blobs = db::BlobRefs{{"points", tile.blob}};
+    ops->push_back(std::move(op));
+  }
+  for (const auto& [name, tile] : dense_tiles_)
+    if (!tiles.count(name))
+      ops->push_back(db::WriteOp::remove(site_path(id_, "dense/" + name)));
+}
+
+std::string SiteJob::dense_summary(const DenseTask& task,
+                                   bool model_published) const {
+  const DenseUpdate& update = task.update;
+  std::ostringstream summary;
+  summary << "site " << id_ << ": dense " << update.points << " points (voxel "
+          << task.voxel_size << (update.refused ? ", re-fused" : "");
+  if (!update.refused && update.refused_maps > 0)
+    summary << ", " << update.refused_maps << " moved map"
+            << (update.refused_maps == 1 ? "" : "s") << " re-fused";
+  if (update.deferred_maps > 0)
+    summary << ", " << update.deferred_maps << " left for later";
+  if (update.deferred_views > 0)
+    summary << ", " << update.deferred_views << " view"
+            << (update.deferred_views == 1 ? "" : "s") << " to sweep next";
+  summary << ", " << update.new_depth_maps.size() << " new depth map"
+          << (update.new_depth_maps.size() == 1 ? "" : "s");
+  if (update.caught_up_maps > 0)
+    summary << " (" << update.caught_up_maps << " coarse, catching up)";
+  if (!update.covered.empty())
+    summary << ", " << update.covered.size() << " covered by the key views";
+  summary << ")";
+  if (model_published) summary << ", model v" << pending_model_version_;
+  summary << " (" << static_cast<int>(task.seconds * 1000) << " ms)";
+  return summary.str();
+}
+
+db::WriteOp SiteJob::model_op(const Model& model,
+                              const std::vector<CaptureState>& captures,
+                              const IncrementReport& report,
+                              const DenseTiles* new_cloud,
+                              const std::set<std::string>* new_views) {
+  if (dense_) pending_dense_views_ = new_views ? *new_views : dense_views_;
+  documents::ModelDocument doc = model_document(
+      id_, model, captures, report, dense_ ? &pending_dense_views_ : nullptr);
+  // Current: the cloud follows every change of the model published with it.
+  const bool behind = dense_due_ || (dense_in_flight_ && !new_cloud);
+  doc.dense_state = !dense_ ? "off" : (behind ? "pending" : "current");
+  if (dense_) {
+    // The sparse phase republishes the last dense cloud; the dense phase
+    // replaces it.
+    pending_dense_tiles_ = new_cloud ? *new_cloud : dense_tiles_;
+    doc.dense_tiles = dense_tiles_json(pending_dense_tiles_);
+  }
+  db::WriteOp op = db::WriteOp::put(site_path(id_, "model"), "model",
+                                    documents::to_json(doc));
+  op.blobs = db::BlobRefs{{"sparse", store_.put_blob(sparse_ply(model))}};
+  return op;
+}
+
+void SiteJob::committed() {
+  if (dense_finishing_) {
+    dense_finishing_ = false;
+    dense_in_flight_ = false;
+    dense_points_ = pending_dense_points_;
+    dense_views_ = pending_dense_views_;
+  }
+  dense_tiles_ = pending_dense_tiles_;
+  for (const auto& [c, s] : pending_statuses_) statuses_[c] = s;
+  for (const std::string& m : pending_depth_maps_) depth_maps_.insert(m);
+  for (const std::string& m : pending_removed_maps_) depth_maps_.erase(m);
+  for (const std::string& c : pending_features_) features_.insert(c);
+  for (const std::string& c : pending_removed_features_) features_.erase(c);
+  pending_features_.clear();
+  pending_removed_features_.clear();
+  model_version_ = pending_model_version_;
+  through_seq_ = pending_through_seq_;
+  ++engine_version_;
+  pending_statuses_.clear();
+  pending_depth_maps_.clear();
+}
+
+}  // namespace arscout::engine::service

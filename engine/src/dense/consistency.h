@@ -1,0 +1,78 @@
+// The dense pipeline's inner stages, internal to the engine: the
+// forward-backward consistency filter between depth maps and the voxel grid
+// that fuses agreeing pixels into one cloud. DenseReconstruction
+// (dense_reconstruction.h) is their only production caller; they are kept
+// out of the public dense.h so that its interface is what other libraries
+// use (the sweep, for bench/dense_bench), and the engine's tests reach them
+// here (tests/engine adds engine/src to its include path).
+//
+// Conventions are dense.h's: poses map world to camera, depth is camera z,
+// 0 where unknown.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "arscout/engine/dense.h"
+#include "arscout/engine/ply.h"
+
+namespace arscout::engine {
+
+// Forward-backward check of `map` against `other`: a pixel agrees when its
+// point, seen from `other`, lands where `other` has a depth within the
+// tolerance, and `other`'s point there projects back within
+// max_reprojection_px of the pixel. Returns CV_8U, 255 where it agrees.
+cv::Mat agreement_mask(const DepthMap& map, const DepthMap& other,
+                       const ConsistencyOptions& options);
+
+// Median of |z_a - z_b| / z_b over the pixels of `a` whose points fall on a
+// depth in `b` (no tolerance applied), and how many there were.
+struct DepthAgreement {
+  double median_relative_difference = 0;
+  int compared = 0;
+};
+DepthAgreement compare_depth_maps(const DepthMap& a, const DepthMap& b);
+
+// Points merged on a voxel grid: each occupied voxel keeps the mean
+// position and colour of the points that fell into it, so overlapping depth
+// maps do not pile up duplicates. Adding is incremental, and a point added
+// can be taken out again (the map whose camera moved, DenseReconstruction).
+class VoxelCloud {
+ public:
+  explicit VoxelCloud(double voxel_size);
+
+  void add(const Eigen::Vector3d& xyz, const std::array<uint8_t, 3>& rgb);
+  // Takes out a point add() put in, given the same xyz and rgb; a voxel
+  // left empty is gone. False (and nothing changed) when no point can have
+  // been added there: its voxel is empty.
+  bool remove(const Eigen::Vector3d& xyz, const std::array<uint8_t, 3>& rgb);
+  // The occupied voxels' means, in the order the voxels were first
+  // occupied.
+  std::vector<ColoredPoint> points() const;
+  size_t size() const { return index_.size(); }
+  double voxel_size() const { return voxel_size_; }
+  void clear() {
+    voxels_.clear();
+    index_.clear();
+  }
+
+ private:
+  struct Voxel {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    std::array<uint32_t, 3> rgb_sum{0, 0, 0};
+    uint32_t count = 0;  // 0: emptied by remove(), skipped
+  };
+  void compact();
+
+  double voxel_size_;
+  std::vector<Voxel> voxels_;  // in first-seen order: deterministic output
+  std::unordered_map<uint64_t, uint32_t> index_;  // voxel key -> voxels_
+};
+
+}  // namespace arscout::engine

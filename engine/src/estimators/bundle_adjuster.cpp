@@ -1,0 +1,581 @@
+#include "estimators/bundle_adjuster.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <set>
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+namespace arscout::engine {
+namespace {
+
+// Residual in working pixels. Intrinsics block: fx, fy, cx, cy, k1, k2; the
+// aspect fy/fx stays as given, so fy follows fx.
+struct ReprojectionCost {
+  ReprojectionCost(const Eigen::Vector2d& observed, double aspect)
+      : x(observed.x()), y(observed.y()), aspect(aspect) {}
+
+  template <typename T>
+  bool operator()(const T* q, const T* t, const T* point, const T* k,
+                  T* residual) const {
+    // Eigen quaternion storage is x, y, z, w; Ceres wants w first.
+    const T q_wxyz[4] = {q[3], q[0], q[1], q[2]};
+    T p[3];
+    ceres::QuaternionRotatePoint(q_wxyz, point, p);
+    p[0] += t[0];
+    p[1] += t[1];
+    p[2] += t[2];
+    const T xn = p[0] / p[2];
+    const T yn = p[1] / p[2];
+    const T r2 = xn * xn + yn * yn;
+    const T d = T(1) + k[4] * r2 + k[5] * r2 * r2;
+    residual[0] = k[0] * d * xn + k[2] - T(x);
+    residual[1] = k[0] * T(aspect) * d * yn + k[3] - T(y);
+    return true;
+  }
+
+  static ceres::CostFunction* create(const Eigen::Vector2d& observed,
+                                     double aspect) {
+    return new ceres::AutoDiffCostFunction<ReprojectionCost, 2, 4, 3, 3, 6>(
+        new ReprojectionCost(observed, aspect));
+  }
+
+  double x, y, aspect;
+};
+
+// The camera centre -R^T t against its ENU fix, in units of the fix's
+// standard deviation per axis (zero weight where the axis is unknown).
+struct GpsPriorCost {
+  GpsPriorCost(const Eigen::Vector3d& enu, const Eigen::Vector3d& inverse_sigma)
+      : enu(enu), inverse_sigma(inverse_sigma) {}
+
+  template <typename T>
+  bool operator()(const T* q, const T* t, T* residual) const {
+    const T q_inverse[4] = {q[3], -q[0], -q[1], -q[2]};
+    T centre[3];
+    ceres::QuaternionRotatePoint(q_inverse, t, centre);
+    for (int i = 0; i < 3; ++i) {
+      residual[i] = (-centre[i] - T(enu[i])) * T(inverse_sigma[i]);
+    }
+    return true;
+  }
+
+  static ceres::CostFunction* create(const Eigen::Vector3d& enu,
+                                     const Eigen::Vector3d& inverse_sigma) {
+    return new ceres::AutoDiffCostFunction<GpsPriorCost, 3, 4, 3>(
+        new GpsPriorCost(enu, inverse_sigma));
+  }
+
+  Eigen::Vector3d enu, inverse_sigma;
+};
+
+// The camera's x axis in the world is the first row of R (world-to-camera);
+// its up component is the sine of the roll, zero for a level camera.
+struct UprightCost {
+  explicit UprightCost(double inverse_sigma) : inverse_sigma(inverse_sigma) {}
+
+  template <typename T>
+  bool operator()(const T* q, T* residual) const {
+    const T q_inverse[4] = {q[3], -q[0], -q[1], -q[2]};
+    const T x_axis[3] = {T(1), T(0), T(0)};
+    T world[3];
+    ceres::QuaternionRotatePoint(q_inverse, x_axis, world);
+    residual[0] = world[2] * T(inverse_sigma);
+    return true;
+  }
+
+  static ceres::CostFunction* create(double inverse_sigma) {
+    return new ceres::AutoDiffCostFunction<UprightCost, 1, 4>(
+        new UprightCost(inverse_sigma));
+  }
+
+  double inverse_sigma;
+};
+
+Eigen::Vector3d inverse_sigma(const GeoFix& fix) {
+  const double h = 1.0 / std::max(fix.h_acc, 0.01);
+  const double v = fix.alt ? 1.0 / std::max(fix.v_acc, 0.01) : 0.0;
+  return {h, h, v};
+}
+
+double aspect_of(const SceneCamera& camera) {
+  return camera.params[1] / camera.params[0];
+}
+
+ceres::Problem::Options problem_options() {
+  ceres::Problem::Options options;
+  options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  return options;
+}
+
+// Cauchy in pixels, scaled by 1 / sigma^2: the same robustness to outliers
+// whatever the weight of the inliers.
+ceres::LossFunction* reprojection_loss(double loss_scale_px, double sigma) {
+  return new ceres::ScaledLoss(new ceres::CauchyLoss(loss_scale_px),
+                               1.0 / (sigma * sigma), ceres::TAKE_OWNERSHIP);
+}
+
+// The keypoint deviation from residual norms: for a 2D Gaussian the median
+// norm is sigma sqrt(2 ln 2); the residuals of a fitted model are smaller
+// than the noise by the share of degrees of freedom the points take up.
+double estimate_pixel_sigma(std::vector<double> norms, size_t points) {
+  constexpr double kMin = 0.1, kMax = 1.0;
+  if (norms.size() < 20) return kMax;
+  std::nth_element(norms.begin(), norms.begin() + norms.size() / 2,
+                   norms.end());
+  const double median = norms[norms.size() / 2];
+  const double residuals = 2.0 * static_cast<double>(norms.size());
+  const double freedom =
+      std::max(0.25, 1.0 - 3.0 * static_cast<double>(points) / residuals);
+  const double sigma = median / std::sqrt(2 * std::log(2.0) * freedom);
+  return std::clamp(sigma, kMin, kMax);
+}
+
+class ProblemBuilder {
+ public:
+  ProblemBuilder(Scene& scene, const BundleOptions& options)
+      : scene_(scene),
+        options_(options),
+        loss_(std::make_unique<ceres::LossFunctionWrapper>(
+            reprojection_loss(options.loss_scale_px, 1.0),
+            ceres::TAKE_OWNERSHIP)),
+        upright_loss_(std::make_unique<ceres::CauchyLoss>(3.0)),
+        problem_(problem_options()) {}
+
+  void select(const std::vector<int>& free_images, bool global) {
+    global_ = global;
+    const bool subset = !options_.global_images.empty();
+    for (size_t i = 0; i < scene_.images.size(); ++i) {
+      if (scene_.images[i].registered && global &&
+          (!subset || options_.global_images.count(static_cast<int>(i))))
+        free_.insert(static_cast<int>(i));
+    }
+    if (!global) {
+      for (int i : free_images) free_.insert(i);
+    }
+    if (global) {
+      for (const auto& [id, point] : scene_.points) points_.insert(id);
+      return;
+    }
+    // The free images' points, found through their keypoints: O(window),
+    // not O(model).
+    for (int i : free_) {
+      for (int64_t id : scene_.images[i].point_of) {
+        if (id >= 0) points_.insert(id);
+      }
+    }
+    choose_fixed_images();
+  }
+
+  // False when BundleOptions::stop asked to end while the problem was
+  // being built (asked every kPointsPerStopCheck points): on a large
+  // model building it takes longer than an iteration, and a capture
+  // arriving meanwhile would wait for all of it.
+  bool build() {
+    constexpr size_t kPointsPerStopCheck = 4096;
+    size_t added = 0;
+    for (int64_t id : points_) {
+      if (options_.stop && ++added % kPointsPerStopCheck == 0 &&
+          options_.stop())
+        return false;
+      ScenePoint& point = scene_.points.at(id);
+      const std::vector<Observation> kept = kept_observations(point);
+      for (const Observation& obs : kept) add_observation(point, obs);
+      if (options_.points_fixed && !kept.empty())
+        problem_.SetParameterBlockConstant(point.xyz.data());
+    }
+    weigh_reprojections();
+    if (options_.gps_priors) add_gps_priors();
+    if (options_.gps_priors && options_.upright_sigma_deg > 0)
+      add_upright_priors();
+    hold_gauge();
+    hold_cameras();
+    return true;
+  }
+
+  ceres::Problem& problem() { return problem_; }
+  int image_count() const { return static_cast<int>(images_.size()); }
+  int point_count() const { return static_cast<int>(points_.size()); }
+  double pixel_sigma() const { return pixel_sigma_; }
+  double loss_scale_px() const { return loss_scale_px_; }
+
+  void normalize_quaternions() {
+    for (int i : images_) scene_.images[i].q.normalize();
+    for (int c : cameras_) {
+      SceneCamera& camera = scene_.cameras[c];
+      camera.params[1] = camera.params[0] * aspects_.at(c);
+    }
+  }
+
+ private:
+  void add_observation(ScenePoint& point, const Observation& obs) {
+    SceneImage& image = scene_.images[obs.image];
+    if (!image.registered) return;
+    SceneCamera& camera = scene_.cameras[image.camera];
+    Eigen::Vector2d projected;
+    if (options_.pixel_sigma <= 0 &&
+        project(camera, image, point.xyz, &projected))
+      residual_norms_.push_back(
+          (projected - image.keypoints[obs.keypoint]).norm());
+    aspects_.emplace(image.camera, aspect_of(camera));
+    problem_.AddResidualBlock(
+        ReprojectionCost::create(image.keypoints[obs.keypoint],
+                                 aspect_of(camera)),
+        loss_.get(), image.q.coeffs().data(), image.t.data(), point.xyz.data(),
+        camera.params.data());
+    add_image(obs.image);
+    cameras_.insert(image.camera);
+  }
+
+  void add_image(int index) {
+    if (!images_.insert(index).second) return;
+    SceneImage& image = scene_.images[index];
+    problem_.SetManifold(image.q.coeffs().data(),
+                         new ceres::EigenQuaternionManifold);
+    if (!free_.count(index)) {
+      problem_.SetParameterBlockConstant(image.q.coeffs().data());
+      problem_.SetParameterBlockConstant(image.t.data());
+    }
+  }
+
+  void weigh_reprojections() {
+    pixel_sigma_ =
+        options_.pixel_sigma > 0
+            ? options_.pixel_sigma
+            : estimate_pixel_sigma(std::move(residual_norms_), points_.size());
+    loss_scale_px_ = options_.loss_scale_sigmas > 0
+                         ? options_.loss_scale_sigmas * pixel_sigma_
+                         : options_.loss_scale_px;
+    loss_->Reset(reprojection_loss(loss_scale_px_, pixel_sigma_),
+                 ceres::TAKE_OWNERSHIP);
+  }
+
+  void add_gps_priors() {
+    for (int index : images_) {
+      SceneImage& image = scene_.images[index];
+      if (!image.gps || !free_.count(index)) continue;
+      problem_.AddResidualBlock(
+          GpsPriorCost::create(image.gps_enu, inverse_sigma(*image.gps)),
+          nullptr, image.q.coeffs().data(), image.t.data());
+    }
+  }
+
+  void add_upright_priors() {
+    const double inverse_sigma =
+        1.0 / std::sin(options_.upright_sigma_deg * M_PI / 180);
+    for (int index : images_) {
+      if (!free_.count(index)) continue;
+      problem_.AddResidualBlock(UprightCost::create(inverse_sigma),
+                                upright_loss_.get(),
+                                scene_.images[index].q.coeffs().data());
+    }
+  }
+
+  // Without priors the model floats: pin one pose, and in a global
+  // adjustment one coordinate of a second camera's position for the scale.
+  void hold_gauge() {
+    if (options_.gps_priors) return;
+    const int ref = scene_.reference_image;
+    if (ref >= 0 && images_.count(ref)) {
+      problem_.SetParameterBlockConstant(scene_.images[ref].q.coeffs().data());
+      problem_.SetParameterBlockConstant(scene_.images[ref].t.data());
+    }
+    const int second = scene_.scale_image;
+    if (!global_ || second < 0 || !images_.count(second) ||
+        !free_.count(second))
+      return;
+    SceneImage& image = scene_.images[second];
+    int largest = 0;
+    image.t.cwiseAbs().maxCoeff(&largest);
+    problem_.SetManifold(image.t.data(),
+                         new ceres::SubsetManifold(3, {largest}));
+  }
+
+  // Intrinsics move only in a global adjustment, and only for cameras that
+  // asked for it; cx, cy always stay (they are poorly observed).
+  void hold_cameras() {
+    for (int c : cameras_) {
+      double* params = scene_.cameras[c].params.data();
+      if (!global_ || !scene_.cameras[c].refine) {
+        problem_.SetParameterBlockConstant(params);
+      } else {
+        problem_.SetManifold(params, new ceres::SubsetManifold(6, {1, 2, 3}));
+      }
+    }
+  }
+
+  // The images outside the window that share the most points with it;
+  // only these are held fixed (all of them when there is no limit).
+  void choose_fixed_images() {
+    std::map<int, int> shared;
+    for (int64_t id : points_) {
+      for (const Observation& obs : scene_.points.at(id).track) {
+        if (!free_.count(obs.image)) ++shared[obs.image];
+      }
+    }
+    std::vector<std::pair<int, int>> ranked;
+    for (const auto& [image, count] : shared) ranked.push_back({-count, image});
+    std::sort(ranked.begin(), ranked.end());
+    const size_t limit = options_.max_fixed_images > 0
+                             ? static_cast<size_t>(options_.max_fixed_images)
+                             : ranked.size();
+    for (size_t i = 0; i < ranked.size() && i < limit; ++i)
+      fixed_.insert(ranked[i].second);
+    limit_fixed_ = options_.max_fixed_images > 0;
+  }
+
+  // A point's observations in the problem: all in a global adjustment; in a
+  // local one the free images' and the chosen fixed ones', up to the cap.
+  // A point left with one observation stays out (nothing constrains it).
+  std::vector<Observation> kept_observations(const ScenePoint& point) const {
+    if (global_) return global_observations(point);
+    std::vector<Observation> kept;
+    for (const Observation& obs : point.track) {
+      if (free_.count(obs.image)) kept.push_back(obs);
+    }
+    if (options_.points_fixed) return kept;  // the others add nothing
+    const size_t cap =
+        options_.max_track_observations > 0
+            ? static_cast<size_t>(options_.max_track_observations)
+            : point.track.size();
+    for (const Observation& obs : point.track) {
+      if (kept.size() >= cap) break;
+      if (free_.count(obs.image)) continue;
+      if (limit_fixed_ && !fixed_.count(obs.image)) continue;
+      kept.push_back(obs);
+    }
+    if (kept.size() < 2) kept.clear();
+    return kept;
+  }
+
+  std::vector<Observation> global_observations(const ScenePoint& point) const {
+    if (options_.global_images.empty() && options_.max_track_observations == 0)
+      return point.track;
+    std::vector<Observation> in;
+    for (const Observation& obs : point.track) {
+      if (free_.count(obs.image)) in.push_back(obs);
+    }
+    const size_t cap = static_cast<size_t>(options_.max_track_observations);
+    if (cap >= 2 && in.size() > cap) {
+      std::vector<Observation> spread;
+      for (size_t k = 0; k < cap; ++k)
+        spread.push_back(in[k * (in.size() - 1) / (cap - 1)]);
+      in = std::move(spread);
+    }
+    if (in.size() < 2) in.clear();
+    return in;
+  }
+
+  Scene& scene_;
+  const BundleOptions& options_;
+  // Declared before the problem, which uses but does not own them.
+  std::unique_ptr<ceres::LossFunctionWrapper> loss_;
+  std::unique_ptr<ceres::LossFunction> upright_loss_;  // in units of sigma
+  std::vector<double> residual_norms_;                 // before solving, pixels
+  double pixel_sigma_ = 1;
+  double loss_scale_px_ = 1;
+  ceres::Problem problem_;
+  bool global_ = false;
+  std::set<int> free_;
+  std::set<int> fixed_;  // local: the fixed images allowed in
+  bool limit_fixed_ = false;
+  std::set<int> images_;
+  std::set<int> cameras_;
+  std::map<int, double> aspects_;
+  std::set<int64_t> points_;
+};
+
+// A camera's centre and orientation after the similarity (log scale, R as
+// a quaternion, t) against its fix and the upright prior.
+struct SimilarityPriorCost {
+  SimilarityPriorCost(const Eigen::Vector3d& centre,
+                      const Eigen::Vector3d& x_axis, const Eigen::Vector3d& enu,
+                      const Eigen::Vector3d& inverse_sigma,
+                      double upright_inverse_sigma)
+      : centre(centre),
+        x_axis(x_axis),
+        enu(enu),
+        inverse_sigma(inverse_sigma),
+        upright_inverse_sigma(upright_inverse_sigma) {}
+
+  template <typename T>
+  bool operator()(const T* log_scale, const T* q, const T* t,
+                  T* residual) const {
+    const T q_wxyz[4] = {q[3], q[0], q[1], q[2]};
+    const T c[3] = {T(centre[0]), T(centre[1]), T(centre[2])};
+    const T x[3] = {T(x_axis[0]), T(x_axis[1]), T(x_axis[2])};
+    T rotated[3], axis[3];
+    ceres::QuaternionRotatePoint(q_wxyz, c, rotated);
+    ceres::QuaternionRotatePoint(q_wxyz, x, axis);
+    const T scale = exp(log_scale[0]);
+    for (int i = 0; i < 3; ++i) {
+      residual[i] =
+          (scale * rotated[i] + t[i] - T(enu[i])) * T(inverse_sigma[i]);
+    }
+    residual[3] = axis[2] * T(upright_inverse_sigma);
+    return true;
+  }
+
+  Eigen::Vector3d centre, x_axis, enu, inverse_sigma;
+  double upright_inverse_sigma;
+};
+
+// First-order (Sampson) distance of a correspondence to E = [t]x R.
+struct SampsonCost {
+  SampsonCost(const Eigen::Vector2d& x1, const Eigen::Vector2d& x2)
+      : x1(x1), x2(x2) {}
+
+  template <typename T>
+  bool operator()(const T* q, const T* t, T* residual) const {
+    const T q_wxyz[4] = {q[3], q[0], q[1], q[2]};
+    const T p1[3] = {T(x1.x()), T(x1.y()), T(1)};
+    T Rp1[3];
+    ceres::QuaternionRotatePoint(q_wxyz, p1, Rp1);
+    T Ex1[3];  // t x (R p1)
+    ceres::CrossProduct(t, Rp1, Ex1);
+    // E^T x2 = -R^T (t x x2); the sign does not matter once squared.
+    const T p2[3] = {T(x2.x()), T(x2.y()), T(1)};
+    T t_cross_p2[3];
+    ceres::CrossProduct(t, p2, t_cross_p2);
+    const T q_inverse[4] = {q[3], -q[0], -q[1], -q[2]};
+    T Etx2[3];
+    ceres::QuaternionRotatePoint(q_inverse, t_cross_p2, Etx2);
+    const T epipolar = p2[0] * Ex1[0] + p2[1] * Ex1[1] + p2[2] * Ex1[2];
+    const T norm2 = Ex1[0] * Ex1[0] + Ex1[1] * Ex1[1] + Etx2[0] * Etx2[0] +
+                    Etx2[1] * Etx2[1];
+    residual[0] = epipolar / sqrt(norm2 + T(1e-30));
+    return true;
+  }
+
+  Eigen::Vector2d x1, x2;
+};
+
+// Ends a solve when the caller asks; the solver then keeps the last
+// accepted iterate.
+class StopCallback : public ceres::IterationCallback {
+ public:
+  explicit StopCallback(const std::function<bool()>& stop) : stop_(stop) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) final {
+    if (!stop_ || !stop_()) return ceres::SOLVER_CONTINUE;
+    stopped_ = true;
+    return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+  }
+  bool stopped() const { return stopped_; }
+
+ private:
+  const std::function<bool()>& stop_;
+  bool stopped_ = false;
+};
+
+}  // namespace
+
+void refine_relative_pose(const std::vector<Eigen::Vector2d>& x1,
+                          const std::vector<Eigen::Vector2d>& x2,
+                          const std::vector<int>& inliers, Eigen::Matrix3d* R,
+                          Eigen::Vector3d* t) {
+  if (inliers.size() < 6) return;
+  Eigen::Quaterniond q(*R);
+  Eigen::Vector3d direction = t->normalized();
+  ceres::Problem problem;
+  for (int i : inliers) {
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<SampsonCost, 1, 4, 3>(
+            new SampsonCost(x1[i], x2[i])),
+        nullptr, q.coeffs().data(), direction.data());
+  }
+  problem.SetManifold(q.coeffs().data(), new ceres::EigenQuaternionManifold);
+  problem.SetManifold(direction.data(), new ceres::SphereManifold<3>);
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_QR;
+  solver.max_num_iterations = 20;
+  solver.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  if (!summary.IsSolutionUsable()) return;
+  *R = q.normalized().toRotationMatrix();
+  *t = direction.normalized();
+}
+
+std::optional<Similarity> fit_model_to_priors(const Scene& scene,
+                                              const BundleOptions& options) {
+  const double upright =
+      options.upright_sigma_deg > 0
+          ? 1.0 / std::sin(options.upright_sigma_deg * M_PI / 180)
+          : 0;
+  double log_scale = 0;
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  ceres::Problem problem;
+  int fixes = 0;
+  for (const SceneImage& image : scene.images) {
+    if (!image.registered || !image.gps) continue;
+    ++fixes;
+    const Eigen::Vector3d x_axis =
+        image.q.toRotationMatrix().row(0).transpose();
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<SimilarityPriorCost, 4, 1, 4, 3>(
+            new SimilarityPriorCost(image.centre(), x_axis, image.gps_enu,
+                                    inverse_sigma(*image.gps), upright)),
+        new ceres::CauchyLoss(3.0), &log_scale, q.coeffs().data(), t.data());
+  }
+  if (fixes < 3) return std::nullopt;
+  problem.SetManifold(q.coeffs().data(), new ceres::EigenQuaternionManifold);
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_QR;
+  solver.max_num_iterations = 100;
+  solver.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  if (!summary.IsSolutionUsable()) return std::nullopt;
+  Similarity sim;
+  sim.scale = std::exp(log_scale);
+  sim.R = q.normalized().toRotationMatrix();
+  sim.t = t;
+  return sim;
+}
+
+BundleReport adjust_bundle(Scene& scene, const std::vector<int>& free_images,
+                           bool global, const BundleOptions& options) {
+  ProblemBuilder builder(scene, options);
+  builder.select(free_images, global);
+  const bool built = builder.build();
+  BundleReport report;
+  report.images = builder.image_count();
+  report.points = builder.point_count();
+  report.stopped = !built;
+  if (!built || report.points == 0) return report;
+  ceres::Solver::Options solver;
+  solver.linear_solver_type =
+      report.images <= 60 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
+  if (!ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) &&
+      solver.linear_solver_type == ceres::SPARSE_SCHUR) {
+    solver.linear_solver_type = ceres::ITERATIVE_SCHUR;
+  }
+  solver.max_num_iterations = options.max_iterations;
+  solver.num_threads = std::max(1, options.threads);
+  solver.function_tolerance = options.function_tolerance;
+  solver.parameter_tolerance = 1e-9;
+  solver.logging_type = ceres::SILENT;
+  solver.minimizer_progress_to_stdout = false;
+  StopCallback stop(options.stop);
+  if (options.stop) solver.callbacks.push_back(&stop);
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &builder.problem(), &summary);
+  builder.normalize_quaternions();
+  report.stopped = stop.stopped();
+  report.converged = summary.termination_type == ceres::CONVERGENCE;
+  report.iterations = static_cast<int>(summary.iterations.size());
+  const double residuals = std::max(1, summary.num_residuals);
+  report.pixel_sigma = builder.pixel_sigma();
+  report.loss_scale_px = builder.loss_scale_px();
+  report.initial_rms_px =
+      report.pixel_sigma * std::sqrt(2 * summary.initial_cost / residuals);
+  report.final_rms_px =
+      report.pixel_sigma * std::sqrt(2 * summary.final_cost / residuals);
+  return report;
+}
+
+}  // namespace arscout::engine

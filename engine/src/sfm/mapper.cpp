@@ -1,0 +1,997 @@
+#include "sfm/mapper.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <set>
+
+#include "estimators/bundle_adjuster.h"
+#include "estimators/estimators.h"
+#include "features/keypoint_refinement.h"
+#include "sfm/loop_closure.h"
+#include "stopwatch.h"
+
+#include <Eigen/Eigenvalues>
+
+namespace arscout::engine {
+namespace {
+
+class StageClock {
+ public:
+  explicit StageClock(double& total)
+      : total_(total), start_(std::chrono::steady_clock::now()) {}
+  ~StageClock() { total_ += seconds_since(start_); }
+
+ private:
+  double& total_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+constexpr int kGlobalIterations = 30;
+
+// P3P with fewer inliers than this gets a second opinion from the
+// neighbour's relative pose (register_from_pair's hypotheses).
+constexpr int kConfidentInliers = 60;
+
+// Below this baseline, as a fraction of the scene's depth (about 0.6
+// degrees of parallax), a new view refines only its own pose.
+constexpr double kKeyViewBaseline = 0.01;
+constexpr double kKeyViewAngleRad = 5.0 * M_PI / 180;
+// Observations per point in the global refinement (spread along a track):
+// a point seen by a hundred photos of a burst is fixed well by 25.
+constexpr int kGlobalTrack = 25;
+// A long walk bends along soft modes (a gentle curl of the whole loop) that
+// change the cost by less than Ceres' default 1e-6 per iteration: the
+// refinement, off the latency path, keeps going where an inline adjustment
+// would stop (400-photo walk: 4.8 -> 2.9 cm; docs/engine.md).
+constexpr double kRefineTolerance = 1e-10;
+constexpr int kRefineRounds = 6;
+// The global refinement's Cauchy scale, in keypoint deviations.
+constexpr double kRefineLossSigmas = 1.5;
+
+Eigen::Matrix<double, 3, 4> pose_matrix(const SceneImage& image) {
+  Eigen::Matrix<double, 3, 4> P;
+  P << image.q.toRotationMatrix(), image.t;
+  return P;
+}
+
+bool has_observation_in(const ScenePoint& point, int image) {
+  return std::any_of(
+      point.track.begin(), point.track.end(),
+      [image](const Observation& obs) { return obs.image == image; });
+}
+
+}  // namespace
+
+IncrementalMapper::IncrementalMapper(Scene& scene,
+                                     const ReconstructionOptions& options,
+                                     StageTimings& timings)
+    : scene_(scene), options_(options), timings_(timings) {}
+
+double IncrementalMapper::threshold_normalized(int image) const {
+  const SceneCamera& camera = scene_.cameras[scene_.images[image].camera];
+  return options_.max_reprojection_px / camera.params[0];
+}
+
+std::vector<int> IncrementalMapper::update() {
+  std::vector<int> registered;
+  if (!scene_.initialized) {
+    if (!initialize()) return registered;
+    for (size_t i = 0; i < scene_.images.size(); ++i) {
+      if (scene_.images[i].registered)
+        registered.push_back(static_cast<int>(i));
+    }
+  }
+  register_by_points(registered, options_.max_registrations_per_update, {});
+  return registered;
+}
+
+// Registers the image with the most 2D-3D correspondences first; a
+// registration adds points, which may let an image that failed succeed.
+// Stops after `limit` registrations (0: no limit; the initial model's, in
+// `registered` already, do not count), or when `stop` says so, leaving a
+// backlog for refine().
+void IncrementalMapper::register_by_points(std::vector<int>& registered,
+                                           int limit,
+                                           const std::function<bool()>& stop) {
+  std::set<int> failed;
+  const size_t before = registered.size();
+  for (;;) {
+    if ((limit > 0 &&
+         registered.size() - before >= static_cast<size_t>(limit)) ||
+        (stop && stop())) {
+      scene_.registration_backlog = true;
+      return;
+    }
+    size_t best_count = 0;
+    const int best = next_image(failed, &best_count);
+    if (best < 0) break;
+    const bool enough =
+        static_cast<int>(best_count) >= options_.min_pose_inliers;
+    const bool by_points = enough && register_image(best);
+    if (by_points) second_opinion(best);
+    if (!by_points && !register_from_pair(best)) {
+      if (!enough) {
+        scene_.images[best].reason = "too few matches to the model (" +
+                                     std::to_string(best_count) + " 2D-3D)";
+      }
+      failed.insert(best);
+      continue;
+    }
+    registered.push_back(best);
+    failed.clear();
+    extend_model(best);
+  }
+  scene_.registration_backlog = false;
+}
+
+// What follows a registration: the image's points, its keypoints moved
+// onto their tracks, a loop it may close, the adjustments.
+void IncrementalMapper::extend_model(int index) {
+  triangulate_image(index);
+  refine_keypoints(index);
+  close_loops(index);
+  adjust_local(index);
+  geo_register();
+  if (global_inline() &&
+      scene_.registered_count() >=
+          options_.global_ba_growth * scene_.registered_at_last_global_ba) {
+    adjust_global();
+  }
+}
+
+// After a loop closure moved the chain onto the old captures, the new
+// image's matches to them merge the two sets of tracks; the global
+// adjustment then spreads what the closure left.
+void IncrementalMapper::close_loops(int index) {
+  StageClock clock(timings_.pose_s);
+  const LoopClosure loop = close_loop(scene_, index, options_);
+  if (!loop.closed) return;
+  ++loops_closed_;
+  triangulate_image(index);
+  scene_.registered_at_last_global_ba = 0;  // refine() is due
+  scene_.unsettled_refine_rounds = 0;       // in full, for a changed model
+  if (global_inline()) adjust_global();
+}
+
+// Small models adjust globally inside the increment (cheap, and the early
+// model needs it); larger ones leave it to refine().
+bool IncrementalMapper::global_inline() const {
+  return scene_.registered_count() <= options_.inline_global_ba_images;
+}
+
+bool IncrementalMapper::refinement_due() const {
+  return scene_.initialized &&
+         (scene_.registration_backlog ||
+          scene_.registered_count() != scene_.registered_at_last_global_ba);
+}
+
+// The captures add_capture left waiting at its limit, registered between
+// captures; true when that was this call's work: it registered some, or
+// `stop` ended it with some left (the adjustment must not start then).
+bool IncrementalMapper::catch_up(const std::function<bool()>& stop,
+                                 RefineResult& result) {
+  if (!scene_.registration_backlog) return false;
+  std::vector<int> registered;
+  register_by_points(registered, 0, stop);
+  for (int index : registered)
+    result.registered.push_back(scene_.images[index].id);
+  result.ran = !registered.empty();
+  result.converged = !scene_.registration_backlog;
+  return result.ran || scene_.registration_backlog;
+}
+
+RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
+  RefineResult result;
+  if (!refinement_due()) return result;
+  const auto start = std::chrono::steady_clock::now();
+  if (catch_up(stop, result)) {
+    result.seconds = seconds_since(start);
+    return result;
+  }
+  if (!refinement_due()) return result;  // the backlog was all it had
+  result.ran = true;
+  BundleOptions ba = bundle_options(kGlobalIterations);
+  ba.function_tolerance = kRefineTolerance;
+  ba.loss_scale_sigmas = kRefineLossSigmas;
+  ba.stop = stop;
+  ba.max_track_observations = kGlobalTrack;
+  const std::vector<int> keys = key_views();
+  ba.global_images.insert(keys.begin(), keys.end());
+  align_to_priors(ba);
+  const BundleReport report = adjust_bundle(scene_, {}, true, ba);
+  result.iterations = report.iterations;
+  result.images = report.images;
+  result.pixel_sigma = report.pixel_sigma;
+  result.loss_scale_px = report.loss_scale_px;
+  result.converged = !report.stopped;
+  // Stopped before its first iteration: no pose moved, nothing to follow.
+  if (report.iterations == 0) {
+    result.seconds = seconds_since(start);
+    return result;
+  }
+  std::vector<int> all;
+  for (size_t i = 0; i < scene_.images.size(); ++i) {
+    if (!scene_.images[i].registered) continue;
+    all.push_back(static_cast<int>(i));
+    if (!ba.global_images.count(static_cast<int>(i)))
+      adjust_pose(static_cast<int>(i));
+  }
+  filter_points(all);
+  // A round that used up its iterations is continued by the next call, up
+  // to kRefineRounds rounds in a row on the same model: a solve that never
+  // meets the tolerance must not keep an idle site busy for ever. Rounds
+  // counted before a capture registered are not this model's: counting them
+  // cut a 400-photo walk's final refinement to one round (docs/engine.md).
+  if (scene_.unsettled_at_count != scene_.registered_count()) {
+    scene_.unsettled_at_count = scene_.registered_count();
+    scene_.unsettled_refine_rounds = 0;
+  }
+  const bool settled =
+      result.converged &&
+      (report.converged || ++scene_.unsettled_refine_rounds >= kRefineRounds);
+  if (settled) {
+    scene_.registered_at_last_global_ba = scene_.registered_count();
+    scene_.unsettled_refine_rounds = 0;
+  }
+  result.seconds = seconds_since(start);
+  return result;
+}
+
+// The unregistered image with the most 2D-3D correspondences (-1 if none
+// has any), skipping `failed`.
+int IncrementalMapper::next_image(const std::set<int>& failed,
+                                  size_t* count) const {
+  int best = -1;
+  *count = 0;
+  for (size_t i = 0; i < scene_.images.size(); ++i) {
+    const SceneImage& image = scene_.images[i];
+    if (image.removed || image.registered || failed.count(static_cast<int>(i)))
+      continue;
+    const size_t n = correspondences(static_cast<int>(i)).size();
+    if (n > *count) {
+      best = static_cast<int>(i);
+      *count = n;
+    }
+  }
+  return best;
+}
+
+std::vector<std::pair<int, int64_t>> IncrementalMapper::correspondences(
+    int image) const {
+  std::vector<std::pair<int, int64_t>> result;
+  std::set<int> seen;
+  for (const auto& [other, pair] : scene_.pairs_of(image)) {
+    const SceneImage& o = scene_.images[other];
+    if (!o.registered) continue;
+    for (const auto& [mine, theirs] : oriented_matches(image, other, *pair)) {
+      const int64_t point = o.point_of[theirs];
+      if (point < 0 || !seen.insert(mine).second) continue;
+      result.emplace_back(mine, point);
+    }
+  }
+  return result;
+}
+
+bool IncrementalMapper::initialize() {
+  int usable = 0;
+  for (const SceneImage& image : scene_.images) usable += image.removed ? 0 : 1;
+  if (usable < 3) return false;
+  // Best-conditioned pairs first: many inliers with enough parallax, and
+  // not explained by a homography (a plane or a pure rotation). Parallax
+  // below 4 degrees discounts a pair in proportion; below 1 it is skipped.
+  std::vector<std::pair<double, std::pair<int, int>>> ranked;
+  for (const auto& [key, pair] : scene_.pairs) {
+    if (pair.median_angle_deg < 1.0 || pair.homography_ratio > 0.95) continue;
+    const double parallax = std::min(1.0, pair.median_angle_deg / 4.0);
+    ranked.push_back({pair.matches.size() * parallax, key});
+  }
+  std::sort(ranked.begin(), ranked.end(), [](const auto& x, const auto& y) {
+    return x.first != y.first ? x.first > y.first : x.second < y.second;
+  });
+  const size_t attempts = std::min<size_t>(ranked.size(), 3);
+  for (size_t i = 0; i < attempts; ++i) {
+    const auto [a, b] = ranked[i].second;
+    if (try_initial_pair(a, b, scene_.pairs.at({a, b}))) return true;
+  }
+  for (SceneImage& image : scene_.images) {
+    if (!image.removed)
+      image.reason = "waiting for a well-conditioned initial pair";
+  }
+  return false;
+}
+
+bool IncrementalMapper::try_initial_pair(int a, int b, const ImagePair& pair) {
+  reset_model();
+  SceneImage& first = scene_.images[a];
+  SceneImage& second = scene_.images[b];
+  first.q.setIdentity();
+  first.t.setZero();
+  second.q = Eigen::Quaterniond(pair.R).normalized();
+  second.t = pair.t;
+  first.registered = second.registered = true;
+  scene_.reference_image = a;
+  scene_.scale_image = b;
+  {
+    StageClock clock(timings_.triangulation_s);
+    for (const auto& [ka, kb] : pair.matches) {
+      triangulate_pair_match({a, ka}, {b, kb});
+    }
+  }
+  if (scene_.points.size() < 50) {
+    reset_model();
+    return false;
+  }
+  refine_keypoints(b);
+  adjust_global();
+  // The model exists once a third image registers against it.
+  scene_.initialized = true;
+  std::set<int> failed;
+  bool third = false;
+  for (int attempt = 0; attempt < 5 && !third; ++attempt) {
+    size_t best_count = 0;
+    const int best = next_image(failed, &best_count);
+    if (best < 0 || static_cast<int>(best_count) < options_.min_pose_inliers)
+      break;
+    if (register_image(best)) {
+      third = true;
+      triangulate_image(best);
+      refine_keypoints(best);
+      adjust_global();
+    } else {
+      failed.insert(best);
+    }
+  }
+  if (!third) {
+    reset_model();
+    return false;
+  }
+  geo_register();
+  return true;
+}
+
+bool IncrementalMapper::register_image(int index) {
+  StageClock clock(timings_.pose_s);
+  SceneImage& image = scene_.images[index];
+  const SceneCamera& camera = scene_.cameras[image.camera];
+  const auto corr = correspondences(index);
+  std::vector<Eigen::Vector3d> world;
+  std::vector<Eigen::Vector2d> points;
+  for (const auto& [keypoint, point] : corr) {
+    world.push_back(scene_.points.at(point).xyz);
+    points.push_back(normalize(camera, image.keypoints[keypoint]));
+  }
+  const auto pose = estimate_absolute_pose(
+      world, points, threshold_normalized(index), options_.min_pose_inliers);
+  if (!pose) {
+    image.reason = "absolute pose failed (" + std::to_string(corr.size()) +
+                   " 2D-3D correspondences, too few agree)";
+    return false;
+  }
+  image.q = pose->q;
+  image.t = pose->t;
+  image.registered = true;
+  image.status = CaptureStatus::kRegistered;
+  image.reason.clear();
+  image.pose_inliers = static_cast<int>(pose->inliers.size());
+  for (int i : pose->inliers) {
+    const auto& [keypoint, point] = corr[i];
+    if (image.point_of[keypoint] < 0 &&
+        !has_observation_in(scene_.points.at(point), index)) {
+      scene_.add_observation(point, {index, keypoint});
+    }
+  }
+  return true;
+}
+
+// When too few 2D-3D matches agree on an absolute pose (a wide step along a
+// chain of photos shares few points with the model), the relative pose to
+// the registered neighbour it matches best gives the orientation and the
+// direction of the baseline; the 2D-3D matches it has then only need to
+// agree on the baseline's length.
+bool IncrementalMapper::register_from_pair(int index) {
+  StageClock clock(timings_.pose_s);
+  const auto corr = correspondences(index);
+  const auto pose = pair_pose(index, corr);
+  // Few agreeing matches of many mean no hypothesis holds.
+  if (!pose || pose->agreeing.size() < 3 ||
+      3 * pose->agreeing.size() < corr.size())
+    return false;
+  set_pose(index, pose->q, pose->centre, pose->agreeing);
+  return true;
+}
+
+// A registration on few P3P inliers may be a wrong solution that a turn on
+// the spot or a step from a neighbour explains better: the pose that
+// explains more of the 2D-3D matches stays.
+void IncrementalMapper::second_opinion(int index) {
+  SceneImage& image = scene_.images[index];
+  if (image.pose_inliers >= kConfidentInliers) return;
+  StageClock clock(timings_.pose_s);
+  const auto corr = correspondences(index);
+  const auto pose = pair_pose(index, corr);
+  if (!pose || static_cast<int>(pose->agreeing.size()) <= image.pose_inliers)
+    return;
+  for (size_t k = 0; k < image.point_of.size(); ++k) {
+    const int64_t point = image.point_of[k];
+    if (point < 0) continue;
+    std::erase(scene_.points.at(point).track,
+               Observation{index, static_cast<int>(k)});
+    image.point_of[k] = -1;
+  }
+  set_pose(index, pose->q, pose->centre, pose->agreeing);
+}
+
+void IncrementalMapper::set_pose(
+    int index, const Eigen::Quaterniond& q, const Eigen::Vector3d& centre,
+    const std::vector<std::pair<int, int64_t>>& agreeing) {
+  SceneImage& image = scene_.images[index];
+  image.q = q;
+  image.t = -(q * centre);
+  image.registered = true;
+  image.status = CaptureStatus::kRegistered;
+  image.reason.clear();
+  image.pose_inliers = static_cast<int>(agreeing.size());
+  for (const auto& [keypoint, point] : agreeing) {
+    if (image.point_of[keypoint] < 0 &&
+        !has_observation_in(scene_.points.at(point), index)) {
+      scene_.add_observation(point, {index, keypoint});
+    }
+  }
+}
+
+// The best pose the relative pose to the best-matched registered
+// neighbour offers, and the 2D-3D matches it explains.
+std::optional<IncrementalMapper::PairPose> IncrementalMapper::pair_pose(
+    int index, const std::vector<std::pair<int, int64_t>>& corr) const {
+  int other = -1;
+  const ImagePair* best = nullptr;
+  for (const auto& [candidate, pair] : scene_.pairs_of(index)) {
+    if (!scene_.images[candidate].registered) continue;
+    if (!best || pair->matches.size() > best->matches.size()) {
+      best = pair;
+      other = candidate;
+    }
+  }
+  if (!best) return std::nullopt;
+  const SceneImage& anchor = scene_.images[other];
+  const Eigen::Matrix3d R_anchor = anchor.q.toRotationMatrix();
+  Eigen::Matrix3d R;
+  Eigen::Vector3d direction;  // of this camera's centre from the anchor's
+  if (index > other) {        // stored as x_index = R x_other + t
+    R = best->R * R_anchor;
+    direction = R_anchor.transpose() * (-best->R.transpose() * best->t);
+  } else {  // x_other = R x_index + t
+    R = best->R.transpose() * R_anchor;
+    direction = R_anchor.transpose() * best->t;
+  }
+  direction.normalize();
+  const Eigen::Vector3d C0 = anchor.centre();
+  const Eigen::Quaterniond q = Eigen::Quaterniond(R).normalized();
+  // Hypotheses: a turn on the spot (a burst; the essential matrix's
+  // baseline and even its rotation are then unreliable, so the turn is
+  // fitted to the rays themselves), or a step along the baseline.
+  std::vector<std::pair<Eigen::Quaterniond, Eigen::Vector3d>> poses;
+  if (auto turn = turn_rotation(index, other, *best))
+    poses.push_back({Eigen::Quaterniond(*turn * R_anchor).normalized(), C0});
+  poses.push_back({q, C0});
+  if (auto length = baseline_length(index, R, C0, direction, corr))
+    poses.push_back({q, C0 + *length * direction});
+  PairPose result{q, C0, {}};
+  for (const auto& [pose_q, pose_c] : poses) {
+    auto explained = agreeing_matches(index, pose_q, pose_c, corr);
+    if (explained.size() > result.agreeing.size())
+      result = {pose_q, pose_c, std::move(explained)};
+  }
+  return result;
+}
+
+// The distance along `direction` from C0 that the median 2D-3D match
+// puts the camera at (R its world-to-camera rotation); none when fewer than
+// 3 matches fix it.
+std::optional<double> IncrementalMapper::baseline_length(
+    int index, const Eigen::Matrix3d& R, const Eigen::Vector3d& C0,
+    const Eigen::Vector3d& direction,
+    const std::vector<std::pair<int, int64_t>>& corr) const {
+  const SceneImage& image = scene_.images[index];
+  const SceneCamera& camera = scene_.cameras[image.camera];
+  std::vector<double> lengths;
+  for (const auto& [keypoint, point] : corr) {
+    const Eigen::Vector2d x = normalize(camera, image.keypoints[keypoint]);
+    const Eigen::Vector3d ray(x.x(), x.y(), 1.0);
+    const Eigen::Vector3d a = ray.cross(R * (scene_.points.at(point).xyz - C0));
+    const Eigen::Vector3d b = ray.cross(R * direction);
+    if (b.squaredNorm() < 1e-12) continue;
+    const double length = a.dot(b) / b.squaredNorm();
+    if (length > 0) lengths.push_back(length);
+  }
+  if (lengths.size() < 3) return std::nullopt;
+  std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2,
+                   lengths.end());
+  return lengths[lengths.size() / 2];
+}
+
+// The rotation (camera to camera) that explains most of a pair's matches
+// as a turn on the spot; none when most of them need a baseline.
+std::optional<Eigen::Matrix3d> IncrementalMapper::turn_rotation(
+    int index, int other, const ImagePair& pair) const {
+  const SceneImage& image = scene_.images[index];
+  const SceneImage& anchor = scene_.images[other];
+  const SceneCamera& camera = scene_.cameras[image.camera];
+  const SceneCamera& anchor_camera = scene_.cameras[anchor.camera];
+  std::vector<Eigen::Vector3d> from, to;
+  for (const auto& [mine, theirs] : oriented_matches(index, other, pair)) {
+    from.push_back(normalize(anchor_camera, anchor.keypoints[theirs])
+                       .homogeneous()
+                       .normalized());
+    to.push_back(
+        normalize(camera, image.keypoints[mine]).homogeneous().normalized());
+  }
+  const int most = static_cast<int>(from.size() * 7 / 10);
+  return estimate_rotation(from, to, threshold_normalized(index),
+                           std::max(options_.min_pose_inliers, most),
+                           static_cast<uint64_t>(index), nullptr);
+}
+
+// The 2D-3D matches that a camera at `centre` turned by `q` explains.
+std::vector<std::pair<int, int64_t>> IncrementalMapper::agreeing_matches(
+    int index, const Eigen::Quaterniond& q, const Eigen::Vector3d& centre,
+    const std::vector<std::pair<int, int64_t>>& corr) const {
+  const SceneImage& image = scene_.images[index];
+  const SceneCamera& camera = scene_.cameras[image.camera];
+  SceneImage trial;
+  trial.q = q;
+  trial.t = -(q * centre);
+  std::vector<std::pair<int, int64_t>> agreeing;
+  for (const auto& [keypoint, point] : corr) {
+    Eigen::Vector2d projected;
+    if (project(camera, trial, scene_.points.at(point).xyz, &projected) &&
+        (projected - image.keypoints[keypoint]).norm() <=
+            options_.max_reprojection_px) {
+      agreeing.emplace_back(keypoint, point);
+    }
+  }
+  return agreeing;
+}
+
+// Two points that a match says are one: merged where one position explains
+// every observation of both, which links the chain of photos into longer
+// tracks (and closes loops).
+void IncrementalMapper::merge_tracks(int64_t a, int64_t b) {
+  if (a == b) return;
+  const ScenePoint& pa = scene_.points.at(a);
+  const ScenePoint& pb = scene_.points.at(b);
+  for (const Observation& obs : pb.track) {
+    if (has_observation_in(pa, obs.image)) return;
+  }
+  const double na = static_cast<double>(pa.track.size());
+  const double nb = static_cast<double>(pb.track.size());
+  const Eigen::Vector3d merged = (pa.xyz * na + pb.xyz * nb) / (na + nb);
+  for (const ScenePoint* point : {&pa, &pb}) {
+    for (const Observation& obs : point->track) {
+      const SceneImage& image = scene_.images[obs.image];
+      Eigen::Vector2d projected;
+      if (!project(scene_.cameras[image.camera], image, merged, &projected) ||
+          (projected - image.keypoints[obs.keypoint]).norm() >
+              options_.max_reprojection_px) {
+        return;
+      }
+    }
+  }
+  if (na >= nb) {
+    scene_.merge_points(a, b, merged);
+  } else {
+    scene_.merge_points(b, a, merged);
+  }
+}
+
+void IncrementalMapper::extend_track(int64_t point_id, Observation obs) {
+  ScenePoint& point = scene_.points.at(point_id);
+  if (has_observation_in(point, obs.image)) return;
+  const SceneImage& image = scene_.images[obs.image];
+  Eigen::Vector2d projected;
+  if (!project(scene_.cameras[image.camera], image, point.xyz, &projected))
+    return;
+  if ((projected - image.keypoints[obs.keypoint]).norm() >
+      options_.max_reprojection_px)
+    return;
+  scene_.add_observation(point_id, obs);
+}
+
+bool IncrementalMapper::triangulate_pair_match(Observation first,
+                                               Observation second) {
+  const SceneImage& a = scene_.images[first.image];
+  const SceneImage& b = scene_.images[second.image];
+  const SceneCamera& ca = scene_.cameras[a.camera];
+  const SceneCamera& cb = scene_.cameras[b.camera];
+  const auto X = triangulate({pose_matrix(a), pose_matrix(b)},
+                             {normalize(ca, a.keypoints[first.keypoint]),
+                              normalize(cb, b.keypoints[second.keypoint])});
+  if (!X || !X->allFinite()) return false;
+  // Written to fail on NaN too: two cameras at one place (a turn on the
+  // spot) give a point with no defined angle.
+  if (!(triangulation_angle_deg(a.centre(), b.centre(), *X) >=
+        options_.min_triangulation_angle_deg)) {
+    return false;
+  }
+  Eigen::Vector2d pa, pb;
+  if (!project(ca, a, *X, &pa) || !project(cb, b, *X, &pb)) return false;
+  if ((pa - a.keypoints[first.keypoint]).norm() >
+          options_.max_reprojection_px ||
+      (pb - b.keypoints[second.keypoint]).norm() >
+          options_.max_reprojection_px) {
+    return false;
+  }
+  scene_.add_point(*X, {first, second});
+  return true;
+}
+
+void IncrementalMapper::triangulate_image(int index) {
+  StageClock clock(timings_.triangulation_s);
+  for (const auto& [other, pair] : scene_.pairs_of(index)) {
+    if (!scene_.images[other].registered) continue;
+    for (const auto& [mine, theirs] : oriented_matches(index, other, *pair)) {
+      const int64_t p_mine = scene_.images[index].point_of[mine];
+      const int64_t p_theirs = scene_.images[other].point_of[theirs];
+      if (p_mine >= 0 && p_theirs >= 0) {
+        merge_tracks(p_mine, p_theirs);
+      } else if (p_theirs >= 0) {
+        extend_track(p_theirs, {index, mine});
+      } else if (p_mine >= 0) {
+        extend_track(p_mine, {other, theirs});
+      } else {
+        triangulate_pair_match({index, mine}, {other, theirs});
+      }
+    }
+  }
+}
+
+// Once registered and triangulated, a new image's keypoints move onto the
+// spot their track's reference shows (keypoint_refinement.h), before any
+// adjustment sees them. Each image is refined once: its patches are those
+// of the detected keypoints.
+void IncrementalMapper::refine_keypoints(int index) {
+  StageClock clock(timings_.triangulation_s);
+  SceneImage& image = scene_.images[index];
+  if (image.patches.rows != static_cast<int>(image.keypoints.size()) ||
+      !image.refined_keypoints.empty())
+    return;
+  for (size_t k = 0; k < image.keypoints.size(); ++k) {
+    if (image.point_of[k] < 0) continue;
+    const auto reference = track_reference(image.point_of[k], index);
+    if (!reference) continue;
+    const auto shift = align_patch(
+        scene_.images[reference->image].patches.ptr<uchar>(reference->keypoint),
+        image.patches.ptr<uchar>(static_cast<int>(k)));
+    if (!shift) continue;
+    image.keypoints[k] += *shift;
+    image.refined_keypoints.emplace_back(static_cast<int>(k),
+                                         image.keypoints[k]);
+  }
+}
+
+// The observation of `point` the others align to: the one in the earliest
+// added image with patches, other than `image` itself.
+std::optional<Observation> IncrementalMapper::track_reference(int64_t point,
+                                                              int image) const {
+  std::optional<Observation> reference;
+  for (const Observation& obs : scene_.points.at(point).track) {
+    if (obs.image == image || scene_.images[obs.image].patches.empty())
+      continue;
+    if (!reference || obs.image < reference->image) reference = obs;
+  }
+  return reference;
+}
+
+std::vector<int> IncrementalMapper::covisible_images(int index,
+                                                     int limit) const {
+  std::map<int, int> shared;
+  const SceneImage& image = scene_.images[index];
+  for (int64_t point : image.point_of) {
+    if (point < 0) continue;
+    for (const Observation& obs : scene_.points.at(point).track) {
+      if (obs.image != index) ++shared[obs.image];
+    }
+  }
+  std::vector<std::pair<int, int>> ranked;
+  for (const auto& [other, count] : shared) ranked.push_back({count, other});
+  std::sort(ranked.begin(), ranked.end(), [](const auto& x, const auto& y) {
+    return x.first != y.first ? x.first > y.first : x.second < y.second;
+  });
+  std::vector<int> result;
+  for (size_t i = 0; i < ranked.size() && static_cast<int>(i) < limit; ++i) {
+    result.push_back(ranked[i].second);
+  }
+  return result;
+}
+
+// A registered image with almost no baseline to a covisible one (a photo
+// of a burst, a scout standing still): it adds observations but no
+// parallax, so adjusting the map around it would buy nothing.
+bool IncrementalMapper::near_duplicate_view(
+    int index, const std::vector<int>& covisible) const {
+  const SceneImage& image = scene_.images[index];
+  std::vector<double> depths;
+  for (int64_t point : image.point_of) {
+    if (point >= 0)
+      depths.push_back((image.q * scene_.points.at(point).xyz + image.t).z());
+  }
+  if (depths.size() < 20) return false;
+  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2,
+                   depths.end());
+  const double depth = depths[depths.size() / 2];
+  for (int other : covisible) {
+    const SceneImage& view = scene_.images[other];
+    if ((view.centre() - image.centre()).norm() < kKeyViewBaseline * depth &&
+        view.q.angularDistance(image.q) < kKeyViewAngleRad)
+      return true;
+  }
+  return false;
+}
+
+// The views that carry the model's geometry: in order of addition, each
+// registered image that is not a near duplicate of an earlier key view
+// (plus the gauge images). The others follow them by their own pose.
+std::vector<int> IncrementalMapper::key_views() const {
+  std::vector<int> keys;
+  for (size_t i = 0; i < scene_.images.size(); ++i) {
+    const int index = static_cast<int>(i);
+    if (!scene_.images[i].registered) continue;
+    const bool gauge =
+        index == scene_.reference_image || index == scene_.scale_image;
+    if (gauge || !near_duplicate_view(index, keys)) keys.push_back(index);
+  }
+  return keys;
+}
+
+// Motion-only adjustment of one registered image against fixed points.
+void IncrementalMapper::adjust_pose(int index) {
+  BundleOptions ba = bundle_options(10);
+  ba.points_fixed = true;
+  adjust_bundle(scene_, {index}, false, ba);
+}
+
+void IncrementalMapper::adjust_local(int index) {
+  StageClock clock(timings_.bundle_adjustment_s);
+  std::vector<int> free = covisible_images(index, options_.local_ba_images - 1);
+  if (near_duplicate_view(index, free)) {
+    adjust_pose(index);
+    filter_points({index});
+    return;
+  }
+  free.push_back(index);
+  BundleOptions ba = bundle_options(15);
+  ba.max_fixed_images = options_.local_ba_fixed;
+  ba.max_track_observations = options_.local_ba_track;
+  // Aligning to the priors moves every camera: cheap, but O(model), so only
+  // while the model is small; later the global refinement keeps it aligned.
+  if (global_inline()) align_to_priors(ba);
+  adjust_bundle(scene_, free, false, ba);
+  filter_points(free);
+}
+
+void IncrementalMapper::adjust_global() {
+  StageClock clock(timings_.bundle_adjustment_s);
+  const BundleOptions ba = bundle_options(kGlobalIterations);
+  align_to_priors(ba);
+  adjust_bundle(scene_, {}, true, ba);
+  std::vector<int> all;
+  for (size_t i = 0; i < scene_.images.size(); ++i) {
+    if (scene_.images[i].registered) all.push_back(static_cast<int>(i));
+  }
+  const size_t before = scene_.points.size();
+  filter_points(all);
+  // Outliers pull a robust adjustment less than a plain one, but they still
+  // pull: adjust once more when the filter removed a noticeable share.
+  if (scene_.points.size() + before / 50 < before)
+    adjust_bundle(scene_, {}, true, ba);
+  scene_.registered_at_last_global_ba = scene_.registered_count();
+}
+
+// Drops observations that reproject badly, then points left with fewer than
+// two observations or with too little parallax to be trusted.
+void IncrementalMapper::filter_points(const std::vector<int>& images) {
+  std::set<int64_t> touched;
+  for (int index : images) {
+    for (int64_t point : scene_.images[index].point_of) {
+      if (point >= 0) touched.insert(point);
+    }
+  }
+  for (int64_t id : touched) {
+    ScenePoint& point = scene_.points.at(id);
+    std::vector<Observation> kept;
+    for (const Observation& obs : point.track) {
+      SceneImage& image = scene_.images[obs.image];
+      Eigen::Vector2d projected;
+      const bool good =
+          project(scene_.cameras[image.camera], image, point.xyz, &projected) &&
+          (projected - image.keypoints[obs.keypoint]).norm() <=
+              options_.max_reprojection_px;
+      if (good) {
+        kept.push_back(obs);
+      } else {
+        image.point_of[obs.keypoint] = -1;
+      }
+    }
+    point.track = std::move(kept);
+    double best_angle = 0;
+    for (size_t i = 0; i < point.track.size(); ++i) {
+      for (size_t j = i + 1; j < point.track.size(); ++j) {
+        best_angle = std::max(
+            best_angle,
+            triangulation_angle_deg(
+                scene_.images[point.track[i].image].centre(),
+                scene_.images[point.track[j].image].centre(), point.xyz));
+      }
+    }
+    if (point.track.size() < 2 || !point.xyz.allFinite() ||
+        !(best_angle >= options_.min_triangulation_angle_deg / 3)) {
+      scene_.remove_point(id);
+    }
+  }
+}
+
+// The model's up direction from its cameras: level cameras have horizontal
+// x axes, so up is the direction most nearly perpendicular to all of them;
+// the mean of the cameras' up axes (-y) breaks the tie when the x axes are
+// nearly parallel (cameras all facing one way).
+Eigen::Vector3d IncrementalMapper::model_up() const {
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d mean_up = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (const SceneImage& image : scene_.images) {
+    if (!image.registered) continue;
+    const Eigen::Matrix3d R = image.q.toRotationMatrix();
+    const Eigen::Vector3d x_axis = R.row(0).transpose();
+    scatter += x_axis * x_axis.transpose();
+    mean_up -= R.row(1).transpose();
+    ++count;
+  }
+  mean_up.normalize();
+  scatter += 0.05 * count *
+             (Eigen::Matrix3d::Identity() - mean_up * mean_up.transpose());
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(scatter);
+  Eigen::Vector3d up = eigen.eigenvectors().col(0);  // smallest eigenvalue
+  return up.dot(mean_up) < 0 ? -up : up;
+}
+
+// Turns a similarity about the fixes' centroid so the model's up maps to
+// ENU up: the GPS heights are too noisy to fix the tilt.
+void IncrementalMapper::level(Similarity& sim,
+                              const std::vector<Eigen::Vector3d>& fixes,
+                              const std::vector<int>& inliers) const {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (int i : inliers) centroid += fixes[i];
+  centroid /= std::max<size_t>(1, inliers.size());
+  const Eigen::Matrix3d fix = Eigen::Quaterniond::FromTwoVectors(
+                                  sim.R * model_up(), Eigen::Vector3d::UnitZ())
+                                  .toRotationMatrix();
+  sim.R = fix * sim.R;
+  sim.t = fix * (sim.t - centroid) + centroid;
+}
+
+// Moves the model into the site's ENU frame with a robust similarity from
+// camera centres to GPS positions, whenever the two disagree by more than
+// the adjustment itself would fix (the first time, and while few fixes make
+// the early fit uncertain).
+void IncrementalMapper::geo_register() {
+  if (!scene_.enu_origin) return;
+  std::vector<Eigen::Vector3d> centres, fixes;
+  double accuracy = 0;
+  for (const SceneImage& image : scene_.images) {
+    if (!image.registered || !image.gps) continue;
+    centres.push_back(image.centre());
+    fixes.push_back(image.gps_enu);
+    accuracy += std::hypot(image.gps->h_acc * std::sqrt(2.0), image.gps->v_acc);
+  }
+  if (centres.size() < 3) return;
+  accuracy /= centres.size();
+  std::vector<int> inliers;
+  auto sim = estimate_similarity(centres, fixes, std::max(3 * accuracy, 5.0),
+                                 scene_.images.size(), &inliers);
+  if (!sim) return;
+  if (options_.upright_sigma_deg > 0) level(*sim, fixes, inliers);
+  const double angle = Eigen::AngleAxisd(sim->R).angle() * 180 / M_PI;
+  const bool far = !scene_.geo_registered || angle > 2 ||
+                   std::abs(std::log(sim->scale)) > 0.02 || sim->t.norm() > 1.0;
+  if (!far) return;
+  transform_model(*sim);
+  scene_.geo_registered = true;
+  if (global_inline()) {
+    adjust_global();
+  } else {
+    scene_.registered_at_last_global_ba = 0;  // refine() is due
+  }
+}
+
+void IncrementalMapper::transform_model(const Similarity& sim) {
+  for (auto& [id, point] : scene_.points) point.xyz = sim.apply(point.xyz);
+  const Eigen::Quaterniond rotation(sim.R);
+  for (SceneImage& image : scene_.images) {
+    if (!image.registered) continue;
+    const Eigen::Vector3d centre = sim.apply(image.centre());
+    image.q = (image.q * rotation.conjugate()).normalized();
+    image.t = -(image.q * centre);
+  }
+}
+
+BundleOptions IncrementalMapper::bundle_options(int max_iterations) const {
+  BundleOptions ba;
+  ba.gps_priors = scene_.geo_registered;
+  ba.upright_sigma_deg = options_.upright_sigma_deg;
+  ba.pixel_sigma = 0;  // the features' own deviation against the fixes
+  ba.max_iterations = max_iterations;
+  ba.threads = options_.deterministic ? 1 : options_.threads;
+  return ba;
+}
+
+// Reprojection errors leave the model's position, orientation and scale to
+// the priors alone, and a joint adjustment creeps along such weak
+// directions; solving them first lets it converge in a few iterations.
+void IncrementalMapper::align_to_priors(const BundleOptions& ba) {
+  if (!scene_.geo_registered) return;
+  auto sim = fit_model_to_priors(scene_, ba);
+  // Once in ENU the scale is known to a few percent; fixes that would halve
+  // or double it cannot tell (their noise exceeds the model's extent, as on
+  // the first steps of a walk), and following them would collapse it.
+  if (sim && sim->scale > 0.5 && sim->scale < 2 && sim->R.allFinite() &&
+      sim->t.allFinite())
+    transform_model(*sim);
+}
+
+void IncrementalMapper::reset_model() {
+  scene_.points.clear();
+  for (SceneImage& image : scene_.images) {
+    std::fill(image.point_of.begin(), image.point_of.end(), -1);
+    image.registered = false;
+    if (image.status == CaptureStatus::kRegistered)
+      image.status = CaptureStatus::kPending;
+    image.q.setIdentity();
+    image.t.setZero();
+  }
+  scene_.initialized = false;
+  scene_.geo_registered = false;
+  scene_.reference_image = scene_.scale_image = -1;
+  scene_.registered_at_last_global_ba = 0;
+}
+
+void IncrementalMapper::repair_after_removal() {
+  if (scene_.registered_count() < 3) {
+    reset_model();
+    return;
+  }
+  auto first_registered = [&](int not_this) {
+    for (size_t i = 0; i < scene_.images.size(); ++i) {
+      if (scene_.images[i].registered && static_cast<int>(i) != not_this) {
+        return static_cast<int>(i);
+      }
+    }
+    return -1;
+  };
+  if (scene_.reference_image < 0 ||
+      !scene_.images[scene_.reference_image].registered) {
+    scene_.reference_image = first_registered(scene_.scale_image);
+  }
+  if (scene_.scale_image < 0 || !scene_.images[scene_.scale_image].registered) {
+    scene_.scale_image = first_registered(scene_.reference_image);
+  }
+  adjust_global();
+}
+
+double IncrementalMapper::mean_reprojection_px() const {
+  double sum = 0;
+  size_t count = 0;
+  for (const auto& [id, point] : scene_.points) {
+    for (const Observation& obs : point.track) {
+      const SceneImage& image = scene_.images[obs.image];
+      Eigen::Vector2d projected;
+      if (!project(scene_.cameras[image.camera], image, point.xyz, &projected))
+        continue;
+      sum += (projected - image.keypoints[obs.keypoint]).norm();
+      ++count;
+    }
+  }
+  return count ? sum / count : 0;
+}
+
+}  // namespace arscout::engine

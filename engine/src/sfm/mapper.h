@@ -1,0 +1,103 @@
+// The incremental mapping steps on a Scene whose images are already matched:
+// initialization from the best-conditioned pair, registration of further
+// images by absolute pose, triangulation, bundle adjustment (local, and
+// global when the model has grown) and geo-registration to ENU.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <random>
+#include <set>
+#include <vector>
+
+#include "arscout/engine/reconstruction.h"
+#include "estimators/bundle_adjuster.h"
+#include "estimators/estimators.h"
+#include "sfm/scene.h"
+
+namespace arscout::engine {
+
+class IncrementalMapper {
+ public:
+  IncrementalMapper(Scene& scene, const ReconstructionOptions& options,
+                    StageTimings& timings);
+
+  // Registers every image it can (initializing the model first when it has
+  // none); returns the newly registered images in order of registration.
+  std::vector<int> update();
+  // After a withdrawal: re-initializes when too little is left, else
+  // adjusts the whole model again.
+  void repair_after_removal();
+  // The global adjustment left out of update() for large models (see
+  // Reconstruction::refine).
+  RefineResult refine(const std::function<bool()>& stop);
+  bool refinement_due() const;
+  // Loops closed by this mapper's update() calls.
+  int loops_closed() const { return loops_closed_; }
+  // Mean reprojection error over all observations, working pixels.
+  double mean_reprojection_px() const;
+  // 2D-3D correspondences an unregistered image has (keypoint, point).
+  std::vector<std::pair<int, int64_t>> correspondences(int image) const;
+
+ private:
+  int next_image(const std::set<int>& failed, size_t* count) const;
+  bool initialize();
+  bool try_initial_pair(int a, int b, const ImagePair& pair);
+  void register_by_points(std::vector<int>& registered, int limit,
+                          const std::function<bool()>& stop);
+  void extend_model(int index);
+  bool catch_up(const std::function<bool()>& stop, RefineResult& result);
+  bool register_image(int index);
+  bool register_from_pair(int index);
+  void second_opinion(int index);
+  struct PairPose {
+    Eigen::Quaterniond q;
+    Eigen::Vector3d centre;
+    std::vector<std::pair<int, int64_t>> agreeing;
+  };
+  std::optional<PairPose> pair_pose(
+      int index, const std::vector<std::pair<int, int64_t>>& corr) const;
+  void set_pose(int index, const Eigen::Quaterniond& q,
+                const Eigen::Vector3d& centre,
+                const std::vector<std::pair<int, int64_t>>& agreeing);
+  std::optional<double> baseline_length(
+      int index, const Eigen::Matrix3d& R, const Eigen::Vector3d& C0,
+      const Eigen::Vector3d& direction,
+      const std::vector<std::pair<int, int64_t>>& corr) const;
+  std::optional<Eigen::Matrix3d> turn_rotation(int index, int other,
+                                               const ImagePair& pair) const;
+  std::vector<std::pair<int, int64_t>> agreeing_matches(
+      int index, const Eigen::Quaterniond& q, const Eigen::Vector3d& centre,
+      const std::vector<std::pair<int, int64_t>>& corr) const;
+  void triangulate_image(int index);
+  void refine_keypoints(int index);
+  std::optional<Observation> track_reference(int64_t point, int image) const;
+  void extend_track(int64_t point, Observation obs);
+  void merge_tracks(int64_t a, int64_t b);
+  bool triangulate_pair_match(Observation first, Observation second);
+  void close_loops(int index);
+  std::vector<int> key_views() const;
+  void adjust_pose(int index);
+  void adjust_local(int index);
+  bool near_duplicate_view(int index, const std::vector<int>& covisible) const;
+  void adjust_global();
+  bool global_inline() const;
+  void filter_points(const std::vector<int>& images);
+  void geo_register();
+  void transform_model(const Similarity& sim);
+  BundleOptions bundle_options(int max_iterations) const;
+  void align_to_priors(const BundleOptions& ba);
+  Eigen::Vector3d model_up() const;
+  void level(Similarity& sim, const std::vector<Eigen::Vector3d>& fixes,
+             const std::vector<int>& inliers) const;
+  void reset_model();
+  double threshold_normalized(int image) const;
+  std::vector<int> covisible_images(int index, int limit) const;
+
+  Scene& scene_;
+  const ReconstructionOptions& options_;
+  StageTimings& timings_;
+  int loops_closed_ = 0;
+};
+
+}  // namespace arscout::engine

@@ -1,0 +1,599 @@
+// One connection's HTTP/1.1 session, plain or over TLS, with its limits
+// and timeouts, parked long-polls and WebSocket subscriptions: the part of
+// the server that instantiates Beast's templates (twice, once per stream
+// kind), in its own unit so that it and the listener (beast_server.cpp)
+// compile side by side. Requests are answered by Api on a worker pool.
+#include "beast_session.h"
+
+#include <spdlog/spdlog.h>
+#include <boost/asio.hpp>
+#include <boost/asio/ssl.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/ssl.hpp>
+#include <boost/beast/websocket.hpp>
+#include <boost/beast/websocket/ssl.hpp>
+#include <deque>
+#include <optional>
+
+#include "api_handlers.h"
+#include "beast_request.h"
+#include "body_rate.h"
+
+namespace arscout::ingest {
+namespace {
+
+namespace asio = boost::asio;
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+namespace ssl = asio::ssl;
+using tcp = asio::ip::tcp;
+
+using Slot = KeyedLimit::Slot;
+
+HttpResponse too_many_streams(const KeyedLimit& streams) {
+  HttpResponse r = HttpResponse::error(
+      429, "too_many_streams",
+      "too many open long-polls and WebSocket streams (at most " +
+          std::to_string(streams.per_key_cap()) + " per token, " +
+          std::to_string(streams.total_cap()) +
+          " in all); close one or poll less often");
+  r.headers.emplace_back("Retry-After", "5");
+  return r;
+}
+
+http::response<http::string_body> to_beast(HttpResponse&& r, unsigned version,
+                                           bool keep_alive) {
+  http::response<http::string_body> out{static_cast<http::status>(r.status),
+                                        version};
+  out.set(http::field::server, "arscout/0.1");
+  out.set(http::field::content_type, r.content_type);
+  for (auto& [k, v] : r.headers) out.set(k, v);
+  out.body() = std::move(r.body);
+  out.keep_alive(keep_alive);
+  out.prepare_payload();
+  return out;
+}
+
+// Socket access for both stream kinds.
+tcp::socket& socket_of(beast::tcp_stream& s) { return s.socket(); }
+tcp::socket& socket_of(beast::ssl_stream<beast::tcp_stream>& s) {
+  return s.next_layer().socket();
+}
+beast::tcp_stream& tcp_of(beast::tcp_stream& s) { return s; }
+beast::tcp_stream& tcp_of(beast::ssl_stream<beast::tcp_stream>& s) {
+  return s.next_layer();
+}
+
+// ---------------------------------------------------------------- WebSocket
+
+template <typename Stream>
+class SubscribeSession
+    : public std::enable_shared_from_this<SubscribeSession<Stream>> {
+ public:
+  SubscribeSession(Stream&& stream, SessionContext shared,
+                   std::optional<Slot> connection, Slot stream_slot)
+      : ws_(std::move(stream)),
+        shared_(shared),
+        connection_(std::move(connection)),
+        stream_slot_(std::move(stream_slot)) {
+    shared_.api.metrics().connection_opened();
+    shared_.api.metrics().stream_opened();
+  }
+  ~SubscribeSession() {
+    shared_.watch.cancel(watch_id_);
+    shared_.api.metrics().stream_closed();
+    shared_.api.metrics().connection_closed();
+  }
+
+  void run(http::request<http::string_body> upgrade, Api::Subscribe where) {
+    tcp_of(beast::get_lowest_layer(ws_)).expires_never();
+    ws_.set_option(
+        websocket::stream_base::timeout::suggested(beast::role_type::server));
+    where_ = std::move(where);
+    last_ = where_.since;
+    auto self = this->shared_from_this();
+    ws_.async_accept(upgrade, [self](beast::error_code ec) {
+      if (ec) return;
+      self->fetch();
+      self->read_loop();
+      self->recheck_token();
+    });
+  }
+
+ private:
+  static constexpr std::size_t kBatch = 500;
+  // More is read from the log only while fewer changes wait to be sent: a
+  // slow client gets its changes later, and holds no more memory.
+  static constexpr std::size_t kRefill = 1000;
+
+  struct Batch {
+    std::vector<std::string> texts;  // readable by the subscriber
+    std::int64_t head = 0;           // the log's last seq before reading
+    std::int64_t last = 0;           // the last seq read
+    bool full = false;               // more may follow at once
+    bool failed = false;
+  };
+
+  // Reads the next batch on a worker and hands it to the session's strand;
+  // between batches the session waits on the change watch, holding no
+  // thread.
+  void fetch() {
+    if (fetching_ || closed_) return;
+    if (queue_.size() >= kRefill) {
+      fetch_when_drained_ = true;
+      return;
+    }
+    fetching_ = true;
+    auto self = this->shared_from_this();
+    asio::post(shared_.workers, [self, since = last_] {
+      Batch batch = self->read_batch(since);
+      asio::post(self->ws_.get_executor(),
+                 [self, batch = std::move(batch)]() mutable {
+                   self->on_batch(std::move(batch));
+                 });
+    });
+  }
+
+  Batch read_batch(std::int64_t since) const {
+    Batch b;
+    b.last = since;
+    try {
+      db::Store& store = shared_.api.store();
+      b.head = store.last_seq();
+      const auto changes = store.changes(since, where_.pattern, kBatch);
+      b.full = changes.size() == kBatch;
+      for (const db::Change& c : changes) {
+        b.last = c.seq;
+        if (can_read(where_.who, c.path))  // as the documents themselves
+          b.texts.push_back(to_json(c).dump());
+      }
+    } catch (const std::exception& e) {
+      spdlog::warn("event=stream_read_failed since={} error=\"{}\"", since,
+                   e.what());
+      b.failed = true;
+    }
+    return b;
+  }
+
+  void on_batch(Batch batch) {
+    fetching_ = false;
+    if (closed_) return;
+    if (batch.failed) return retry_later();
+    for (std::string& text : batch.texts) enqueue(std::move(text));
+    last_ = batch.last;
+    if (batch.full) return fetch();
+    std::weak_ptr<SubscribeSession> weak = this->shared_from_this();
+    watch_id_ = shared_.watch.notify_after(std::max(batch.head, last_), [weak] {
+      if (auto self = weak.lock())
+        asio::post(self->ws_.get_executor(), [self] { self->fetch(); });
+    });
+  }
+
+  // The store failed: the log is the truth, so read again from last_.
+  void retry_later() {
+    retry_.expires_after(std::chrono::seconds(1));
+    retry_.async_wait([self = this->shared_from_this()](beast::error_code ec) {
+      if (!ec) self->fetch();
+    });
+  }
+
+  // Every second the stream's token is looked up again (on a worker: it
+  // reads the store); once it is revoked or expired the stream closes.
+  void recheck_token() {
+    recheck_.expires_after(std::chrono::seconds(1));
+    recheck_.async_wait(
+        [self = this->shared_from_this()](beast::error_code ec) {
+          if (ec) return;  // cancelled: the stream ended
+          asio::post(self->shared_.workers, [self] {
+            bool valid = true;  // a store that cannot answer revokes nothing
+            try {
+              valid = authenticate(self->shared_.api.store(),
+                                   self->where_.authorization)
+                          .has_value();
+            } catch (const std::exception&) {
+            }
+            asio::post(self->ws_.get_executor(), [self, valid] {
+              if (valid) return self->recheck_token();
+              self->ws_.async_close(
+                  websocket::close_reason(websocket::close_code::policy_error,
+                                          "the token was revoked or expired"),
+                  [self](beast::error_code) {});
+            });
+          });
+        });
+  }
+
+  // The client sends nothing we need; reading notices when it goes away.
+  void read_loop() {
+    auto self = this->shared_from_this();
+    ws_.async_read(incoming_, [self](beast::error_code ec, std::size_t) {
+      if (ec) return self->end();
+      self->incoming_.consume(self->incoming_.size());
+      self->read_loop();
+    });
+  }
+
+  // Closed: nothing pending keeps the session, which ends with its last
+  // owner.
+  void end() {
+    closed_ = true;
+    recheck_.cancel();
+    retry_.cancel();
+    shared_.watch.cancel(watch_id_);
+  }
+
+  void enqueue(std::string text) {
+    queue_.push_back(std::move(text));
+    if (queue_.size() == 1) write_next();
+  }
+
+  void write_next() {
+    ws_.text(true);
+    auto self = this->shared_from_this();
+    ws_.async_write(asio::buffer(queue_.front()), [self](beast::error_code ec,
+                                                         std::size_t) {
+      if (ec) return;
+      self->queue_.pop_front();
+      if (!self->queue_.empty()) self->write_next();
+      if (self->fetch_when_drained_ && self->queue_.size() < kRefill) {
+        self->fetch_when_drained_ = false;
+        self->fetch();
+      }
+    });
+  }
+
+  websocket::stream<Stream> ws_;
+  SessionContext shared_;
+  std::optional<Slot> connection_;
+  Slot stream_slot_;
+  Api::Subscribe where_;
+  std::int64_t last_ = 0;
+  bool fetching_ = false;
+  bool fetch_when_drained_ = false;
+  bool closed_ = false;
+  std::uint64_t watch_id_ = 0;
+  asio::steady_timer recheck_{ws_.get_executor()};
+  asio::steady_timer retry_{ws_.get_executor()};
+  beast::flat_buffer incoming_;
+  std::deque<std::string> queue_;
+};
+
+// ---------------------------------------------------------------- HTTP
+
+template <typename Stream>
+class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
+ public:
+  HttpSession(Stream&& stream, SessionContext shared,
+              std::optional<Slot> connection)
+      : stream_(std::move(stream)),
+        shared_(shared),
+        connection_(std::move(connection)),
+        body_rate_(shared.options.min_body_rate) {
+    shared_.api.metrics().connection_opened();
+    // Beast reads at most the buffer's free capacity (512 bytes minimum),
+    // and the body parser empties it after each read: without room here a
+    // 3 MB upload takes ~6,000 reads.
+    buffer_.reserve(kReadChunk);
+  }
+  ~HttpSession() {
+    shared_.watch.cancel(watch_id_);
+    release_stream();
+    shared_.api.metrics().connection_closed();
+  }
+
+  void run() {
+    if constexpr (std::is_same_v<Stream, beast::tcp_stream>) {
+      read_header(shared_.options.header_timeout);
+    } else {
+      tcp_of(stream_).expires_after(shared_.options.header_timeout);
+      stream_.async_handshake(
+          ssl::stream_base::server,
+          [self = this->shared_from_this()](beast::error_code ec) {
+            if (!ec) self->read_header(self->shared_.options.header_timeout);
+          });
+    }
+  }
+
+ private:
+  static constexpr std::size_t kReadChunk = 64 * 1024;
+
+  void read_header(std::chrono::seconds timeout) {
+    parser_.emplace();
+    limit_request_parser(*parser_, shared_.options);
+    tcp_of(stream_).expires_after(timeout);
+    http::async_read_header(
+        stream_, buffer_, *parser_,
+        [self = this->shared_from_this()](beast::error_code ec, std::size_t) {
+          self->on_header(ec);
+        });
+  }
+
+  void on_header(beast::error_code ec) {
+    if (ec == http::error::header_limit)
+      return reject(431, "header_too_large",
+                    "the request header is larger than " +
+                        std::to_string(shared_.options.max_header_bytes) +
+                        " bytes");
+    if (ec == http::error::body_limit) return reject_too_large();
+    if (ec) return;  // closed, timed out or garbage: drop the connection
+    if (std::string problem = transfer_encoding_problem(parser_->get());
+        !problem.empty())
+      return reject(400, "bad_request", problem);
+    auto length = parser_->content_length();
+    if (length && *length > shared_.options.max_body_bytes)
+      return reject_too_large();
+    if (websocket::is_upgrade(parser_->get())) return upgrade();
+    if (parser_->is_done()) return read_body();  // no body to protect
+    check_before_body();
+  }
+
+  // A body is read only from a client the request's header already
+  // authorises: a missing or unknown token, or a role that may not make
+  // the request, is answered (and the connection closed) before the body
+  // and before any "100 Continue", so an unauthenticated client cannot
+  // make the server take in megabytes. The token is checked on a worker
+  // (it reads the store), then the session goes on on its own strand.
+  void check_before_body() {
+    HttpRequest head = head_of(parser_->get());
+    auto parsed = parse_target(head.target);
+    if (!parsed) return continue_body();  // on_body answers the bad URL
+    head.path = std::move(parsed->path);
+    auto self = this->shared_from_this();
+    asio::post(shared_.workers, [self, head = std::move(head)] {
+      auto refusal = self->shared_.api.refuse_before_body(head);
+      asio::post(self->stream_.get_executor(),
+                 [self, refusal = std::move(refusal)]() mutable {
+                   if (refusal) return self->refuse(std::move(*refusal));
+                   self->continue_body();
+                 });
+    });
+  }
+
+  void continue_body() {
+    if (beast::iequals(parser_->get()[http::field::expect], "100-continue"))
+      return send_continue();
+    read_body();
+  }
+
+  // Answers, then closes: the unread body is not this connection's to skip.
+  void refuse(HttpResponse&& response) {
+    send(std::move(response), parser_->get().version(), false);
+  }
+
+  // Clients such as curl send "Expect: 100-continue" with large bodies and
+  // wait (a second, for curl) for this interim answer before sending.
+  void send_continue() {
+    auto interim = std::make_shared<http::response<http::empty_body>>(
+        http::status::continue_, parser_->get().version());
+    http::async_write(stream_, *interim,
+                      [self = this->shared_from_this(), interim](
+                          beast::error_code ec, std::size_t) {
+                        if (!ec) self->read_body();
+                      });
+  }
+
+  // The body in pieces, each within the stall time, all within the body's
+  // deadline (set by continue_body), at min_body_rate or faster.
+  void read_body() {
+    if (parser_->is_done()) return on_body({});  // no body, or read already
+    const auto now = std::chrono::steady_clock::now();
+    body_deadline_ = now + body_time();
+    body_rate_.start(now);
+    read_body_some();
+  }
+
+  std::chrono::seconds body_time() {
+    auto length = parser_->content_length();
+    return std::chrono::seconds(30) +
+           std::chrono::seconds(length.value_or(0) / (64 * 1024));
+  }
+
+  void read_body_some() {
+    constexpr auto kStall = std::chrono::seconds(10);
+    const auto left = body_deadline_ - std::chrono::steady_clock::now();
+    tcp_of(stream_).expires_after(
+        std::min<std::chrono::steady_clock::duration>(left, kStall));
+    http::async_read_some(stream_, buffer_, *parser_,
+                          [self = this->shared_from_this()](
+                              beast::error_code ec, std::size_t bytes) {
+                            self->on_body_some(ec, bytes);
+                          });
+  }
+
+  void on_body_some(beast::error_code ec, std::size_t bytes) {
+    if (ec || parser_->is_done()) return on_body(ec);
+    if (!body_rate_.add(bytes, std::chrono::steady_clock::now())) {
+      shared_.api.metrics().refused("slow_body");
+      return reject(408, "request_timeout",
+                    "the request body arrived slower than " +
+                        std::to_string(body_rate_.min_rate()) +
+                        " bytes per second");
+    }
+    read_body_some();
+  }
+
+  void on_body(beast::error_code ec) {
+    if (ec == http::error::body_limit) return reject_too_large();
+    if (ec) return;
+    tcp_of(stream_).expires_never();
+    auto request = parser_->release();
+    const unsigned version = request.version();
+    const bool keep_alive = request.keep_alive();
+    HttpRequest req = to_request(std::move(request));
+    auto parsed = parse_target(req.target);
+    if (!parsed) {
+      return send(HttpResponse::error(400, "bad_request",
+                                      "malformed percent-encoding in the URL"),
+                  version, false);
+    }
+    req.path = std::move(parsed->path);
+    req.query = std::move(parsed->query);
+    req.may_park = true;
+    beast::error_code peer_error;
+    const auto peer = socket_of(stream_).remote_endpoint(peer_error);
+    if (!peer_error) req.remote = peer.address().to_string();
+    answer(std::move(req), version, keep_alive);
+  }
+
+  // The API answers on a worker; a long-poll with nothing to show yet is
+  // parked instead (park), and asked again when woken.
+  void answer(HttpRequest req, unsigned version, bool keep_alive) {
+    auto self = this->shared_from_this();
+    asio::post(shared_.workers, [self, req = std::move(req), version,
+                                 keep_alive]() mutable {
+      HttpResponse response = self->shared_.api.handle(req);
+      asio::post(self->stream_.get_executor(),
+                 [self, req = std::move(req), response = std::move(response),
+                  version, keep_alive]() mutable {
+                   if (response.park_after)
+                     return self->park(std::move(req), *response.park_after,
+                                       version, keep_alive);
+                   self->release_stream();
+                   self->send(std::move(response), version, keep_alive);
+                 });
+    });
+  }
+
+  // A long-poll waits on the change watch and a timer for its `wait`,
+  // holding a stream slot but no thread; whichever comes first unparks it.
+  void park(HttpRequest req, std::int64_t after, unsigned version,
+            bool keep_alive) {
+    if (!stream_slot_) {
+      stream_slot_ = shared_.streams.acquire(req.header("authorization"));
+      if (!stream_slot_) {
+        shared_.api.metrics().refused("streams");
+        return send(too_many_streams(shared_.streams), version, keep_alive);
+      }
+      shared_.api.metrics().stream_opened();
+      park_deadline_ = std::chrono::steady_clock::now() +
+                       std::chrono::seconds(std::stoi(req.query["wait"]));
+    }
+    parked_.emplace(Parked{std::move(req), version, keep_alive});
+    std::weak_ptr<HttpSession> weak = this->shared_from_this();
+    watch_id_ = shared_.watch.notify_after(after, [weak] {
+      if (auto self = weak.lock())
+        asio::post(self->stream_.get_executor(), [self] { self->unpark(); });
+    });
+    park_timer_.expires_at(park_deadline_);
+    park_timer_.async_wait(
+        [self = this->shared_from_this()](beast::error_code ec) {
+          if (!ec) self->unpark();
+        });
+  }
+
+  void unpark() {
+    if (!parked_) return;  // the other wake-up came first
+    Parked p = std::move(*parked_);
+    parked_.reset();
+    shared_.watch.cancel(watch_id_);
+    park_timer_.cancel();
+    const auto left = park_deadline_ - std::chrono::steady_clock::now();
+    const auto seconds = std::chrono::ceil<std::chrono::seconds>(left).count();
+    p.request.query["wait"] = std::to_string(std::max<long long>(0, seconds));
+    answer(std::move(p.request), p.version, p.keep_alive);
+  }
+
+  void release_stream() {
+    if (!stream_slot_) return;
+    stream_slot_.reset();
+    shared_.api.metrics().stream_closed();
+  }
+
+  void upgrade() {
+    auto request = parser_->release();
+    HttpRequest req = to_request(http::request<http::string_body>(request));
+    auto parsed = parse_target(req.target);
+    if (parsed) {
+      req.path = parsed->path;
+      req.query = parsed->query;
+    }
+    if (!parsed || req.path != "/v1/subscribe")
+      return send(HttpResponse::error(404, "not_found",
+                                      "WebSocket only at /v1/subscribe"),
+                  request.version(), false);
+    auto checked = shared_.api.check_subscribe(req);
+    if (auto* error = std::get_if<HttpResponse>(&checked))
+      return send(std::move(*error), request.version(), false);
+    auto& where = std::get<Api::Subscribe>(checked);
+    auto slot = shared_.streams.acquire(where.authorization);
+    if (!slot) {
+      shared_.api.metrics().refused("streams");
+      return send(too_many_streams(shared_.streams), request.version(), false);
+    }
+    auto ws = std::make_shared<SubscribeSession<Stream>>(
+        std::move(stream_), shared_, std::move(connection_), std::move(*slot));
+    ws->run(std::move(request), std::move(where));
+  }
+
+  void reject_too_large() {
+    reject(413, "payload_too_large",
+           "the request body is larger than the limit of " +
+               std::to_string(shared_.options.max_body_bytes) + " bytes");
+  }
+
+  // Answers without reading the rest of the request, then closes.
+  void reject(int status, const std::string& kind, const std::string& message) {
+    shared_.api.metrics().record_request("rejected", status, 0);
+    send(HttpResponse::error(status, kind, message), 11, false);
+  }
+
+  void send(HttpResponse&& response, unsigned version, bool keep_alive) {
+    auto message = std::make_shared<http::response<http::string_body>>(
+        to_beast(std::move(response), version, keep_alive));
+    tcp_of(stream_).expires_after(std::chrono::seconds(60));
+    http::async_write(stream_, *message,
+                      [self = this->shared_from_this(), message](
+                          beast::error_code ec, std::size_t) {
+                        if (ec) return;
+                        if (!message->keep_alive()) return self->close();
+                        self->read_header(self->shared_.options.idle_timeout);
+                      });
+  }
+
+  void close() {
+    beast::error_code ignored;
+    socket_of(stream_).shutdown(tcp::socket::shutdown_send, ignored);
+  }
+
+  struct Parked {
+    HttpRequest request;
+    unsigned version;
+    bool keep_alive;
+  };
+
+  Stream stream_;
+  SessionContext shared_;
+  std::optional<Slot> connection_;
+  beast::flat_buffer buffer_;
+  std::optional<BeastRequestParser> parser_;
+  BodyRate body_rate_;
+  std::chrono::steady_clock::time_point body_deadline_;
+  // A parked long-poll: its request, stream slot, deadline and wake-ups.
+  std::optional<Parked> parked_;
+  std::optional<Slot> stream_slot_;
+  std::chrono::steady_clock::time_point park_deadline_;
+  std::uint64_t watch_id_ = 0;
+  asio::steady_timer park_timer_{stream_.get_executor()};
+};
+
+}  // namespace
+
+void serve_connection(tcp::socket socket, ssl::context* tls,
+                      const SessionContext& context,
+                      std::optional<KeyedLimit::Slot> connection) {
+  if (tls) {
+    std::make_shared<HttpSession<beast::ssl_stream<beast::tcp_stream>>>(
+        beast::ssl_stream<beast::tcp_stream>(
+            beast::tcp_stream(std::move(socket)), *tls),
+        context, std::move(connection))
+        ->run();
+  } else {
+    std::make_shared<HttpSession<beast::tcp_stream>>(
+        beast::tcp_stream(std::move(socket)), context, std::move(connection))
+        ->run();
+  }
+}
+
+}  // namespace arscout::ingest

@@ -1,0 +1,171 @@
+// The GPS fix, capture, site and model forms: each written and read back
+// through JSON text, and what their readers do with what other versions or
+// hands may have stored.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "arscout/documents/capture.h"
+#include "arscout/documents/document_error.h"
+#include "arscout/documents/gps.h"
+#include "arscout/documents/model.h"
+#include "arscout/documents/site.h"
+
+namespace arscout::documents {
+namespace {
+
+using Json = nlohmann::json;
+
+Json through_text(const Json& j) { return Json::parse(j.dump()); }
+
+GpsFix fix() {
+  return GpsFix{47.0707, 15.4395, 353.5, 3.5, 7.0, 9, "2026-11-21T13:05:00Z",
+                "csv"};
+}
+
+TEST(GpsForm, RoundTripsAndNamesTheBadField) {
+  const auto read = gps_from_json(through_text(to_json(fix())));
+  ASSERT_TRUE(read);
+  EXPECT_EQ(to_json(*read), to_json(fix()));
+  std::string error;
+  Json bad = to_json(fix());
+  bad["h_acc"] = -1;
+  EXPECT_FALSE(gps_from_json(bad, &error));
+  EXPECT_NE(error.find("h_acc"), std::string::npos) << error;
+  bad = to_json(fix());
+  bad["time"] = "yesterday";
+  EXPECT_FALSE(gps_from_json(bad, &error));
+  EXPECT_NE(error.find("time"), std::string::npos) << error;
+  EXPECT_FALSE(gps_from_json(Json{{"lat", 47}}, &error));
+}
+
+Capture capture() {
+  Capture c;
+  c.scout = "alice";
+  c.received = "2026-11-21T13:05:02Z";
+  c.format = "jpeg";
+  c.width = 3072;
+  c.height = 2048;
+  c.bytes = 1234567;
+  c.status = kStatusStored;
+  c.taken = "2026-11-21T13:05:00Z";
+  c.gps = fix();
+  c.camera = "fountain";
+  c.filename = "0001.jpg";
+  c.exif.focal_35mm = 28;
+  c.exif.make = "Pixel";
+  return c;
+}
+
+TEST(CaptureForm, RoundTrips) {
+  const Json written = through_text(to_json(capture()));
+  EXPECT_FALSE(written.contains("site_hint"));  // empty fields left out
+  EXPECT_FALSE(written.contains("site"));
+  EXPECT_EQ(to_json(capture_from_json(written)), written);
+}
+
+TEST(CaptureForm, ReadsLenientlyAndPatchesStatus) {
+  const Json odd = {{"scout", 7}, {"width", -3}, {"gps", {{"lat", 200}}}};
+  const Capture c = capture_from_json(odd);
+  EXPECT_EQ(c.scout, "");
+  EXPECT_EQ(c.width, 0);
+  EXPECT_FALSE(c.gps);  // not a valid fix: none
+  EXPECT_THROW(capture_from_json(Json::array()), DocumentError);
+  Json doc = to_json(capture());
+  doc.merge_patch(status_patch(kStatusRejected, "no GPS", "s-a"));
+  const Capture patched = capture_from_json(doc);
+  EXPECT_EQ(patched.status, kStatusRejected);
+  EXPECT_EQ(patched.status_reason, "no GPS");
+  EXPECT_EQ(patched.site, "s-a");
+}
+
+TEST(SiteForm, RoundTrips) {
+  Site s;
+  s.name = "fountain";
+  s.radius_m = 50;
+  s.fixes = 11;
+  s.extent_m = 12.5;
+  s.captures = {"alice.0000.jpg", "alice.0001.jpg"};
+  s.centre = GeoPoint{47.07, 15.44, 353};
+  s.registered = 2;
+  s.model_version = 3;
+  s.state = "modelled";
+  s.engine = "engine-1";
+  const Json written = through_text(to_json(s));
+  EXPECT_EQ(written["capture_count"], 2);
+  EXPECT_EQ(to_json(site_from_json(written, "s-alice.0000.jpg")), written);
+  const Site bare = site_from_json(Json::object(), "s-x");
+  EXPECT_EQ(bare.name, "s-x");
+  EXPECT_FALSE(bare.centre);
+  EXPECT_THROW(site_from_json(Json{{"captures", {1, 2}}}, "s-x"),
+               DocumentError);
+}
+
+ModelDocument model() {
+  ModelDocument m;
+  m.site = "s-a";
+  m.geo_registered = true;
+  m.enu_origin = GeoPoint{47.07, 15.44, 353};
+  Camera k;
+  k.width = 640;
+  k.height = 480;
+  k.fx = k.fy = 500;
+  k.cx = 319.5;
+  k.cy = 239.5;
+  k.k1 = -0.1;
+  m.cameras.push_back({"phone", k});
+  ModelImageEntry image;
+  image.id = "alice.0000.jpg";
+  image.camera = "phone";
+  image.qvec = {0.5, 0.5, 0.5, 0.5};
+  image.tvec = {1, 2, 3};
+  image.centre = {-1, -2, -3};
+  image.geodetic = GeoPoint{47.0701, 15.4402, 354};
+  image.dense = true;
+  m.images.push_back(image);
+  m.capture_statuses = {{"alice.0000.jpg", "registered"}};
+  m.statistics.captures = 1;
+  m.statistics.registered = 1;
+  m.statistics.sparse_points = 120;
+  m.statistics.mean_reprojection_px = 0.4;
+  m.added = {"alice.0000.jpg"};
+  m.timings.features_s = 0.2;
+  m.timings.total_s = 0.9;
+  m.dense_state = "current";
+  m.dense_tiles = Json::array({{{"tile", "0_0_0"}}});
+  return m;
+}
+
+TEST(ModelForm, RoundTrips) {
+  const Json written = through_text(to_json(model()));
+  EXPECT_EQ(written["frame"], "enu");
+  EXPECT_EQ(written["cameras"][0]["id"], "phone");
+  EXPECT_EQ(written["timings"].size(), 12u);
+  const ModelDocument read = model_from_json(written);
+  EXPECT_EQ(to_json(read), written);
+  ASSERT_NE(read.image("alice.0000.jpg"), nullptr);
+  EXPECT_EQ(read.camera_of(*read.image("alice.0000.jpg"))->camera.k1, -0.1);
+  EXPECT_EQ(read.image("nobody"), nullptr);
+}
+
+TEST(ModelForm, AnEmptyModelKeepsItsShape) {
+  ModelDocument empty;
+  empty.site = "s-b";
+  const Json written = through_text(to_json(empty));
+  EXPECT_TRUE(written["captures"].is_object());
+  EXPECT_TRUE(written["images"].is_array());
+  EXPECT_FALSE(written.contains("dense_state"));
+  EXPECT_EQ(to_json(model_from_json(written)), written);
+}
+
+TEST(ModelForm, RefusesABrokenCameraOrImage) {
+  Json broken = to_json(model());
+  broken["cameras"][0]["distortion"] = {0, 0, 0, 0, 0, 0.2};
+  EXPECT_THROW(model_from_json(broken), DocumentError);
+  broken = to_json(model());
+  broken["images"][0].erase("qvec");
+  EXPECT_THROW(model_from_json(broken), DocumentError);
+}
+
+}  // namespace
+}  // namespace arscout::documents

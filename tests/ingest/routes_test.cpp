@@ -1,0 +1,215 @@
+// The API's route table (api.cpp, route_table.h): which route a request
+// is, 404 against 405 with Allow, 401 and 403 by role, the metrics labels,
+// the refusal before a body agreeing with the full answer, and the one
+// mapping of store errors to statuses (http_types.h). Through Api directly:
+// these are rules about requests, not sockets.
+#include <gtest/gtest.h>
+
+#include "api.h"
+#include "arscout/db/errors.h"
+#include "arscout/db/store.h"
+#include "arscout/ingest/auth.h"
+#include "route_table.h"
+#include "test_stores.h"
+
+namespace arscout::ingest {
+namespace {
+
+HttpRequest request(const std::string& method, const std::string& path,
+                    const std::string& token) {
+  HttpRequest r;
+  r.method = method;
+  r.target = path;
+  r.path = path;
+  if (!token.empty()) r.headers["authorization"] = "Bearer " + token;
+  return r;
+}
+
+std::string allow_of(const HttpResponse& r) {
+  for (const auto& [name, value] : r.headers)
+    if (name == "Allow") return value;
+  return "";
+}
+
+TEST(RoutePatterns, StarsMatchOneSegmentOrTheRest) {
+  std::string rest = "unset";
+  EXPECT_TRUE(pattern_matches("/v1/sites", "/v1/sites"));
+  EXPECT_FALSE(pattern_matches("/v1/sites", "/v1/sites/"));
+  EXPECT_FALSE(pattern_matches("/v1/sites", "/v1/sitesx"));
+  EXPECT_FALSE(pattern_matches("/v1/blobs/*", "/v1/blobs"));
+  EXPECT_TRUE(pattern_matches("/v1/blobs/*", "/v1/blobs/", &rest));
+  EXPECT_EQ(rest, "");
+  EXPECT_TRUE(pattern_matches("/v1/docs/*", "/v1/docs/a/b/", &rest));
+  EXPECT_EQ(rest, "a/b/");
+  EXPECT_TRUE(pattern_matches("/v1/captures/*/thumb", "/v1/captures/c/thumb"));
+  EXPECT_FALSE(pattern_matches("/v1/captures/*/thumb", "/v1/captures//thumb"));
+  EXPECT_FALSE(
+      pattern_matches("/v1/captures/*/thumb", "/v1/captures/a/b/thumb"));
+  EXPECT_FALSE(
+      pattern_matches("/v1/captures/*/thumb", "/v1/captures/c/thumb/"));
+  EXPECT_FALSE(pattern_matches("/healthz", ""));
+  EXPECT_FALSE(pattern_matches("/healthz", "healthz"));
+}
+
+TEST(RoutePatterns, RolesAreOrderedPlannerScoutAdmin) {
+  EXPECT_TRUE(role_at_least(Role::kScout, Role::kPlanner));
+  EXPECT_FALSE(role_at_least(Role::kPlanner, Role::kScout));
+  EXPECT_TRUE(role_at_least(Role::kAdmin, Role::kScout));
+  EXPECT_FALSE(role_at_least(Role::kScout, Role::kAdmin));
+}
+
+TEST(StoreErrors, OneStatusPerCode) {
+  using db::ErrorCode;
+  const std::pair<ErrorCode, int> expected[] = {
+      {ErrorCode::kInvalidPath, 400},     {ErrorCode::kInvalidJson, 400},
+      {ErrorCode::kNotFound, 404},        {ErrorCode::kUnknownBlob, 404},
+      {ErrorCode::kConflict, 409},        {ErrorCode::kTooLarge, 413},
+      {ErrorCode::kInvalidDocument, 422}, {ErrorCode::kInvalidArgument, 422},
+      {ErrorCode::kUnavailable, 503},     {ErrorCode::kInternal, 500}};
+  for (const auto& [code, status] : expected) {
+    EXPECT_EQ(http_status(code), status) << db::to_string(code);
+    const HttpResponse r = error_response(db::StoreError(code, "why"));
+    EXPECT_EQ(r.status, status);
+    EXPECT_EQ(Json::parse(r.body)["error"], db::to_string(code));
+  }
+  const HttpResponse conflict = error_response(db::ConflictError("/a", 1, 2));
+  EXPECT_EQ(Json::parse(conflict.body)["current_version"], 2);
+  EXPECT_EQ(allow_of(error_response(
+                db::StoreError(db::ErrorCode::kUnavailable, "down"))),
+            "");
+}
+
+class RoutesTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    store_ = db::Store::open(testing::fresh_sqlite_url());
+    tokens_["scout"] = create_token(*store_, Role::kScout, "sam");
+    tokens_["planner"] = create_token(*store_, Role::kPlanner, "pat");
+    tokens_["admin"] = create_token(*store_, Role::kAdmin, "root");
+    tokens_["none"] = "";
+    ApiRoute thumb;
+    thumb.name = "GET /v1/captures/*/thumb";
+    thumb.methods = {"GET"};
+    thumb.pattern = "/v1/captures/*/thumb";
+    thumb.handle = [](const HttpRequest&, const Principal&) {
+      return HttpResponse::json(200, Json::object());
+    };
+    api_ = std::make_unique<Api>(*store_, metrics_, std::vector{thumb});
+  }
+
+  HttpResponse as(const std::string& who, const std::string& method,
+                  const std::string& path) {
+    return api_->handle(request(method, path, tokens_.at(who)));
+  }
+
+  std::unique_ptr<db::Store> store_;
+  std::map<std::string, std::string> tokens_;
+  Metrics metrics_;
+  std::unique_ptr<Api> api_;
+};
+
+struct Case {
+  std::string who, method, path;
+  int status;
+  std::string allow;  // the Allow header of a 405
+};
+
+TEST_F(RoutesTest, EveryRouteAnswersUnknownPathsMethodsAndRoles) {
+  const Case cases[] = {
+      {"none", "GET", "/healthz", 200, ""},
+      {"none", "HEAD", "/healthz", 405, "GET"},
+      {"none", "POST", "/metrics", 405, "GET"},
+      {"none", "GET", "/v1/nowhere", 404, ""},
+      {"scout", "GET", "/v1/docs", 404, ""},
+      {"scout", "GET", "/v1/capturesx", 404, ""},
+      {"none", "GET", "/v1/sites", 401, ""},
+      {"planner", "POST", "/v1/sites", 405, "GET"},
+      {"planner", "GET", "/v1/captures", 405, "POST"},
+      {"planner", "POST", "/v1/captures", 403, ""},
+      {"planner", "GET", "/v1/cameras/c1", 405, "PUT"},
+      {"planner", "PUT", "/v1/cameras/c1", 403, ""},
+      {"scout", "GET", "/v1/captures/c1", 405, "DELETE"},
+      {"scout", "DELETE", "/v1/captures/c1", 404, ""},
+      {"scout", "POST", "/v1/blobs/x", 405, "GET"},
+      {"scout", "GET", "/v1/docs/sites/none", 404, ""},
+      {"scout", "PUT", "/v1/docs/a", 403, ""},
+      {"scout", "POST", "/v1/docs/a", 403, ""},
+      {"admin", "POST", "/v1/docs/a", 405, "GET, PUT, PATCH, DELETE"},
+      {"planner", "HEAD", "/v1/docs/a", 405, "GET, PUT, PATCH, DELETE"},
+      {"planner", "GET", "/v1/docs/auth/tokens", 403, ""},
+      {"planner", "PUT", "/v1/subscribe", 400, ""},
+      // An added route wins over DELETE /v1/captures/{id}.
+      {"planner", "GET", "/v1/captures/c1/thumb", 200, ""},
+      {"admin", "DELETE", "/v1/captures/c1/thumb", 405, "GET"},
+      {"none", "GET", "/v1/captures/c1/thumb", 401, ""},
+  };
+  for (const Case& c : cases) {
+    const std::string what = c.who + " " + c.method + " " + c.path;
+    const HttpResponse r = as(c.who, c.method, c.path);
+    EXPECT_EQ(r.status, c.status) << what << ": " << r.body;
+    EXPECT_EQ(allow_of(r), c.allow) << what;
+  }
+}
+
+TEST_F(RoutesTest, TheCheckBeforeTheBodyAgreesWithTheAnswer) {
+  const Case cases[] = {
+      {"none", "POST", "/v1/captures", 401, ""},
+      {"none", "PUT", "/v1/nowhere", 401, ""},  // no body without a token
+      {"planner", "POST", "/v1/captures", 403, ""},
+      {"planner", "PUT", "/v1/cameras/c1", 403, ""},
+      {"scout", "PUT", "/v1/docs/sites/s1", 403, ""},
+      {"scout", "PATCH", "/v1/docs/sites/s1", 403, ""},
+      {"scout", "POST", "/v1/captures", 0, ""},
+      {"admin", "PUT", "/v1/docs/sites/s1", 0, ""},
+      {"none", "POST", "/healthz", 0, ""},
+  };
+  for (const Case& c : cases) {
+    const std::string what = c.who + " " + c.method + " " + c.path;
+    const HttpRequest head = request(c.method, c.path, tokens_.at(c.who));
+    const auto refusal = api_->refuse_before_body(head);
+    ASSERT_EQ(refusal.has_value(), c.status != 0) << what;
+    if (!refusal) continue;
+    EXPECT_EQ(refusal->status, c.status) << what;
+    if (c.path == "/v1/nowhere") continue;
+    const HttpResponse full = api_->handle(head);
+    EXPECT_EQ(full.status, refusal->status) << what;
+    EXPECT_EQ(full.body, refusal->body) << what;
+  }
+}
+
+TEST_F(RoutesTest, MetricsLabelsComeFromTheTable) {
+  EXPECT_EQ(api_->route_template("GET", "/v1/docs/a/b"), "GET /v1/docs/*");
+  EXPECT_EQ(api_->route_template("PUT", "/v1/docs/a"), "PUT /v1/docs/*");
+  EXPECT_EQ(api_->route_template("POST", "/v1/captures"), "POST /v1/captures");
+  EXPECT_EQ(api_->route_template("BREW", "/v1/captures/x"),
+            "OTHER /v1/captures/*");
+  EXPECT_EQ(api_->route_template("DELETE", "/v1/captures/x/thumb"),
+            "GET /v1/captures/*/thumb");
+  EXPECT_EQ(api_->route_template("GET", "/healthz"), "GET /healthz");
+  EXPECT_EQ(api_->route_template("GET", "/v1/nowhere"), "other");
+  as("scout", "GET", "/v1/nowhere");
+  as("planner", "PATCH", "/v1/changes");
+  const std::string text = metrics_.render();
+  EXPECT_NE(text.find("route=\"other\""), std::string::npos) << text;
+  EXPECT_NE(text.find("route=\"PATCH /v1/changes\""), std::string::npos)
+      << text;
+}
+
+TEST(RoutesOperationsOnly, OnlyHealthAndMetricsWithoutTheApi) {
+  auto store = db::Store::open(testing::fresh_sqlite_url());
+  Metrics metrics;
+  ServerOptions options;
+  options.serve_api = false;
+  Api api(*store, metrics, options);
+  EXPECT_EQ(api.handle(request("GET", "/healthz", "")).status, 200);
+  EXPECT_EQ(api.handle(request("GET", "/metrics", "")).status, 200);
+  const HttpResponse sites = api.handle(request("GET", "/v1/sites", ""));
+  EXPECT_EQ(sites.status, 404);
+  EXPECT_NE(sites.body.find("only /healthz"), std::string::npos);
+  const auto early = api.refuse_before_body(request("POST", "/v1/sites", ""));
+  ASSERT_TRUE(early.has_value());
+  EXPECT_EQ(early->status, 404);
+}
+
+}  // namespace
+}  // namespace arscout::ingest
