@@ -7,6 +7,8 @@ set -euo pipefail
 packages=(
   # toolchain
   build-essential cmake ninja-build pkg-config git clang-format
+  # clang-tidy (and run-clang-tidy): the lint step of tests/run_all.sh
+  clang-tidy
   # clang and its libFuzzer runtime, for the fuzz build (tests/fuzz)
   clang libclang-rt-14-dev
   # libraries

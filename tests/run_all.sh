@@ -2,8 +2,9 @@
 # The whole test suite, as CI runs it (.ci/run, the README's test command),
 # from the repository root, after deploy/install-deps.sh:
 #
-#  1. the default build (build/, RelWithDebInfo, the system compiler) and
-#     every test but the `long` ones;
+#  1. the default build (build/, RelWithDebInfo, the system compiler), the
+#     lint step (tests/lint.sh: clang-format and clang-tidy, any finding
+#     fails), and every test but the `long` ones;
 #  2. an AddressSanitizer + UndefinedBehaviorSanitizer build (build-san/,
 #     clang, with the libFuzzer targets of tests/fuzz) and the same tests
 #     but the `engine-data` and `engine-synthetic` ones (whole
@@ -29,6 +30,8 @@ if [ "$which" != san ]; then
   echo "== default build: build/"
   cmake -S . -B build -G Ninja
   cmake --build build
+  # Formatting and clang-tidy on the production code (tests/lint.sh).
+  tests/lint.sh build
   ctest --test-dir build --output-on-failure -j2 -LE long
 fi
 
