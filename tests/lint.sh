@@ -4,19 +4,26 @@
 # clang-tidy (.clang-tidy: bugprone-*, consistent parameter names) clean on
 # the production code of every library. Any finding fails it.
 #
-#   tests/lint.sh [BUILD_DIR]     (default build; needs its
-#                                  compile_commands.json)
+#   tests/lint.sh [--format-only] [BUILD_DIR]
+#                          (default build; clang-tidy needs its
+#                           compile_commands.json)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+format_only=0
+if [ "${1:-}" = --format-only ]; then
+  format_only=1
+  shift
+fi
 build=${1:-build}
+echo "== clang-format: every tracked C++ file"
+git ls-files -z '*.cpp' '*.h' '*.cu' '*.mm' |
+  xargs -0 clang-format --dry-run --Werror
+[ "$format_only" = 1 ] && { echo "lint: formatting clean"; exit 0; }
+
 [ -f "$build/compile_commands.json" ] || {
   echo "lint: $build/compile_commands.json is missing (configure $build first)" >&2
   exit 2
 }
-
-echo "== clang-format: every tracked C++ file"
-git ls-files -z '*.cpp' '*.h' '*.cu' '*.mm' |
-  xargs -0 clang-format --dry-run --Werror
 
 echo "== clang-tidy: the libraries' and the executable's sources"
 libraries='util|documents|db|ingest|engine|viewer|cli'
