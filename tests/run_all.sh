@@ -3,8 +3,8 @@
 # from the repository root, after deploy/install-deps.sh:
 #
 #  1. the default build (build/, RelWithDebInfo, the system compiler), the
-#     format check (tests/lint.sh --format-only: any misformatted file
-#     fails), and every test but the `long` ones;
+#     lint step (tests/lint.sh: clang-format and clang-tidy, any finding
+#     fails; about 7 minutes), and every test but the `long` ones;
 #  2. an AddressSanitizer + UndefinedBehaviorSanitizer build (build-san/,
 #     clang, with the libFuzzer targets of tests/fuzz) and the same tests
 #     but the `engine-data` and `engine-synthetic` ones (whole
@@ -30,9 +30,8 @@ if [ "$which" != san ]; then
   echo "== default build: build/"
   cmake -S . -B build -G Ninja
   cmake --build build
-  # Formatting (tests/lint.sh). Its clang-tidy half (tests/lint.sh build)
-  # joins here once a whole run of it is clean (README, Builds).
-  tests/lint.sh --format-only
+  # Formatting and clang-tidy on the production code (tests/lint.sh).
+  tests/lint.sh build
   ctest --test-dir build --output-on-failure -j2 -LE long
 fi
 
