@@ -1,6 +1,12 @@
 // Subcommand families register themselves, so adding one is adding a file:
 //
-//   namespace { const CommandRegistration reg(20, add_scout_commands); }
+//   namespace {
+//   const CommandRegistration scout_commands_registration(30, add_scout_commands);
+//   }
+//
+// The registration's name is unique across files: the CLI is a unity build
+// (cli/CMakeLists.txt), where every file's anonymous namespace is shared
+// with the others of its batch.
 //
 // main() adds them in `order` (then name) so --help lists them stably.
 #pragma once

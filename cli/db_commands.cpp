@@ -276,7 +276,7 @@ void add_db_commands(CLI::App& app) {
   add_stats(*dbc, args);
 }
 
-const CommandRegistration registration(10, add_db_commands);
+const CommandRegistration db_commands_registration(10, add_db_commands);
 
 }  // namespace
 }  // namespace arscout::cli

@@ -134,7 +134,7 @@ void add_demo_command(CLI::App& app) {
   cmd->callback([] { run_command([] { return run_demo(args); }); });
 }
 
-const CommandRegistration registration(90, add_demo_command);
+const CommandRegistration demo_command_registration(90, add_demo_command);
 
 }  // namespace
 }  // namespace arscout::cli

@@ -156,7 +156,7 @@ void add_depth_command(CLI::App& app) {
   cmd->callback([] { run_command([] { return run_depth(args); }); });
 }
 
-const CommandRegistration registration(52, add_depth_command);
+const CommandRegistration depth_command_registration(52, add_depth_command);
 
 }  // namespace
 }  // namespace arscout::cli

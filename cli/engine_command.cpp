@@ -160,7 +160,7 @@ void add_engine_command(CLI::App& app) {
   cmd->callback([] { run_command([] { return run_engine(args); }); });
 }
 
-const CommandRegistration registration(25, add_engine_command);
+const CommandRegistration engine_command_registration(25, add_engine_command);
 
 }  // namespace
 }  // namespace arscout::cli

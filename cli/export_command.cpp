@@ -70,7 +70,7 @@ void add_export_command(CLI::App& app) {
   cmd->callback([] { run_command([] { return run_export(args); }); });
 }
 
-const CommandRegistration registration(54, add_export_command);
+const CommandRegistration export_command_registration(54, add_export_command);
 
 }  // namespace
 }  // namespace arscout::cli

@@ -161,7 +161,7 @@ void add_render_command(CLI::App& app) {
   cmd->callback([] { run_command([] { return run_render(args); }); });
 }
 
-const CommandRegistration registration(53, add_render_command);
+const CommandRegistration render_command_registration(53, add_render_command);
 
 }  // namespace
 }  // namespace arscout::cli

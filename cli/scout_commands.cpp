@@ -386,7 +386,7 @@ void add_scout_commands(CLI::App& app) {
   add_get(app);
 }
 
-const CommandRegistration registration(30, add_scout_commands);
+const CommandRegistration scout_commands_registration(30, add_scout_commands);
 
 }  // namespace
 }  // namespace arscout::cli

@@ -190,7 +190,7 @@ void add_serve_command(CLI::App& app) {
   cmd->callback([] { run_command([] { return serve(args); }); });
 }
 
-const CommandRegistration registration(20, add_serve_command);
+const CommandRegistration serve_command_registration(20, add_serve_command);
 
 }  // namespace
 }  // namespace arscout::cli

@@ -199,7 +199,7 @@ void add_summary_command(CLI::App& app) {
   cmd->callback([] { run_command([] { return run_summary(args); }); });
 }
 
-const CommandRegistration registration(26, add_summary_command);
+const CommandRegistration summary_command_registration(26, add_summary_command);
 
 }  // namespace
 }  // namespace arscout::cli

@@ -182,7 +182,7 @@ void add_token_commands(CLI::App& app) {
   add_list_and_revoke(token, args);
 }
 
-const CommandRegistration registration(25, add_token_commands);
+const CommandRegistration token_commands_registration(25, add_token_commands);
 
 }  // namespace
 }  // namespace arscout::cli

@@ -28,7 +28,9 @@ esac
 
 if [ "$which" != san ]; then
   echo "== default build: build/"
-  cmake -S . -B build -G Ninja
+  # RelWithDebInfo named, not defaulted: the README's main job may have
+  # configured build/ for Release first.
+  cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo
   cmake --build build
   # Formatting and clang-tidy on the production code (tests/lint.sh).
   tests/lint.sh build
