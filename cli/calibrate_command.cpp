@@ -196,7 +196,8 @@ void add_calibrate_command(CLI::App& app) {
   cmd->callback([] { run_command([] { return run_calibrate(args); }); });
 }
 
-const CommandRegistration calibrate_command_registration(40, add_calibrate_command);
+const CommandRegistration calibrate_command_registration(40,
+                                                         add_calibrate_command);
 
 }  // namespace
 }  // namespace arscout::cli

@@ -1,7 +1,8 @@
 // Subcommand families register themselves, so adding one is adding a file:
 //
 //   namespace {
-//   const CommandRegistration scout_commands_registration(30, add_scout_commands);
+//   const CommandRegistration scout_commands_registration(30,
+//   add_scout_commands);
 //   }
 //
 // The registration's name is unique across files: the CLI is a unity build

@@ -413,7 +413,8 @@ void add_reconstruct_command(CLI::App& app) {
   cmd->callback([] { run_command([] { return run_reconstruct(args); }); });
 }
 
-const CommandRegistration reconstruct_command_registration(50, add_reconstruct_command);
+const CommandRegistration reconstruct_command_registration(
+    50, add_reconstruct_command);
 
 }  // namespace
 }  // namespace arscout::cli

@@ -201,7 +201,8 @@ void add_render_site_command(CLI::App& app) {
   cmd->callback([] { run_command([] { return run_render_site(args); }); });
 }
 
-const CommandRegistration render_site_command_registration(27, add_render_site_command);
+const CommandRegistration render_site_command_registration(
+    27, add_render_site_command);
 
 }  // namespace
 }  // namespace arscout::cli

@@ -120,7 +120,8 @@ void add_session_commands(CLI::App& app) {
   re->callback([] { run_command([] { return run_replay(replay_args); }); });
 }
 
-const CommandRegistration session_commands_registration(60, add_session_commands);
+const CommandRegistration session_commands_registration(60,
+                                                        add_session_commands);
 
 }  // namespace
 }  // namespace arscout::cli

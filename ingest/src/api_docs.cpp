@@ -5,16 +5,6 @@
 namespace arscout::ingest {
 namespace {
 
-std::string etag(std::int64_t version) {
-  return "\"" + std::to_string(version) + "\"";
-}
-
-HttpResponse document_response(int status, const db::Document& doc) {
-  HttpResponse r = HttpResponse::json(status, to_json(doc));
-  r.headers.emplace_back("ETag", etag(doc.version));
-  return r;
-}
-
 // The expected version from If-Match ("N", W/"N" or N) or If-None-Match: *.
 // Returns false (with *error) when a header is malformed.
 bool expected_version(const HttpRequest& req,

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 
 #include "arscout/db/store.h"
 #include "arscout/ingest/auth.h"
@@ -47,5 +48,9 @@ std::optional<std::int64_t> int_param(const HttpRequest& req,
 std::optional<Json> parse_json_body(const std::string& text,
                                     std::string* error);
 bool can_read(const Principal& who, const std::string& doc_path);
+// `text` in double quotes: an ETag header's value.
+std::string etag_value(std::string_view text);
+// `doc` as JSON, with its version as the ETag ("3").
+HttpResponse document_response(int status, const db::Document& doc);
 
 }  // namespace arscout::ingest

@@ -105,7 +105,7 @@ HttpResponse get_blob(ApiContext& ctx, const HttpRequest& req,
   ctx.store.read_blob(hash, head, 0, std::min<std::int64_t>(8, info->size));
   HttpResponse r;
   r.content_type = sniff_content_type(head.str());
-  r.headers.emplace_back("ETag", "\"" + hash + "\"");
+  r.headers.emplace_back("ETag", etag_value(hash));
   r.headers.emplace_back("Accept-Ranges", "bytes");
   r.headers.emplace_back("Cache-Control",
                          "public, max-age=31536000, immutable");
@@ -168,10 +168,7 @@ HttpResponse put_camera(ApiContext& ctx, const HttpRequest& req,
   op.author = ctx.who.name;
   ctx.store.write(op);
   auto doc = ctx.store.get("/cameras/" + id);
-  HttpResponse r =
-      HttpResponse::json(doc->version == 1 ? 201 : 200, to_json(*doc));
-  r.headers.emplace_back("ETag", "\"" + std::to_string(doc->version) + "\"");
-  return r;
+  return document_response(doc->version == 1 ? 201 : 200, *doc);
 }
 
 }  // namespace arscout::ingest

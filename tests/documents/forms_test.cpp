@@ -1,12 +1,13 @@
-// The GPS fix, capture, site and model forms: each written and read back
-// through JSON text, and what their readers do with what other versions or
-// hands may have stored.
+// The GPS fix, capture, site, engine state and model forms: each written and
+// read back through JSON text, and what their readers do with what other
+// versions or hands may have stored.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
 
 #include "arscout/documents/capture.h"
 #include "arscout/documents/document_error.h"
+#include "arscout/documents/engine_state.h"
 #include "arscout/documents/gps.h"
 #include "arscout/documents/model.h"
 #include "arscout/documents/site.h"
@@ -134,6 +135,36 @@ ModelDocument model() {
   m.dense_state = "current";
   m.dense_tiles = Json::array({{{"tile", "0_0_0"}}});
   return m;
+}
+
+TEST(EngineStateForm, RoundTripsExactlyAndDefaultsWhatIsMissing) {
+  EngineState state;
+  state.statuses = {{"alice.a", "registered"}, {"bob.b", "failed"}};
+  state.registered = 1;
+  state.through_seq = (std::int64_t{1} << 60) + 1;  // past a double's
+  state.dense_due = true;
+  const EngineState read = engine_state_from_json(through_text(to_json(state)));
+  EXPECT_EQ(read.statuses, state.statuses);
+  EXPECT_EQ(read.registered, 1);
+  EXPECT_EQ(read.through_seq, state.through_seq);
+  EXPECT_TRUE(read.dense_due);
+  EXPECT_EQ(to_json(read), to_json(state));
+
+  const EngineState bare = engine_state_from_json(Json::object());
+  EXPECT_TRUE(bare.statuses.empty());
+  EXPECT_EQ(bare.through_seq, 0);
+  EXPECT_FALSE(bare.dense_due);
+  // A dense phase's patch, applied, reads back as the flag it wrote.
+  Json patched = to_json(state);
+  patched.merge_patch(dense_due_patch(false));
+  EXPECT_FALSE(engine_state_from_json(patched).dense_due);
+  EXPECT_EQ(engine_state_from_json(patched).statuses, state.statuses);
+
+  EXPECT_THROW(engine_state_from_json(Json::array()), DocumentError);
+  EXPECT_THROW(engine_state_from_json(Json{{"statuses", {"a", "b"}}}),
+               DocumentError);
+  EXPECT_THROW(engine_state_from_json(Json{{"statuses", {{"a", 3}}}}),
+               DocumentError);
 }
 
 TEST(ModelForm, RoundTrips) {

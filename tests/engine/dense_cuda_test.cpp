@@ -1,49 +1,24 @@
 // The CUDA plane sweep against the CPU path on the rendered street
-// (synthetic_site.h). Skips where the build has no CUDA path
+// (rendered_street.h). Skips where the build has no CUDA path
 // (-DARSCOUT_CUDA=ON) or the machine no CUDA device.
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <cmath>
 #include <iostream>
-#include <random>
 #include <string>
 #include <vector>
 
 #include <Eigen/Dense>
 
 #include "arscout/engine/dense.h"
-#include "arscout/engine/synthetic_site.h"
 #include "dense/plane_sweep_cuda.h"
+#include "rendered_street.h"
 
 namespace arscout::engine {
 namespace {
 
-namespace syn = synthetic;
-
-// A view as dense_test.cpp builds them: rendered, with 400 sparse points
-// sampled from the true surface (seed 11 + index).
-DenseView dense_view(const syn::Site& site, const syn::PinholeView& view,
-                     int index) {
-  const syn::Rendering image = syn::render(site, view);
-  DenseView v;
-  v.id = "view" + std::to_string(index);
-  v.bgr = image.bgr;
-  v.K = view.K;
-  v.R = view.R;
-  v.t = view.t;
-  std::mt19937 rng(11 + index);
-  std::uniform_int_distribution<int> px(0, view.size.width - 1);
-  std::uniform_int_distribution<int> py(0, view.size.height - 1);
-  while (v.sparse_points.size() < 400) {
-    const int x = px(rng), y = py(rng);
-    const float z = image.depth.at<float>(y, x);
-    if (z <= 0) continue;
-    const Eigen::Vector3d ray = view.K.inverse() * Eigen::Vector3d(x, y, 1);
-    v.sparse_points.push_back(view.R.transpose() * (z * ray - view.t));
-  }
-  return v;
-}
+using namespace street_fixture;
 
 template <class F>
 double seconds(F&& f) {
@@ -61,12 +36,15 @@ TEST(CudaPlaneSweep, MatchesTheCpuPathOnTheSyntheticStreet) {
   // The street of dense_test.cpp: five cameras at 640x480, the middle one
   // the key, its two neighbours on either side.
   const cv::Size size(640, 480);
-  const syn::Site site = syn::street_site(3);
-  const auto cameras = syn::street_cameras(5, size, 560 * size.width / 640.0);
-  ASSERT_EQ(cameras.size(), 5u);
-  const DenseView key = dense_view(site, cameras[2], 2);
-  const DenseView left = dense_view(site, cameras[1], 1);
-  const DenseView right = dense_view(site, cameras[3], 3);
+  const auto& street = rendered_street(size);
+  ASSERT_EQ(street.size(), 5u);
+  const auto view = [&](int i) {
+    return dense_view(street[i], view_id(i),
+                      sample_surface(street[i], 400, 11 + i));
+  };
+  const DenseView key = view(2);
+  const DenseView left = view(1);
+  const DenseView right = view(3);
   const std::vector<const DenseView*> neighbours = {&left, &right};
 
   PlaneSweepOptions options;

@@ -29,136 +29,20 @@
 #include "arscout/engine/reconstruction.h"
 #include "arscout/engine/synthetic_site.h"
 #include "dense/depth_map_io.h"
+#include "rendered_street.h"
 
 namespace arscout::engine {
 namespace {
 
-namespace syn = synthetic;
+using namespace street_fixture;
 
-constexpr int kViews = 5;
+constexpr int kViews = kStreetViews;
 constexpr int kWidth = 320;
 constexpr int kHeight = 240;
-constexpr double kFocal = 280;
 
-struct Rendered {
-  syn::PinholeView view;
-  syn::Rendering image;
-};
-
-// The five converging street views at 320 x 240, rendered once.
+// The five converging street views at 320 x 240 (rendered_street.h).
 const std::vector<Rendered>& street() {
-  static const std::vector<Rendered> views = [] {
-    const syn::Site site = syn::street_site(3);
-    std::vector<Rendered> result;
-    for (const auto& view :
-         syn::street_cameras(kViews, {kWidth, kHeight}, kFocal))
-      result.push_back({view, syn::render(site, view)});
-    return result;
-  }();
-  return views;
-}
-
-std::string view_id(int index) { return "view" + std::to_string(index); }
-
-Eigen::Vector3d surface_point(const Rendered& r, int x, int y) {
-  const double z = r.image.depth.at<float>(y, x);
-  const Eigen::Vector3d ray = r.view.K.inverse() * Eigen::Vector3d(x, y, 1);
-  return r.view.R.transpose() * (z * ray - r.view.t);
-}
-
-// Where `r` sees X: in front, `border` pixels inside, not hidden.
-std::optional<Eigen::Vector2d> seen_at(const Rendered& r,
-                                       const Eigen::Vector3d& X, int border) {
-  const Eigen::Vector3d c = r.view.R * X + r.view.t;
-  if (c.z() <= 0) return std::nullopt;
-  const Eigen::Vector3d p = r.view.K * c;
-  const Eigen::Vector2d pixel = p.head<2>() / p.z();
-  const int u = static_cast<int>(std::lround(pixel.x()));
-  const int v = static_cast<int>(std::lround(pixel.y()));
-  if (u < border || v < border || u >= r.view.size.width - border ||
-      v >= r.view.size.height - border)
-    return std::nullopt;
-  const float z = r.image.depth.at<float>(v, u);
-  if (z <= 0 || std::abs(z - c.z()) > 0.01 * c.z()) return std::nullopt;
-  return pixel;
-}
-
-// Surface points, each seen by at least three views, and where.
-struct SparseTruth {
-  std::vector<Eigen::Vector3d> points;
-  std::vector<std::vector<std::optional<Eigen::Vector2d>>> seen;
-};
-
-SparseTruth sparse_truth(int count, uint32_t seed) {
-  const auto& s = street();
-  std::mt19937 rng(seed);
-  std::uniform_int_distribution<int> pick(0, kViews - 1);
-  std::uniform_int_distribution<int> px(4, kWidth - 5);
-  std::uniform_int_distribution<int> py(4, kHeight - 5);
-  SparseTruth truth;
-  while (static_cast<int>(truth.points.size()) < count) {
-    const Rendered& r = s[pick(rng)];
-    const int x = px(rng), y = py(rng);
-    if (r.image.depth.at<float>(y, x) <= 0) continue;
-    const Eigen::Vector3d X = surface_point(r, x, y);
-    std::vector<std::optional<Eigen::Vector2d>> seen;
-    int views = 0;
-    for (const Rendered& v : s) {
-      seen.push_back(seen_at(v, X, 4));
-      if (seen.back()) ++views;
-    }
-    if (views < 3) continue;
-    truth.points.push_back(X);
-    truth.seen.push_back(std::move(seen));
-  }
-  return truth;
-}
-
-// The sparse model of `views` (indices into street(), in this order): exact
-// poses and intrinsics, the points two of them see, exact keypoints.
-Model build_model(const SparseTruth& truth, const std::vector<int>& views) {
-  Model model;
-  ModelCamera camera;
-  camera.id = "street";
-  const Eigen::Matrix3d& K = street()[0].view.K;
-  camera.intrinsics.width = kWidth;
-  camera.intrinsics.height = kHeight;
-  camera.intrinsics.fx = K(0, 0);
-  camera.intrinsics.fy = K(1, 1);
-  camera.intrinsics.cx = K(0, 2);
-  camera.intrinsics.cy = K(1, 2);
-  model.cameras.push_back(camera);
-  for (int v : views) {
-    const syn::PinholeView& view = street()[v].view;
-    ModelImage image;
-    image.id = view_id(v);
-    const Eigen::Quaterniond q(view.R);
-    image.qvec = {q.w(), q.x(), q.y(), q.z()};
-    image.tvec = {view.t.x(), view.t.y(), view.t.z()};
-    const Eigen::Vector3d c = view.centre();
-    image.centre = {c.x(), c.y(), c.z()};
-    model.images.push_back(std::move(image));
-  }
-  for (size_t p = 0; p < truth.points.size(); ++p) {
-    int observations = 0;
-    for (int v : views)
-      if (truth.seen[p][v]) ++observations;
-    if (observations < 2) continue;
-    ModelPoint point;
-    point.id = 1000 + static_cast<int64_t>(p);
-    point.xyz = {truth.points[p].x(), truth.points[p].y(), truth.points[p].z()};
-    for (size_t i = 0; i < views.size(); ++i) {
-      const auto& pixel = truth.seen[p][views[i]];
-      if (!pixel) continue;
-      ModelImage& image = model.images[i];
-      point.track.emplace_back(static_cast<int>(i),
-                               static_cast<int>(image.keypoints.size()));
-      image.keypoints.push_back({pixel->x(), pixel->y()});
-      image.point_ids.push_back(point.id);
-    }
-    model.points.push_back(std::move(point));
-  }
-  return model;
+  return rendered_street({kWidth, kHeight});
 }
 
 // The street photos as PNG bytes; `calls`, when given, counts requests.
@@ -253,8 +137,8 @@ double seconds_since(Clock::time_point start) {
 class DensePersistence : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    truth_ = new SparseTruth(sparse_truth(300, 17));
-    model_ = new Model(build_model(*truth_, {0, 1, 2, 3, 4}));
+    truth_ = new SparseTruth(sparse_truth(street(), 300, 17));
+    model_ = new Model(build_model(street(), *truth_, {0, 1, 2, 3, 4}));
     original_ = new DenseReconstruction(small_dense_options());
     const auto start = Clock::now();
     update_ = original_->update(*model_, street_images());
@@ -388,7 +272,7 @@ TEST_F(DensePersistence, RestoreSweepsNothing) {
 // (c) After a restore, update() sweeps only the newly registered view, and
 // the result is that of the original going on.
 TEST_F(DensePersistence, LaterUpdateSweepsOnlyTheNewView) {
-  const Model first4 = build_model(*truth_, {0, 1, 2, 3});
+  const Model first4 = build_model(street(), *truth_, {0, 1, 2, 3});
   DenseReconstruction original(small_dense_options());
   original.update(first4, street_images());
   std::vector<std::string> blobs;
@@ -530,7 +414,7 @@ TEST_F(DensePersistence, CorruptBytesThrowAndChangeNothing) {
   const std::vector<std::string> ids = dense.depth_map_ids();
   const std::vector<ColoredPoint> points = dense.points();
   const auto coverage = filtered_coverage(dense);
-  const Model without4 = build_model(*truth_, {0, 1, 2, 3});
+  const Model without4 = build_model(street(), *truth_, {0, 1, 2, 3});
   for (const Case& c : cases) {
     EXPECT_THROW(dense.restore_depth_maps({(*blobs_)[3], c.bytes}, without4,
                                           street_images()),
@@ -576,7 +460,7 @@ TEST_F(DensePersistence, MapsOfAnotherResolutionAreRefused) {
 // (e) A map of a capture the model no longer has is dropped: the state is
 // that of the original after withdrawing the capture.
 TEST_F(DensePersistence, MapsOfCapturesNotInTheModelAreDropped) {
-  const Model without4 = build_model(*truth_, {0, 1, 2, 3});
+  const Model without4 = build_model(street(), *truth_, {0, 1, 2, 3});
   DenseReconstruction dense(small_dense_options());
   const DenseUpdate u =
       dense.restore_depth_maps(shuffled_blobs(), without4, street_images());

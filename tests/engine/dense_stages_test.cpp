@@ -29,81 +29,23 @@
 #include "arscout/engine/reconstruction.h"
 #include "arscout/engine/synthetic_site.h"
 #include "dense/consistency.h"
+#include "rendered_street.h"
 
 namespace arscout::engine {
 namespace {
 
 namespace syn = synthetic;
+using namespace street_fixture;
 
-constexpr int kViews = 5;
+constexpr int kViews = kStreetViews;
 constexpr int kWidth = 320;
 constexpr int kHeight = 240;
-constexpr double kFocal = 280;
-constexpr uint32_t kSiteSeed = 3;
+constexpr double kFocal = 280;         // rendered_street(): 560 px per 640 px
 constexpr double kCameraHeight = 1.6;  // street_cameras()
 
-struct Rendered {
-  syn::PinholeView view;
-  syn::Rendering image;
-};
-
-const syn::Site& site() {
-  static const syn::Site s = syn::street_site(kSiteSeed);
-  return s;
-}
-
-// The five converging street views at 320 x 240, rendered once.
+// The five converging street views at 320 x 240 (rendered_street.h).
 const std::vector<Rendered>& street() {
-  static const std::vector<Rendered> views = [] {
-    std::vector<Rendered> result;
-    for (const auto& view :
-         syn::street_cameras(kViews, {kWidth, kHeight}, kFocal))
-      result.push_back({view, syn::render(site(), view)});
-    return result;
-  }();
-  return views;
-}
-
-std::string view_id(int index) { return "view" + std::to_string(index); }
-
-// The world point seen at pixel (x, y) of `r`, at its true depth.
-Eigen::Vector3d surface_point(const Rendered& r, int x, int y) {
-  const double z = r.image.depth.at<float>(y, x);
-  const Eigen::Vector3d ray = r.view.K.inverse() * Eigen::Vector3d(x, y, 1);
-  return r.view.R.transpose() * (z * ray - r.view.t);
-}
-
-// Surface points seen by `r`, as a sparse reconstruction would have them.
-std::vector<Eigen::Vector3d> sample_surface(const Rendered& r, int count,
-                                            uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_int_distribution<int> px(0, r.view.size.width - 1);
-  std::uniform_int_distribution<int> py(0, r.view.size.height - 1);
-  std::vector<Eigen::Vector3d> points;
-  while (static_cast<int>(points.size()) < count) {
-    const int x = px(rng), y = py(rng);
-    if (r.image.depth.at<float>(y, x) <= 0) continue;
-    points.push_back(surface_point(r, x, y));
-  }
-  return points;
-}
-
-// Where `r` sees world point X: in front, at least `border` pixels inside
-// the image, and not hidden (the rendered depth there within 1 %).
-std::optional<Eigen::Vector2d> seen_at(const Rendered& r,
-                                       const Eigen::Vector3d& X, int border) {
-  const Eigen::Vector3d c = r.view.R * X + r.view.t;
-  if (c.z() <= 0) return std::nullopt;
-  const Eigen::Vector3d p = r.view.K * c;
-  const Eigen::Vector2d pixel = p.head<2>() / p.z();
-  const int u = static_cast<int>(std::lround(pixel.x()));
-  const int v = static_cast<int>(std::lround(pixel.y()));
-  if (u < border || v < border || u >= r.view.size.width - border ||
-      v >= r.view.size.height - border)
-    return std::nullopt;
-  const float z = r.image.depth.at<float>(v, u);
-  if (z <= 0 || std::abs(z - c.z()) > 0.01 * c.z()) return std::nullopt;
-  return pixel;
+  return rendered_street({kWidth, kHeight});
 }
 
 // An exact depth map: the rendering's ground truth with its camera.
@@ -115,18 +57,6 @@ DepthMap truth_map(const Rendered& r, const std::string& id) {
   map.R = r.view.R;
   map.t = r.view.t;
   return map;
-}
-
-DenseView dense_view(const Rendered& r, const std::string& id,
-                     std::vector<Eigen::Vector3d> sparse) {
-  DenseView v;
-  v.id = id;
-  v.bgr = r.image.bgr;
-  v.K = r.view.K;
-  v.R = r.view.R;
-  v.t = r.view.t;
-  v.sparse_points = std::move(sparse);
-  return v;
 }
 
 int count_where(const cv::Mat& mask) { return cv::countNonZero(mask); }
@@ -327,7 +257,7 @@ TEST(DenseStagesAgreement, PixelsLandingOutsideThePartnerDoNotAgree) {
   const Rendered& key = street()[2];
   syn::PinholeView shifted = key.view;
   shifted.K(0, 2) += 100;
-  const Rendered other{shifted, syn::render(site(), shifted, 1)};
+  const Rendered other{shifted, syn::render(street_scene(), shifted, 1)};
   const DepthMap a = truth_map(key, "a");
   const DepthMap partner = truth_map(other, "partner");
   const cv::Mat mask = agreement_mask(a, partner, {});
@@ -359,7 +289,7 @@ TEST(DenseStagesCompare, ExactMapsOnTheSamePixelGridAgreeExactly) {
   const Rendered& key = street()[2];
   syn::PinholeView shifted = key.view;
   shifted.K(0, 2) -= 50;
-  const Rendered other{shifted, syn::render(site(), shifted, 1)};
+  const Rendered other{shifted, syn::render(street_scene(), shifted, 1)};
   const DepthAgreement agreement =
       compare_depth_maps(truth_map(key, "a"), truth_map(other, "b"));
   EXPECT_EQ(
@@ -631,92 +561,6 @@ TEST_F(DenseStagesRenderPoints, RadiusOneCoversThreeByThree) {
 // ---------------------------------------------------------------------------
 // DenseReconstruction on a hand-built sparse model
 
-// Sparse points with where each view sees them (nullopt where it does not).
-struct SparseTruth {
-  std::vector<Eigen::Vector3d> points;
-  std::vector<std::vector<std::optional<Eigen::Vector2d>>> seen;
-};
-
-// About `count` surface points, each seen by at least three views.
-SparseTruth sparse_truth(int count, uint32_t seed) {
-  const auto& s = street();
-  std::mt19937 rng(seed);
-  std::uniform_int_distribution<int> pick(0, kViews - 1);
-  std::uniform_int_distribution<int> px(4, kWidth - 5);
-  std::uniform_int_distribution<int> py(4, kHeight - 5);
-  SparseTruth truth;
-  while (static_cast<int>(truth.points.size()) < count) {
-    const Rendered& r = s[pick(rng)];
-    const int x = px(rng), y = py(rng);
-    if (r.image.depth.at<float>(y, x) <= 0) continue;
-    const Eigen::Vector3d X = surface_point(r, x, y);
-    std::vector<std::optional<Eigen::Vector2d>> seen;
-    int views = 0;
-    for (const Rendered& v : s) {
-      seen.push_back(seen_at(v, X, 4));
-      if (seen.back()) ++views;
-    }
-    if (views < 3) continue;
-    truth.points.push_back(X);
-    truth.seen.push_back(std::move(seen));
-  }
-  return truth;
-}
-
-// The sparse model of the views `views` (indices into street(), in this
-// order): exact poses and intrinsics, the points seen by at least two of
-// them, keypoints at their exact projections.
-Model build_model(const SparseTruth& truth, const std::vector<int>& views) {
-  Model model;
-  ModelCamera camera;
-  camera.id = "street";
-  const Eigen::Matrix3d& K = street()[0].view.K;
-  camera.intrinsics.width = kWidth;
-  camera.intrinsics.height = kHeight;
-  camera.intrinsics.fx = K(0, 0);
-  camera.intrinsics.fy = K(1, 1);
-  camera.intrinsics.cx = K(0, 2);
-  camera.intrinsics.cy = K(1, 2);
-  camera.intrinsics.source = "calibrated";
-  model.cameras.push_back(camera);
-  for (int v : views) {
-    const syn::PinholeView& view = street()[v].view;
-    ModelImage image;
-    image.id = view_id(v);
-    image.camera = 0;
-    const Eigen::Quaterniond q(view.R);
-    image.qvec = {q.w(), q.x(), q.y(), q.z()};
-    image.tvec = {view.t.x(), view.t.y(), view.t.z()};
-    const Eigen::Vector3d c = view.centre();
-    image.centre = {c.x(), c.y(), c.z()};
-    // An unmatched keypoint, as real images have.
-    image.keypoints.push_back({1.0, 1.0});
-    image.point_ids.push_back(-1);
-    model.images.push_back(std::move(image));
-  }
-  for (size_t p = 0; p < truth.points.size(); ++p) {
-    int observations = 0;
-    for (int v : views)
-      if (truth.seen[p][v]) ++observations;
-    if (observations < 2) continue;
-    ModelPoint point;
-    point.id = 1000 + static_cast<int64_t>(p);
-    point.xyz = {truth.points[p].x(), truth.points[p].y(), truth.points[p].z()};
-    point.rgb = {128, 128, 128};
-    for (size_t i = 0; i < views.size(); ++i) {
-      const auto& pixel = truth.seen[p][views[i]];
-      if (!pixel) continue;
-      ModelImage& image = model.images[i];
-      point.track.emplace_back(static_cast<int>(i),
-                               static_cast<int>(image.keypoints.size()));
-      image.keypoints.push_back({pixel->x(), pixel->y()});
-      image.point_ids.push_back(point.id);
-    }
-    model.points.push_back(std::move(point));
-  }
-  return model;
-}
-
 // Every track entry names a keypoint that names the point back.
 void expect_consistent(const Model& model) {
   for (const ModelPoint& point : model.points) {
@@ -781,7 +625,7 @@ double distance_to_quad(const syn::Quad& quad, const Eigen::Vector3d& X) {
 
 double distance_to_site(const Eigen::Vector3d& X) {
   double best = std::numeric_limits<double>::infinity();
-  for (const syn::Quad& quad : site().quads)
+  for (const syn::Quad& quad : street_scene().quads)
     best = std::min(best, distance_to_quad(quad, X));
   return best;
 }
@@ -791,10 +635,10 @@ std::set<std::string> as_set(const std::vector<std::string>& ids) {
 }
 
 TEST(DenseStagesReconstruction, GrowsIncrementallyAndWithdraws) {
-  const SparseTruth truth = sparse_truth(300, 17);
-  const Model first3 = build_model(truth, {0, 1, 2});
-  const Model all5 = build_model(truth, {0, 1, 2, 3, 4});
-  const Model without1 = build_model(truth, {0, 2, 3, 4});
+  const SparseTruth truth = sparse_truth(street(), 300, 17);
+  const Model first3 = build_model(street(), truth, {0, 1, 2});
+  const Model all5 = build_model(street(), truth, {0, 1, 2, 3, 4});
+  const Model without1 = build_model(street(), truth, {0, 2, 3, 4});
   expect_consistent(first3);
   expect_consistent(all5);
   expect_consistent(without1);
@@ -898,11 +742,11 @@ TEST(DenseStagesReconstruction, GrowsIncrementallyAndWithdraws) {
 // DenseReconstruction::update re-filters the remaining maps after
 // drop_withdrawn().
 TEST(DenseStagesReconstruction, WithdrawnMapNoLongerVouches) {
-  const SparseTruth truth = sparse_truth(300, 17);
+  const SparseTruth truth = sparse_truth(street(), 300, 17);
   const ImageSource images = street_images();
   DenseReconstruction dense(small_dense_options());
-  dense.update(build_model(truth, {0, 1, 2, 3, 4}), images);
-  dense.update(build_model(truth, {0, 2, 3, 4}), images);
+  dense.update(build_model(street(), truth, {0, 1, 2, 3, 4}), images);
+  dense.update(build_model(street(), truth, {0, 2, 3, 4}), images);
   const std::vector<DepthMap> maps = dense.filtered_depth_maps();
   ASSERT_EQ(maps.size(), 4u);
   for (const DepthMap& map : maps) {
@@ -922,7 +766,7 @@ TEST(DenseStagesReconstruction, WithdrawnMapNoLongerVouches) {
 // again, and it is swept then.
 // Views 1-3 and "again": view 2 photographed a second time.
 Model model_with_view2_again(const SparseTruth& truth) {
-  Model model = build_model(truth, {1, 2, 3});
+  Model model = build_model(street(), truth, {1, 2, 3});
   ModelImage again = model.images[1];  // view2
   again.id = "again";
   const int index = static_cast<int>(model.images.size());
@@ -943,7 +787,7 @@ ImageSource view2_again_images() {
 }
 
 TEST(DenseStagesReconstruction, AViewWhosePictureTheMapsMeasureIsNoKeyView) {
-  const SparseTruth truth = sparse_truth(300, 17);
+  const SparseTruth truth = sparse_truth(street(), 300, 17);
   const Model model = model_with_view2_again(truth);
   DenseOptions options = small_dense_options();
   options.new_coverage_share = 0.8;  // off by default
@@ -959,7 +803,7 @@ TEST(DenseStagesReconstruction, AViewWhosePictureTheMapsMeasureIsNoKeyView) {
 }
 
 TEST(DenseStagesReconstruction, AViewTheMapsMeasureAlreadyIsNoKeyView) {
-  const SparseTruth truth = sparse_truth(300, 17);
+  const SparseTruth truth = sparse_truth(street(), 300, 17);
   const Model model = model_with_view2_again(truth);
   const ImageSource images = view2_again_images();
   DenseOptions options = small_dense_options();
@@ -1005,8 +849,8 @@ std::map<std::string, double> share_on_site(const DenseReconstruction& dense) {
 }
 
 TEST(DenseStagesReconstruction, ALaneBehindSweepsCoarserUntilItCatchesUp) {
-  const SparseTruth truth = sparse_truth(300, 17);
-  const Model all5 = build_model(truth, {0, 1, 2, 3, 4});
+  const SparseTruth truth = sparse_truth(street(), 300, 17);
+  const Model all5 = build_model(street(), truth, {0, 1, 2, 3, 4});
   DenseOptions options = small_dense_options();
   options.sweep = PlaneSweepOptions{};  // planes a pixel apart, as served
   options.sweep_budget = 1;
@@ -1038,11 +882,11 @@ TEST(DenseStagesReconstruction, ALaneBehindSweepsCoarserUntilItCatchesUp) {
 }
 
 TEST(DenseStagesReconstruction, FusedCloudRoundTripsThroughPly) {
-  const SparseTruth truth = sparse_truth(300, 17);
+  const SparseTruth truth = sparse_truth(street(), 300, 17);
   DenseReconstruction dense(small_dense_options());
   // Two views, each the other's neighbour: two sweeps.
   const DenseUpdate update =
-      dense.update(build_model(truth, {1, 2}), street_images());
+      dense.update(build_model(street(), truth, {1, 2}), street_images());
   EXPECT_EQ(update.new_depth_maps.size(), 2u);
   const std::vector<ColoredPoint> points = dense.points();
   ASSERT_FALSE(points.empty());

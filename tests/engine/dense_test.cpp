@@ -14,53 +14,12 @@
 #include "arscout/engine/dense_reconstruction.h"
 #include "arscout/engine/synthetic_site.h"
 #include "dense/consistency.h"
+#include "rendered_street.h"
 
 namespace arscout::engine {
 namespace {
 
-namespace syn = synthetic;
-
-struct Rendered {
-  syn::PinholeView view;
-  syn::Rendering image;
-};
-
-std::vector<Rendered> render_street(int count, cv::Size size = {640, 480}) {
-  const syn::Site site = syn::street_site(3);
-  std::vector<Rendered> result;
-  for (const auto& view :
-       syn::street_cameras(count, size, 560 * size.width / 640.0))
-    result.push_back({view, syn::render(site, view)});
-  return result;
-}
-
-// Surface points seen by `r`, as a sparse reconstruction would have them.
-std::vector<Eigen::Vector3d> sample_surface(const Rendered& r, int count,
-                                            uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_int_distribution<int> px(0, r.view.size.width - 1);
-  std::uniform_int_distribution<int> py(0, r.view.size.height - 1);
-  std::vector<Eigen::Vector3d> points;
-  while (static_cast<int>(points.size()) < count) {
-    const int x = px(rng), y = py(rng);
-    const float z = r.image.depth.at<float>(y, x);
-    if (z <= 0) continue;
-    const Eigen::Vector3d ray = r.view.K.inverse() * Eigen::Vector3d(x, y, 1);
-    points.push_back(r.view.R.transpose() * (z * ray - r.view.t));
-  }
-  return points;
-}
-
-DenseView dense_view(const Rendered& r, int index) {
-  DenseView v;
-  v.id = "view" + std::to_string(index);
-  v.bgr = r.image.bgr;
-  v.K = r.view.K;
-  v.R = r.view.R;
-  v.t = r.view.t;
-  v.sparse_points = sample_surface(r, 400, 11 + index);
-  return v;
-}
+using namespace street_fixture;
 
 cv::Mat local_std(const cv::Mat& bgr, int window) {
   cv::Mat gray, g, mean, mean_sq;
@@ -72,23 +31,6 @@ cv::Mat local_std(const cv::Mat& bgr, int window) {
   cv::Mat std_dev;
   cv::sqrt(cv::max(var, 0), std_dev);
   return std_dev;
-}
-
-// Whether the surface point at key pixel (x, y) is seen by `other` (inside
-// its image, not hidden behind something nearer).
-bool visible_in(const Rendered& key, const Rendered& other, int x, int y) {
-  const float z = key.image.depth.at<float>(y, x);
-  const Eigen::Vector3d ray = key.view.K.inverse() * Eigen::Vector3d(x, y, 1);
-  const Eigen::Vector3d X = key.view.R.transpose() * (z * ray - key.view.t);
-  const Eigen::Vector3d c = other.view.R * X + other.view.t;
-  if (c.z() <= 0) return false;
-  const Eigen::Vector3d p = other.view.K * c;
-  const int u = static_cast<int>(std::lround(p.x() / p.z()));
-  const int v = static_cast<int>(std::lround(p.y() / p.z()));
-  if (u < 4 || v < 4 || u >= other.view.size.width - 4 ||
-      v >= other.view.size.height - 4)
-    return false;
-  return std::abs(other.image.depth.at<float>(v, u) - c.z()) < 0.01 * c.z();
 }
 
 struct Accuracy {
@@ -112,8 +54,9 @@ Accuracy measure(const DepthMap& map, const Rendered& key,
       }
       if (truth <= 0 || texture.at<float>(y, x) < 4) continue;
       const bool seen = std::any_of(
-          neighbours.begin(), neighbours.end(),
-          [&](const Rendered* n) { return visible_in(key, *n, x, y); });
+          neighbours.begin(), neighbours.end(), [&](const Rendered* n) {
+            return seen_at(*n, surface_point(key, x, y), 4).has_value();
+          });
       if (!seen) continue;
       ++a.textured;
       if (z > 0 && std::abs(z - truth) <= 0.01 * truth) ++a.within_1pc;
@@ -125,11 +68,14 @@ Accuracy measure(const DepthMap& map, const Rendered& key,
 class StreetSweep : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    scene_ = new std::vector<Rendered>(render_street(5));
-    for (int i = 0; i < 5; ++i) views_.push_back(dense_view((*scene_)[i], i));
+    scene_ = &rendered_street({640, 480});
+    for (int i = 0; i < kStreetViews; ++i) {
+      const Rendered& r = (*scene_)[i];
+      views_.push_back(
+          dense_view(r, view_id(i), sample_surface(r, 400, 11 + i)));
+    }
   }
   static void TearDownTestSuite() {
-    delete scene_;
     scene_ = nullptr;
     views_.clear();
   }
@@ -139,10 +85,10 @@ class StreetSweep : public ::testing::Test {
                         options);
   }
 
-  static std::vector<Rendered>* scene_;
+  static const std::vector<Rendered>* scene_;
   static std::vector<DenseView> views_;
 };
-std::vector<Rendered>* StreetSweep::scene_ = nullptr;
+const std::vector<Rendered>* StreetSweep::scene_ = nullptr;
 std::vector<DenseView> StreetSweep::views_;
 
 TEST_F(StreetSweep, FilteredDepthIsAccurateOnTexturedPixels) {

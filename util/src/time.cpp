@@ -58,7 +58,7 @@ bool skip_fraction(std::string_view s, std::size_t& pos) {
 std::optional<std::int64_t> parse_time_utc(std::string_view text) {
   const std::string_view s = trim(text);
   std::size_t pos = 0;
-  int y, mo, d, h, mi, sec;
+  int y = 0, mo = 0, d = 0, h = 0, mi = 0, sec = 0;
   if (!digits(s, pos, 4, &y) || !expect(s, pos, "-") ||
       !digits(s, pos, 2, &mo) || !expect(s, pos, "-") ||
       !digits(s, pos, 2, &d) || !expect(s, pos, "Tt ") ||

@@ -9,6 +9,7 @@
 #include "arscout/db/path.h"
 #include "arscout/db/store.h"
 #include "arscout/documents/capture.h"
+#include "arscout/documents/engine_state.h"
 #include "arscout/engine/ply.h"
 #include "capture_document.h"
 #include "state_parts.h"
@@ -120,10 +121,12 @@ void SiteJob::restore() {
   pending_dense_tiles_ = dense_tiles_;
   auto state = store_.get(site_path(id_, "engine"));
   engine_version_ = state ? state->version : 0;
-  through_seq_ = state ? state->attrs.value("through_seq", std::int64_t{0}) : 0;
+  const documents::EngineState header =
+      state ? documents::engine_state_from_json(state->attrs)
+            : documents::EngineState{};
+  through_seq_ = header.through_seq;
   // A crash between the two phases left the dense cloud behind.
-  dense_due_ =
-      options_.dense && state && state->attrs.value("dense_due", false);
+  dense_due_ = options_.dense && header.dense_due;
   dense_in_flight_ = false;
   dense_finishing_ = false;
   dense_added_.clear();
@@ -137,9 +140,8 @@ void SiteJob::restore() {
     if (auto restored = load_site_reconstruction(
             store_, id_, options_.reconstruction, &features_))
       *sparse_ = std::move(*restored);
-    const Json statuses = state->attrs.value("statuses", Json::object());
-    for (const auto& [capture, status] : statuses.items())
-      statuses_[capture] = status.get<std::string>();
+    for (const auto& [capture, status] : header.statuses)
+      statuses_[capture] = status;
   }
   if (dense_) {
     std::vector<std::string> maps;
@@ -302,16 +304,15 @@ size_t SiteJob::add_state_ops(const Model& model,
   }
   for (const std::string& capture : pending_removed_features_)
     ops->push_back(db::WriteOp::remove(site_path(id_, "features/" + capture)));
-  Json statuses = Json::object();
-  for (const auto& [c, s] : statuses_) statuses[c] = s;
-  for (const auto& [c, s] : pending_statuses_) statuses[c] = s;
+  documents::EngineState header;
+  for (const auto& [c, s] : statuses_) header.statuses[c] = s;
+  for (const auto& [c, s] : pending_statuses_) header.statuses[c] = s;
+  header.registered = static_cast<std::int64_t>(model.images.size());
+  header.through_seq = pending_through_seq_;
+  header.dense_due = dense_due_ || dense_in_flight_;
   db::WriteOp state =
       db::WriteOp::put(site_path(id_, "engine"), "engine-state",
-                       Json{{"statuses", statuses},
-                            {"registered", model.images.size()},
-                            {"through_seq", pending_through_seq_},
-                            {"dense_due", dense_due_ || dense_in_flight_}},
-                       engine_version_);
+                       documents::to_json(header), engine_version_);
   const std::string bytes = sparse_->serialize(/*features_apart=*/true);
   const std::vector<std::string_view> parts = cut_state_parts(bytes);
   db::BlobRefs refs;
@@ -463,7 +464,7 @@ Increment SiteJob::finish_dense(DenseTask& task) {
   }
   // Fenced like the sparse phase: a patch on the version this job wrote.
   ops.push_back(db::WriteOp::patch(site_path(id_, "engine"),
-                                   Json{{"dense_due", dense_due_}},
+                                   documents::dense_due_patch(dense_due_),
                                    engine_version_));
   pending_model_version_ = model_version_ + (publish_model ? 1 : 0);
   increment.summary = dense_summary(task, publish_model);

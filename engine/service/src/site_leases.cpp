@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "arscout/db/store.h"
+#include "arscout/documents/engine_state.h"
 
 namespace arscout::engine::service {
 namespace {
@@ -53,7 +54,7 @@ void SiteLeases::release() { store_.release_leases(holder_); }
 std::int64_t SiteLeases::settled_through(const std::string& site) {
   auto doc = store_.get("/sites/" + site + "/engine");
   if (!doc) return 0;
-  return doc->attrs.value("through_seq", std::int64_t{0});
+  return documents::engine_state_from_json(doc->attrs).through_seq;
 }
 
 }  // namespace arscout::engine::service
