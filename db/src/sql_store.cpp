@@ -10,6 +10,17 @@
 namespace arscout::db::internal {
 namespace {
 
+// Forgets a staged upload: its chunks too unless they were just handed to
+// the finished blob (`chunks_kept`).
+void forget_upload(SqlSession& s, Dialect dialect, const std::string& upload_id,
+                   bool chunks_kept) {
+  if (!chunks_kept)
+    s.execute(make_sql(dialect, "DELETE FROM blob_chunks WHERE blob_key = ?",
+                       {upload_id}));
+  s.execute(make_sql(dialect, "DELETE FROM blob_uploads WHERE upload_id = ?",
+                     {upload_id}));
+}
+
 Document decode_document(const SqlRow& row) {
   Document d;
   d.path = row[0].value_or("");
@@ -387,29 +398,17 @@ std::string SqlStore::put_blob(std::istream& in) {
               "VALUES (?, ?, ?, ?) ON CONFLICT (sha256) DO NOTHING",
               {blob.sha256, blob.size,
                static_cast<std::int64_t>(kBlobChunkBytes), now_us()})) == 1;
-      if (inserted) {
+      if (inserted)
         s.execute(make_sql(
             dialect_, "UPDATE blob_chunks SET blob_key = ? WHERE blob_key = ?",
             {blob.sha256, upload_id}));
-      } else {
-        s.execute(make_sql(dialect_,
-                           "DELETE FROM blob_chunks WHERE blob_key = ?",
-                           {upload_id}));
-      }
-      s.execute(make_sql(dialect_,
-                         "DELETE FROM blob_uploads WHERE upload_id = ?",
-                         {upload_id}));
+      forget_upload(s, dialect_, upload_id, /*chunks_kept=*/inserted);
     });
   } catch (...) {
     // Leave nothing half-written behind where we can; GC catches the rest.
     try {
       with_write([&](SqlSession& s) {
-        s.execute(make_sql(dialect_,
-                           "DELETE FROM blob_chunks WHERE blob_key = ?",
-                           {upload_id}));
-        s.execute(make_sql(dialect_,
-                           "DELETE FROM blob_uploads WHERE upload_id = ?",
-                           {upload_id}));
+        forget_upload(s, dialect_, upload_id, /*chunks_kept=*/false);
       });
     } catch (const StoreError&) {
     }

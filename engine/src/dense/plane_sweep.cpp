@@ -20,6 +20,7 @@
 
 #include "arscout/engine/dense.h"
 #include "dense/plane_sweep_cuda.h"
+#include "dense/sweep_images.h"
 #include "dense/sweep_kernels.h"
 
 namespace arscout::engine {
@@ -32,20 +33,6 @@ using sweep_kernels::kNoScore;
 // Window column sums restart every this many image rows (window_sums).
 constexpr int kSumBlock = 16;
 constexpr int kMaxWindow = 31;
-
-cv::Mat gray_float(const cv::Mat& bgr) {
-  cv::Mat gray, result;
-  cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
-  gray.convertTo(result, CV_32F);
-  return result;
-}
-
-cv::Mat box(const cv::Mat& image, int window) {
-  cv::Mat result;
-  cv::boxFilter(image, result, CV_32F, cv::Size(window, window),
-                cv::Point(-1, -1), true, cv::BORDER_REFLECT);
-  return result;
-}
 
 int round_up(int n) {
   const int k = sweep_kernels::kRowAlignment;
@@ -86,25 +73,13 @@ SweepInputs sweep_inputs(const DenseView& key,
                          const std::vector<const DenseView*>& neighbours,
                          const PlaneSweepOptions& options) {
   SweepInputs in{key, neighbours, options, {}, {}, {}, {}};
-  in.key_grey = gray_float(key.bgr) - kGreyCentre;
-  in.key_mean = box(in.key_grey, options.window);
-  const cv::Mat mean_sq = box(in.key_grey.mul(in.key_grey), options.window);
-  in.inverse_std.create(key.bgr.size(), CV_32F);
-  const float min_var =
-      static_cast<float>(options.min_texture * options.min_texture);
-  for (int y = 0; y < key.bgr.rows; ++y) {
-    const float* m = in.key_mean.ptr<float>(y);
-    const float* m2 = mean_sq.ptr<float>(y);
-    float* inv = in.inverse_std.ptr<float>(y);
-    for (int x = 0; x < key.bgr.cols; ++x) {
-      const float var = m2[x] - m[x] * m[x];
-      inv[x] = var >= min_var && var > 0 ? 1.0f / std::sqrt(var) : 0.0f;
-    }
-  }
+  in.key_grey = sweep_images::grey_levels(key.bgr) - kGreyCentre;
+  in.inverse_std = sweep_images::inverse_window_std(
+      in.key_grey, options.window, options.min_texture, &in.key_mean);
   for (const DenseView* n : neighbours) {
     cv::Mat padded;
-    cv::copyMakeBorder(gray_float(n->bgr), padded, kGreyPad, kGreyPad, kGreyPad,
-                       kGreyPad, cv::BORDER_CONSTANT, 0);
+    cv::copyMakeBorder(sweep_images::grey_levels(n->bgr), padded, kGreyPad,
+                       kGreyPad, kGreyPad, kGreyPad, cv::BORDER_CONSTANT, 0);
     in.grays.push_back(padded);
   }
   return in;

@@ -30,6 +30,7 @@
 #include <Eigen/Dense>
 
 #include "dense/plane_sweep_cuda.h"
+#include "dense/sweep_images.h"
 
 namespace arscout::engine::cuda {
 namespace {
@@ -297,40 +298,8 @@ __global__ void finish_kernel(Buffers b) {
   if (x < b.width && y < b.height) finish_pixel(b, x, y);
 }
 
-// Host side: what the CPU path computes before its strips start.
-
-cv::Mat gray_float(const cv::Mat& bgr) {
-  cv::Mat gray, result;
-  cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
-  gray.convertTo(result, CV_32F);
-  return result;
-}
-
-cv::Mat box(const cv::Mat& image, int window) {
-  cv::Mat result;
-  cv::boxFilter(image, result, CV_32F, cv::Size(window, window),
-                cv::Point(-1, -1), true, cv::BORDER_REFLECT);
-  return result;
-}
-
-// key_statistics() of plane_sweep.cpp: 1 / standard deviation over the
-// window, 0 where the key has too little texture.
-cv::Mat key_inverse_std(const cv::Mat& gray, int window, double min_texture) {
-  const cv::Mat mean = box(gray, window);
-  const cv::Mat mean_sq = box(gray.mul(gray), window);
-  cv::Mat inverse(gray.size(), CV_32F);
-  const float min_var = static_cast<float>(min_texture * min_texture);
-  for (int y = 0; y < gray.rows; ++y) {
-    const float* m = mean.ptr<float>(y);
-    const float* m2 = mean_sq.ptr<float>(y);
-    float* inv = inverse.ptr<float>(y);
-    for (int x = 0; x < gray.cols; ++x) {
-      const float var = m2[x] - m[x] * m[x];
-      inv[x] = var >= min_var && var > 0 ? 1.0f / std::sqrt(var) : 0.0f;
-    }
-  }
-  return inverse;
-}
+// Host side: what the CPU path computes before its strips start (the grey
+// images and the key's texture: sweep_images.h, shared with it).
 
 Eigen::Matrix3d plane_homography(const DenseView& key,
                                  const DenseView& neighbour,
@@ -373,12 +342,13 @@ Prepared prepare(const DenseView& key,
   s.penalty = static_cast<float>(options.occlusion_penalty);
   s.min_score = options.min_score;
   s.min_margin = options.min_margin;
-  const cv::Mat key_gray = gray_float(key.bgr);
+  const cv::Mat key_gray = sweep_images::grey_levels(key.bgr);
   append_pixels(key_gray, &s.key);
-  append_pixels(key_inverse_std(key_gray, options.window, options.min_texture),
+  append_pixels(sweep_images::inverse_window_std(key_gray, options.window,
+                                                 options.min_texture),
                 &s.inverse_std);
   for (const DenseView* n : neighbours)
-    append_pixels(gray_float(n->bgr), &s.grays);
+    append_pixels(sweep_images::grey_levels(n->bgr), &s.grays);
 
   const Eigen::Matrix3d K_inv = key.K.inverse();
   for (size_t f = 0; f < directions.size(); ++f) {
