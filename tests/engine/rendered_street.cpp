@@ -82,7 +82,8 @@ SparseTruth sparse_truth(const std::vector<Rendered>& street, int count,
                          std::uint32_t seed) {
   const cv::Size size = street.front().view.size;
   std::mt19937 rng(seed);
-  std::uniform_int_distribution<int> pick(0, static_cast<int>(street.size()) - 1);
+  std::uniform_int_distribution<int> pick(0,
+                                          static_cast<int>(street.size()) - 1);
   std::uniform_int_distribution<int> px(4, size.width - 5);
   std::uniform_int_distribution<int> py(4, size.height - 5);
   SparseTruth truth;
@@ -140,7 +141,8 @@ Model build_model(const std::vector<Rendered>& street, const SparseTruth& truth,
                   const std::vector<int>& views) {
   Model model;
   model.cameras.push_back(street_camera(street.front()));
-  for (int v : views) model.images.push_back(posed_image(street[v], view_id(v)));
+  for (int v : views)
+    model.images.push_back(posed_image(street[v], view_id(v)));
   for (size_t p = 0; p < truth.points.size(); ++p) {
     int observations = 0;
     for (int v : views)
