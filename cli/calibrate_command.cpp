@@ -33,8 +33,8 @@ struct CalibrateArgs {
   std::string db;
 };
 
-void print_result(const ingest::CameraCalibration& c, int images_seen,
-                  std::ostream& out) {
+void print_calibration(const ingest::CameraCalibration& c, int images_seen,
+                       std::ostream& out) {
   out << std::fixed << std::setprecision(2) << "calibrated from "
       << c.images_used << " of " << images_seen << " images (" << c.width << "x"
       << c.height << " px):\n"
@@ -148,7 +148,7 @@ int run_calibrate(const CalibrateArgs& a) {
     }
   };
   auto calibration = calibrate(images, *board, a.square_m, report);
-  print_result(calibration, static_cast<int>(images.size()), out);
+  print_calibration(calibration, static_cast<int>(images.size()), out);
 
   Json camera = documents::to_json(calibration);
   if (!a.server.empty()) {

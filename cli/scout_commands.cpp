@@ -366,7 +366,7 @@ int run_get(const GetArgs& a) {
   return kExitOk;
 }
 
-void add_get(CLI::App& app) {
+void add_scout_get(CLI::App& app) {
   static GetArgs a;
   CLI::App* cmd = app.add_subcommand(
       "get",
@@ -383,7 +383,7 @@ void add_get(CLI::App& app) {
 void add_scout_commands(CLI::App& app) {
   add_scout(app);
   add_sites(app);
-  add_get(app);
+  add_scout_get(app);
 }
 
 const CommandRegistration scout_commands_registration(30, add_scout_commands);

@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 using db::ErrorCode;
 using db::StoreError;
 
-struct ExportArgs {
+struct SessionExportArgs {
   std::string db;
   std::int64_t since = 0;
   std::string output;
@@ -30,7 +30,7 @@ struct ReplayArgs {
   bool fast = false;
 };
 
-int run_export(const ExportArgs& a) {
+int run_session_export(const SessionExportArgs& a) {
   auto store = db::Store::open(a.db);
   const std::string part = a.output + ".part";
   ingest::SessionSummary summary;
@@ -85,7 +85,7 @@ int run_replay(const ReplayArgs& a) {
 }
 
 void add_session_commands(CLI::App& app) {
-  static ExportArgs export_args;
+  static SessionExportArgs export_args;
   static ReplayArgs replay_args;
   CLI::App* session = app.add_subcommand(
       "session", "record a scouting session from a store and replay it");
@@ -101,7 +101,8 @@ void add_session_commands(CLI::App& app) {
       ->check(CLI::NonNegativeNumber);
   ex->add_option("-o,--output", export_args.output, "session file to write")
       ->required();
-  ex->callback([] { run_command([] { return run_export(export_args); }); });
+  ex->callback(
+      [] { run_command([] { return run_session_export(export_args); }); });
 
   CLI::App* re = session->add_subcommand(
       "replay",

@@ -20,8 +20,8 @@
 
 #include "arscout/engine/dense.h"
 #include "dense/plane_sweep_cuda.h"
-#include "dense/sweep_images.h"
 #include "dense/sweep_kernels.h"
+#include "dense/sweep_setup.h"
 
 namespace arscout::engine {
 namespace {
@@ -46,16 +46,7 @@ int reflect(int p, int n) {
   return p;
 }
 
-// The homography taking key pixels to neighbour pixels for the plane
-// n . X = d (key camera frame): K_n (R_rel + t_rel n^T / d) K_k^-1.
-Eigen::Matrix3d plane_homography(const DenseView& key,
-                                 const DenseView& neighbour,
-                                 const Eigen::Vector3d& normal, double d) {
-  const Eigen::Matrix3d R_rel = neighbour.R * key.R.transpose();
-  const Eigen::Vector3d t_rel = neighbour.t - R_rel * key.t;
-  return neighbour.K * (R_rel + t_rel * normal.transpose() / d) *
-         key.K.inverse();
-}
+using sweep_setup::plane_homography;
 
 // What every strip reads: computed once per sweep.
 struct SweepInputs {
@@ -73,12 +64,12 @@ SweepInputs sweep_inputs(const DenseView& key,
                          const std::vector<const DenseView*>& neighbours,
                          const PlaneSweepOptions& options) {
   SweepInputs in{key, neighbours, options, {}, {}, {}, {}};
-  in.key_grey = sweep_images::grey_levels(key.bgr) - kGreyCentre;
-  in.inverse_std = sweep_images::inverse_window_std(
+  in.key_grey = sweep_setup::grey_levels(key.bgr) - kGreyCentre;
+  in.inverse_std = sweep_setup::inverse_window_std(
       in.key_grey, options.window, options.min_texture, &in.key_mean);
   for (const DenseView* n : neighbours) {
     cv::Mat padded;
-    cv::copyMakeBorder(sweep_images::grey_levels(n->bgr), padded, kGreyPad,
+    cv::copyMakeBorder(sweep_setup::grey_levels(n->bgr), padded, kGreyPad,
                        kGreyPad, kGreyPad, kGreyPad, cv::BORDER_CONSTANT, 0);
     in.grays.push_back(padded);
   }

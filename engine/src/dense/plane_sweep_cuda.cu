@@ -30,7 +30,7 @@
 #include <Eigen/Dense>
 
 #include "dense/plane_sweep_cuda.h"
-#include "dense/sweep_images.h"
+#include "dense/sweep_setup.h"
 
 namespace arscout::engine::cuda {
 namespace {
@@ -299,16 +299,10 @@ __global__ void finish_kernel(Buffers b) {
 }
 
 // Host side: what the CPU path computes before its strips start (the grey
-// images and the key's texture: sweep_images.h, shared with it).
+// images, the key's texture and the homographies: sweep_setup.h, shared
+// with it).
 
-Eigen::Matrix3d plane_homography(const DenseView& key,
-                                 const DenseView& neighbour,
-                                 const Eigen::Vector3d& normal, double d) {
-  const Eigen::Matrix3d R_rel = neighbour.R * key.R.transpose();
-  const Eigen::Vector3d t_rel = neighbour.t - R_rel * key.t;
-  return neighbour.K * (R_rel + t_rel * normal.transpose() / d) *
-         key.K.inverse();
-}
+using sweep_setup::plane_homography;
 
 void append_pixels(const cv::Mat& image, std::vector<float>* out) {
   for (int y = 0; y < image.rows; ++y) {
@@ -342,13 +336,13 @@ Prepared prepare(const DenseView& key,
   s.penalty = static_cast<float>(options.occlusion_penalty);
   s.min_score = options.min_score;
   s.min_margin = options.min_margin;
-  const cv::Mat key_gray = sweep_images::grey_levels(key.bgr);
+  const cv::Mat key_gray = sweep_setup::grey_levels(key.bgr);
   append_pixels(key_gray, &s.key);
-  append_pixels(sweep_images::inverse_window_std(key_gray, options.window,
-                                                 options.min_texture),
+  append_pixels(sweep_setup::inverse_window_std(key_gray, options.window,
+                                                options.min_texture),
                 &s.inverse_std);
   for (const DenseView* n : neighbours)
-    append_pixels(sweep_images::grey_levels(n->bgr), &s.grays);
+    append_pixels(sweep_setup::grey_levels(n->bgr), &s.grays);
 
   const Eigen::Matrix3d K_inv = key.K.inverse();
   for (size_t f = 0; f < directions.size(); ++f) {

@@ -1,10 +1,11 @@
-#include "dense/sweep_images.h"
+#include "dense/sweep_setup.h"
 
 #include <cmath>
 
+#include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 
-namespace arscout::engine::sweep_images {
+namespace arscout::engine::sweep_setup {
 
 cv::Mat grey_levels(const cv::Mat& bgr) {
   cv::Mat grey, result;
@@ -20,8 +21,8 @@ cv::Mat window_mean(const cv::Mat& image, int window) {
   return result;
 }
 
-cv::Mat inverse_window_std(const cv::Mat& grey, int window,
-                           double min_texture, cv::Mat* mean) {
+cv::Mat inverse_window_std(const cv::Mat& grey, int window, double min_texture,
+                           cv::Mat* mean) {
   const cv::Mat m = window_mean(grey, window);
   const cv::Mat mean_sq = window_mean(grey.mul(grey), window);
   cv::Mat inverse(grey.size(), CV_32F);
@@ -39,4 +40,13 @@ cv::Mat inverse_window_std(const cv::Mat& grey, int window,
   return inverse;
 }
 
-}  // namespace arscout::engine::sweep_images
+Eigen::Matrix3d plane_homography(const DenseView& key,
+                                 const DenseView& neighbour,
+                                 const Eigen::Vector3d& normal, double d) {
+  const Eigen::Matrix3d R_rel = neighbour.R * key.R.transpose();
+  const Eigen::Vector3d t_rel = neighbour.t - R_rel * key.t;
+  return neighbour.K * (R_rel + t_rel * normal.transpose() / d) *
+         key.K.inverse();
+}
+
+}  // namespace arscout::engine::sweep_setup
