@@ -22,20 +22,26 @@ struct ExportArgs {
   std::string site;
   std::string format;
   std::string cloud = "dense";
+  std::string crs = "utm";
+  std::string heights = "ellipsoid";
   std::string output;
 };
 
 int run_export(const ExportArgs& a) {
   const auto format = viewer::parse_export_format(a.format);
   if (!format)
-    throw StoreError(ErrorCode::kInvalidArgument,
-                     "--format must be ply, colmap, geocsv or ecef-ply, not '" +
-                         a.format + "'");
-  const viewer::Cloud cloud =
+    throw StoreError(
+        ErrorCode::kInvalidArgument,
+        "--format must be ply, colmap, geocsv, ecef-ply or las, not '" +
+            a.format + "'");
+  viewer::ExportOptions options;
+  options.cloud =
       a.cloud == "sparse" ? viewer::Cloud::kSparse : viewer::Cloud::kDense;
+  options.crs = a.crs;
+  options.heights = a.heights;
   auto store = db::Store::open(a.db);
   const viewer::ExportFile file =
-      viewer::export_site(*store, a.site, *format, cloud);
+      viewer::export_site(*store, a.site, *format, options);
   if (a.output == "-") {
     std::cout.write(file.bytes.data(),
                     static_cast<std::streamsize>(file.bytes.size()));
@@ -52,19 +58,30 @@ void add_export_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "export",
       "write a site's current model as ply (ENU), colmap (text model, tar), "
-      "geocsv (camera positions) or ecef-ply (GIS); docs/frames.md");
+      "geocsv (camera positions), ecef-ply or las (GIS); docs/frames.md");
   cmd->add_option("--db", args.db,
                   "database URL: sqlite:FILE or postgresql://...")
       ->required();
   cmd->add_option("--site", args.site, "site id, e.g. s-alice-0000")
       ->required();
-  cmd->add_option("--format", args.format, "ply | colmap | geocsv | ecef-ply")
+  cmd->add_option("--format", args.format,
+                  "ply | colmap | geocsv | ecef-ply | las")
       ->required();
-  cmd->add_option("--cloud", args.cloud,
-                  "for ply and ecef-ply: dense (when the model has one) or "
-                  "sparse")
+  cmd->add_option(
+         "--cloud", args.cloud,
+         "for ply, ecef-ply and las: dense (when the model has one) or "
+         "sparse")
       ->capture_default_str()
       ->check(CLI::IsMember({"dense", "sparse"}));
+  cmd->add_option("--crs", args.crs,
+                  "for las: utm (the site's UTM zone) or EPSG:<code> of a "
+                  "projected or geographic CRS covering the site")
+      ->capture_default_str();
+  cmd->add_option("--heights", args.heights,
+                  "for las: ellipsoid (WGS84) or egm96 (above the EGM96 "
+                  "geoid)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"ellipsoid", "egm96"}));
   cmd->add_option("-o,--output", args.output, "file to write ('-': stdout)")
       ->required();
   cmd->callback([] { run_command([] { return run_export(args); }); });

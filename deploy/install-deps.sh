@@ -19,6 +19,10 @@ packages=(
   libssl-dev openssl
   # expat: the XML parser of the GPX reader (ingest/src/gps_gpx.cpp)
   libexpat1-dev
+  # PROJ and its grids (EGM96): the output CRSs of the LAS export
+  # (viewer/src/output_crs.cpp); cs2cs (proj-bin) and gdalsrsinfo (gdal-bin)
+  # check them independently in the tests
+  libproj-dev proj-data proj-bin gdal-bin
   # the scout app's pairing QR code (token create --qr), and zbarimg to
   # read it back in the test
   libqrencode-dev zbar-tools

@@ -7,7 +7,9 @@
 //   the model's geo-registration and compares with the ground truth; the
 //   PLYs hold the clouds in their frames.
 // - HTTP: the same bytes through the server, and its errors.
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -307,6 +309,97 @@ TEST_F(FountainSite, ExportCommandWritesTheSameFile) {
                           (dir_ / "arscout.db").string() + " --site " + site_ +
                           " --format obj -o " + out + " 2>/dev/null";
   EXPECT_NE(std::system(bad.c_str()), 0);
+}
+
+// LAS on the real site: the CLI and the HTTP route give the export's bytes,
+// and EGM96 heights sit below the ellipsoidal ones by the geoid undulation
+// PROJ's own cs2cs gives at the site (docs/frames.md).
+TEST_F(FountainSite, LasExportsAgreeAndCarryGeoidHeights) {
+  ExportOptions egm96;
+  egm96.heights = "egm96";
+  const ExportFile las = export_site(*store_, site_, ExportFormat::kLas, egm96);
+  const ExportFile ellipsoidal =
+      export_site(*store_, site_, ExportFormat::kLas, ExportOptions{});
+  ASSERT_EQ(las.bytes.substr(0, 4), "LASF");
+  std::uint64_t count = 0;
+  std::uint32_t offset = 0;
+  std::memcpy(&count, las.bytes.data() + 247, sizeof count);
+  std::memcpy(&offset, las.bytes.data() + 96, sizeof offset);
+  ASSERT_GT(count, 1000u);
+  ASSERT_EQ(las.bytes.size(), offset + 36 * count);
+  double z_scale = 0, z_offset[2] = {0, 0};
+  std::memcpy(&z_scale, las.bytes.data() + 147, sizeof z_scale);
+  std::memcpy(&z_offset[0], las.bytes.data() + 171, sizeof(double));
+  std::memcpy(&z_offset[1], ellipsoidal.bytes.data() + 171, sizeof(double));
+  const std::uint32_t ellipsoidal_offset = [&] {
+    std::uint32_t o = 0;
+    std::memcpy(&o, ellipsoidal.bytes.data() + 96, sizeof o);
+    return o;
+  }();
+  const auto z_at = [&](const std::string& bytes, std::uint32_t at, size_t i,
+                        double base) {
+    std::int32_t z = 0;
+    std::memcpy(&z, bytes.data() + at + 36 * i + 8, sizeof z);
+    return z * z_scale + base;
+  };
+  const Json& o = model_.attrs.at("enu_origin");
+  const std::string cs2cs = "echo '" +
+                            std::to_string(o.at("lat").get<double>()) + " " +
+                            std::to_string(o.at("lon").get<double>()) +
+                            " 0' | cs2cs -f %.4f EPSG:4979 EPSG:4326+5773";
+  std::string answer;
+  if (FILE* pipe = popen(cs2cs.c_str(), "r")) {
+    char line[256] = {0};
+    if (fgets(line, sizeof line, pipe)) answer = line;
+    pclose(pipe);
+  }
+  double lat = 0, lon = 0, height = 0;
+  ASSERT_EQ(std::sscanf(answer.c_str(), "%lf %lf %lf", &lat, &lon, &height), 3)
+      << "cs2cs (proj-bin) said '" << answer << "'";
+  const double undulation = -height;
+  for (size_t i = 0; i < count; i += count / 100)
+    EXPECT_NEAR(z_at(ellipsoidal.bytes, ellipsoidal_offset, i, z_offset[1]) -
+                    z_at(las.bytes, offset, i, z_offset[0]),
+                undulation, 0.05)
+        << i;
+  std::cout << "fountain-P11: EGM96 undulation " << undulation
+            << " m (cs2cs); LAS of " << count << " points" << std::endl;
+
+  const std::string planner =
+      ingest::create_token(*store_, ingest::Role::kPlanner, "gis");
+  ingest::ServerOptions options;
+  options.port = 0;
+  options.routes = viewer_routes(*store_);
+  ingest::Server server(*store_, options);
+  server.start();
+  ingest::ClientOptions client_options;
+  client_options.server = "http://127.0.0.1:" + std::to_string(server.port());
+  client_options.token = planner;
+  ingest::Client client(client_options);
+  const auto got = client.get("/v1/sites/" + site_ +
+                              "/export?format=las&crs=utm&heights=egm96");
+  ASSERT_EQ(got.status, 200) << got.body;
+  EXPECT_EQ(got.body, las.bytes);
+  // The site is in Lausanne: the Swiss grid fits it, the British does not.
+  const auto swiss =
+      client.get("/v1/sites/" + site_ + "/export?format=las&crs=EPSG:2056");
+  ASSERT_EQ(swiss.status, 200);
+  EXPECT_NE(swiss.body.find("CH1903+ / LV95"), std::string::npos);
+  const auto british =
+      client.get("/v1/sites/" + site_ + "/export?format=las&crs=EPSG:27700");
+  EXPECT_EQ(british.status, 422);
+  EXPECT_NE(british.body.find("the site is at"), std::string::npos)
+      << british.body;
+  server.stop();
+
+  store_.reset();  // the command opens the store itself
+  const std::string out = (dir_ / "site.las").string();
+  ASSERT_EQ(std::system((std::string(ARSCOUT_CLI) + " export --db sqlite:" +
+                         (dir_ / "arscout.db").string() + " --site " + site_ +
+                         " --format las --heights egm96 -o " + out)
+                            .c_str()),
+            0);
+  EXPECT_EQ(read_file(out), las.bytes);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "arscout/viewer/exports.h"
 
 #include <bit>
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -11,6 +12,8 @@
 #include "arscout/engine/geo.h"
 #include "arscout/engine/model_io.h"
 #include "arscout/util/file.h"
+#include "las_writer.h"
+#include "output_crs.h"
 #include "tar_writer.h"
 
 namespace arscout::viewer {
@@ -104,6 +107,7 @@ std::optional<ExportFormat> parse_export_format(const std::string& name) {
   if (name == "colmap") return ExportFormat::kColmap;
   if (name == "geocsv") return ExportFormat::kGeoCsv;
   if (name == "ecef-ply") return ExportFormat::kEcefPly;
+  if (name == "las") return ExportFormat::kLas;
   return std::nullopt;
 }
 
@@ -117,6 +121,8 @@ const char* to_string(ExportFormat format) {
       return "geocsv";
     case ExportFormat::kEcefPly:
       return "ecef-ply";
+    case ExportFormat::kLas:
+      return "las";
   }
   return "?";
 }
@@ -151,8 +157,49 @@ std::string encode_ecef_ply(const std::vector<engine::ColoredPoint>& points,
   return out;
 }
 
+std::string encode_site_las(const std::vector<engine::ColoredPoint>& points,
+                            const engine::Geodetic& origin,
+                            const ExportOptions& options,
+                            std::int64_t created_us) {
+  const OutputCrs crs(options.crs, options.heights, origin);
+  const engine::EnuFrame frame(origin);
+  std::vector<LasPoint> las_points;
+  las_points.reserve(points.size());
+  for (const engine::ColoredPoint& p : points) {
+    LasPoint point;
+    point.xyz = crs.from_geodetic(frame.to_geodetic({p.x, p.y, p.z}));
+    point.red = static_cast<std::uint16_t>(p.r * 257);
+    point.green = static_cast<std::uint16_t>(p.g * 257);
+    point.blue = static_cast<std::uint16_t>(p.b * 257);
+    las_points.push_back(point);
+  }
+  LasFile file;
+  file.wkt = crs.wkt();
+  // 1e-8 degrees is about 1.1 mm on the ground.
+  file.xy_scale = crs.geographic() ? 1e-8 : 0.001;
+  file.software = "arscout " ARSCOUT_VERSION_STRING;
+  const std::chrono::sys_days day = std::chrono::floor<std::chrono::days>(
+      std::chrono::sys_time<std::chrono::microseconds>(
+          std::chrono::microseconds(created_us)));
+  const std::chrono::year_month_day date(day);
+  file.year = static_cast<int>(date.year());
+  file.day_of_year =
+      (day - std::chrono::sys_days(date.year() / std::chrono::January / 1))
+          .count() +
+      1;
+  return encode_las(las_points, file);
+}
+
 ExportFile export_site(db::Store& store, const std::string& site,
                        ExportFormat format, Cloud cloud) {
+  ExportOptions options;
+  options.cloud = cloud;
+  return export_site(store, site, format, options);
+}
+
+ExportFile export_site(db::Store& store, const std::string& site,
+                       ExportFormat format, const ExportOptions& options) {
+  const Cloud cloud = options.cloud;
   if (format == ExportFormat::kColmap) return colmap_tar(store, site);
   if (format == ExportFormat::kGeoCsv) return geo_csv(store, site);
   const SiteModel model = load_site_model(store, site);
@@ -174,6 +221,16 @@ ExportFile export_site(db::Store& store, const std::string& site,
                                    " dense cloud; frame site")};
   }
   const engine::Geodetic origin = origin_of(model);
+  if (format == ExportFormat::kLas) {
+    // Dated by the model's commit: the same version, the same bytes.
+    try {
+      return {base + ".las", "application/vnd.las",
+              encode_site_las(load_cloud(store, model, cloud), origin, options,
+                              model.updated_us)};
+    } catch (const std::invalid_argument& e) {
+      throw StoreError(ErrorCode::kInvalidArgument, e.what());
+    }
+  }
   const std::string comment = "arscout site " + site + " model v" +
                               std::to_string(model.version) + " " + which +
                               " cloud; frame ECEF WGS84 (EPSG:4978), metres";

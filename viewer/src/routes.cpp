@@ -126,11 +126,19 @@ HttpResponse site_export(db::Store& store, const HttpRequest& req,
   if (!format)
     return HttpResponse::error(
         400, "bad_request",
-        "query parameter 'format' must be ply, colmap, geocsv or ecef-ply");
+        "query parameter 'format' must be ply, colmap, geocsv, ecef-ply or "
+        "las");
   std::optional<HttpResponse> bad;
-  const auto cloud = cloud_query(req, &bad);
+  ExportOptions options;
+  if (auto cloud = cloud_query(req, &bad)) options.cloud = *cloud;
   if (bad) return *bad;
-  ExportFile file = export_site(store, site, *format, *cloud);
+  // Checked with the site's location by export_site (422 when they do not
+  // fit it).
+  if (auto crs = req.query.find("crs"); crs != req.query.end())
+    options.crs = crs->second;
+  if (auto heights = req.query.find("heights"); heights != req.query.end())
+    options.heights = heights->second;
+  ExportFile file = export_site(store, site, *format, options);
   HttpResponse r;
   r.content_type = file.content_type;
   r.body = std::move(file.bytes);

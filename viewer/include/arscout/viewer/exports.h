@@ -8,8 +8,12 @@
 //             centre on WGS84 (ellipsoidal height)
 //   ecef-ply  the cloud as binary PLY in ECEF (WGS84, EPSG:4978), double
 //             x y z and uchar rgb, for GIS tools
+//   las       the cloud as LAS 1.4 (point format 7: millimetre integers,
+//             16-bit RGB) in the chosen CRS (ExportOptions), its OGC WKT
+//             in the file
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
 
@@ -18,9 +22,9 @@
 
 namespace arscout::viewer {
 
-enum class ExportFormat { kPly, kColmap, kGeoCsv, kEcefPly };
+enum class ExportFormat { kPly, kColmap, kGeoCsv, kEcefPly, kLas };
 
-// "ply" | "colmap" | "geocsv" | "ecef-ply"; nullopt otherwise.
+// "ply" | "colmap" | "geocsv" | "ecef-ply" | "las"; nullopt otherwise.
 std::optional<ExportFormat> parse_export_format(const std::string& name);
 const char* to_string(ExportFormat format);
 
@@ -30,11 +34,31 @@ struct ExportFile {
   std::string bytes;
 };
 
+struct ExportOptions {
+  Cloud cloud = Cloud::kDense;  // ply, ecef-ply, las
+  // las: the output CRS, "utm" (the site's zone) or "EPSG:N", and the
+  // heights, "ellipsoid" or "egm96" (docs/frames.md).
+  std::string crs = "utm";
+  std::string heights = "ellipsoid";
+};
+
 // Throws db::StoreError: kNotFound without a model; kInvalidArgument for
-// geocsv or ecef-ply on a model that is not geo-registered (its frame is
-// arbitrary, so there is no honest geography to give).
+// geocsv, ecef-ply or las on a model that is not geo-registered (its frame
+// is arbitrary, so there is no honest geography to give), and for a CRS or
+// heights option that does not fit the site (the message says why).
+ExportFile export_site(db::Store& store, const std::string& site,
+                       ExportFormat format, const ExportOptions& options);
 ExportFile export_site(db::Store& store, const std::string& site,
                        ExportFormat format, Cloud cloud = Cloud::kDense);
+
+// The LAS file's bytes for points given in the ENU frame at `origin`, in
+// options.crs with options.heights, dated `created_us` (microseconds since
+// 1970). Throws std::invalid_argument for a CRS or heights option that does
+// not fit `origin`, saying why.
+std::string encode_site_las(const std::vector<engine::ColoredPoint>& points,
+                            const engine::Geodetic& origin,
+                            const ExportOptions& options,
+                            std::int64_t created_us);
 
 // The ECEF PLY's bytes for points given in the ENU frame at `origin`.
 std::string encode_ecef_ply(const std::vector<engine::ColoredPoint>& points,
