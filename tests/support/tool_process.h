@@ -39,5 +39,8 @@ class ToolProcess {
 std::string describe_status(int status);
 // The whole content of a file ("" if it cannot be read).
 std::string slurp(const std::string& path);
+// What a shell command writes to its standard output; "" unless it exits
+// with status 0.
+std::string command_output(const std::string& command);
 
 }  // namespace arscout::testing

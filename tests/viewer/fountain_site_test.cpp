@@ -30,6 +30,7 @@
 #include "arscout/viewer/routes.h"
 #include "model_eval.h"
 #include "test_stores.h"
+#include "tool_process.h"
 
 namespace arscout::viewer {
 namespace {
@@ -68,6 +69,24 @@ class FountainSite : public ::testing::Test {
     ASSERT_EQ(sites.size(), 1u);
     site_ = sites[0].path.substr(7);
     model_ = load_site_model(*store_, site_);
+  }
+
+  // The API server with the viewer's routes on the copy, on a free port.
+  std::unique_ptr<ingest::Server> serve() {
+    ingest::ServerOptions options;
+    options.port = 0;
+    options.routes = viewer_routes(*store_);
+    auto server = std::make_unique<ingest::Server>(*store_, options);
+    server->start();
+    return server;
+  }
+  // A client of `server` with a new planner token named `name`.
+  ingest::ClientOptions planner_client(const ingest::Server& server,
+                                       const std::string& name) {
+    ingest::ClientOptions options;
+    options.server = "http://127.0.0.1:" + std::to_string(server.port());
+    options.token = ingest::create_token(*store_, ingest::Role::kPlanner, name);
+    return options;
   }
 
   std::string scene_;
@@ -240,16 +259,8 @@ TEST_F(FountainSite, PlyExportsHoldTheCloudsInTheirFrames) {
 }
 
 TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
-  const std::string planner =
-      ingest::create_token(*store_, ingest::Role::kPlanner, "pat");
-  ingest::ServerOptions options;
-  options.port = 0;
-  options.routes = viewer_routes(*store_);
-  ingest::Server server(*store_, options);
-  server.start();
-  ingest::ClientOptions client_options;
-  client_options.server = "http://127.0.0.1:" + std::to_string(server.port());
-  client_options.token = planner;
+  const auto server = serve();
+  ingest::ClientOptions client_options = planner_client(*server, "pat");
   ingest::Client client(client_options);
 
   const auto tar = client.get("/v1/sites/" + site_ + "/export?format=colmap");
@@ -347,12 +358,7 @@ TEST_F(FountainSite, LasExportsAgreeAndCarryGeoidHeights) {
                             std::to_string(o.at("lat").get<double>()) + " " +
                             std::to_string(o.at("lon").get<double>()) +
                             " 0' | cs2cs -f %.4f EPSG:4979 EPSG:4326+5773";
-  std::string answer;
-  if (FILE* pipe = popen(cs2cs.c_str(), "r")) {
-    char line[256] = {0};
-    if (fgets(line, sizeof line, pipe)) answer = line;
-    pclose(pipe);
-  }
+  const std::string answer = testing::command_output(cs2cs);
   double lat = 0, lon = 0, height = 0;
   ASSERT_EQ(std::sscanf(answer.c_str(), "%lf %lf %lf", &lat, &lon, &height), 3)
       << "cs2cs (proj-bin) said '" << answer << "'";
@@ -365,17 +371,8 @@ TEST_F(FountainSite, LasExportsAgreeAndCarryGeoidHeights) {
   std::cout << "fountain-P11: EGM96 undulation " << undulation
             << " m (cs2cs); LAS of " << count << " points" << std::endl;
 
-  const std::string planner =
-      ingest::create_token(*store_, ingest::Role::kPlanner, "gis");
-  ingest::ServerOptions options;
-  options.port = 0;
-  options.routes = viewer_routes(*store_);
-  ingest::Server server(*store_, options);
-  server.start();
-  ingest::ClientOptions client_options;
-  client_options.server = "http://127.0.0.1:" + std::to_string(server.port());
-  client_options.token = planner;
-  ingest::Client client(client_options);
+  const auto server = serve();
+  ingest::Client client(planner_client(*server, "gis"));
   const auto got = client.get("/v1/sites/" + site_ +
                               "/export?format=las&crs=utm&heights=egm96");
   ASSERT_EQ(got.status, 200) << got.body;
@@ -390,7 +387,7 @@ TEST_F(FountainSite, LasExportsAgreeAndCarryGeoidHeights) {
   EXPECT_EQ(british.status, 422);
   EXPECT_NE(british.body.find("the site is at"), std::string::npos)
       << british.body;
-  server.stop();
+  server->stop();
 
   store_.reset();  // the command opens the store itself
   const std::string out = (dir_ / "site.las").string();

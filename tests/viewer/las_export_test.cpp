@@ -20,6 +20,7 @@
 #include "arscout/viewer/exports.h"
 #include "output_crs.h"
 #include "test_stores.h"
+#include "tool_process.h"
 
 namespace arscout::viewer {
 namespace {
@@ -180,16 +181,6 @@ TEST(LasExport, GeographicCrsStoresDegreesToAMillimetre) {
   }
 }
 
-std::string run(const std::string& command) {
-  std::string out;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return out;
-  char buffer[4096];
-  size_t n;
-  while ((n = fread(buffer, 1, sizeof buffer, pipe)) > 0) out.append(buffer, n);
-  return pclose(pipe) == 0 ? out : "";
-}
-
 bool have_tool(const char* name) {
   return std::system(
              (std::string("command -v ") + name + " >/dev/null").c_str()) == 0;
@@ -216,7 +207,8 @@ TEST(LasExport, GdalReadsTheWkt) {
       // horizontal CRS's EPSG code and the vertical datum kept.
       const std::string horizontal =
           out.code().substr(5, out.code().find('+') - 5);
-      const std::string wkt1 = run("gdalsrsinfo -o wkt1 " + file);
+      const std::string wkt1 =
+          testing::command_output("gdalsrsinfo -o wkt1 " + file);
       EXPECT_NE(wkt1.find("AUTHORITY[\"EPSG\",\"" + horizontal + "\"]"),
                 std::string::npos)
           << crs << " " << heights << ": gdalsrsinfo said '" << wkt1 << "'";
@@ -225,7 +217,8 @@ TEST(LasExport, GdalReadsTheWkt) {
           << wkt1;
       // GDAL identifies a horizontal CRS's code; a compound has none.
       if (std::string(heights) == "ellipsoid") {
-        EXPECT_NE(run("gdalsrsinfo -o epsg " + file).find("EPSG:" + horizontal),
+        EXPECT_NE(testing::command_output("gdalsrsinfo -o epsg " + file)
+                      .find("EPSG:" + horizontal),
                   std::string::npos);
       }
     }
@@ -241,9 +234,9 @@ TEST(LasExport, Egm96HeightsAreTheGeoidUndulationBelowTheEllipsoid) {
   const ParsedLas egm96 = parse_las(
       encode_site_las(cloud, kGraz, las_options("utm", "egm96"), kCreatedUs));
   EXPECT_NE(egm96.wkt.find("EGM96"), std::string::npos);
-  const std::string out = run("echo '" + std::to_string(kGraz.lat) + " " +
-                              std::to_string(kGraz.lon) +
-                              " 0' | cs2cs -f %.4f EPSG:4979 EPSG:4326+5773");
+  const std::string out = testing::command_output(
+      "echo '" + std::to_string(kGraz.lat) + " " + std::to_string(kGraz.lon) +
+      " 0' | cs2cs -f %.4f EPSG:4979 EPSG:4326+5773");
   double lat = 0, lon = 0, height = 0;
   ASSERT_EQ(std::sscanf(out.c_str(), "%lf %lf %lf", &lat, &lon, &height), 3)
       << out;

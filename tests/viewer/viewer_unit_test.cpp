@@ -16,6 +16,7 @@
 #include "arscout/viewer/overlay.h"
 #include "tar_writer.h"
 #include "test_stores.h"
+#include "tool_process.h"
 
 namespace arscout::viewer {
 namespace {
@@ -119,17 +120,6 @@ TEST(ViewerOverlay, NearPointsHideFarOnesAndAreColouredWarm) {
   EXPECT_GT(r[0], r[2]);
 }
 
-std::string run_and_read(const std::string& command) {
-  std::string out;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return out;
-  char buffer[4096];
-  size_t n;
-  while ((n = fread(buffer, 1, sizeof buffer, pipe)) > 0) out.append(buffer, n);
-  pclose(pipe);
-  return out;
-}
-
 TEST(ViewerTar, GnuTarListsAndExtractsTheFiles) {
   TarWriter tar;
   std::string big(1500, 'x');
@@ -143,8 +133,8 @@ TEST(ViewerTar, GnuTarListsAndExtractsTheFiles) {
   EXPECT_EQ(bytes.size() % 512, 0u);
   const fs::path dir = testing::make_temp_dir("tar");
   std::ofstream(dir / "a.tar", std::ios::binary) << bytes;
-  const std::string listing =
-      run_and_read("tar -tvf '" + (dir / "a.tar").string() + "' 2>&1");
+  const std::string listing = testing::command_output(
+      "tar -tvf '" + (dir / "a.tar").string() + "' 2>&1");
   EXPECT_NE(listing.find("site/cameras.txt"), std::string::npos) << listing;
   EXPECT_NE(listing.find("2023-11-14"), std::string::npos) << listing;
   ASSERT_EQ(std::system(("tar -xf '" + (dir / "a.tar").string() + "' -C '" +
