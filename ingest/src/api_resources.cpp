@@ -3,6 +3,8 @@
 
 #include "api_handlers.h"
 #include "arscout/db/path.h"
+#include "arscout/documents/document_error.h"
+#include "arscout/documents/geojson.h"
 #include "arscout/ingest/calibration.h"
 
 namespace arscout::ingest {
@@ -68,6 +70,20 @@ bool parse_range(const std::string& header, std::int64_t size,
 
 }  // namespace
 
+// Sites as map points; one that does not read as a site (written by hand)
+// is left off the map rather than failing it.
+Json sites_geojson(const std::vector<db::Document>& docs) {
+  std::vector<std::pair<std::string, documents::Site>> sites;
+  for (const db::Document& d : docs) {
+    const std::string id(db::leaf_name(d.path));
+    try {
+      sites.emplace_back(id, documents::site_from_json(d.attrs, id));
+    } catch (const documents::DocumentError&) {
+    }
+  }
+  return documents::sites_geojson(sites);
+}
+
 HttpResponse get_sites(ApiContext& ctx, const HttpRequest& req) {
   db::Query q;
   q.pattern = "/sites/*";
@@ -91,8 +107,16 @@ HttpResponse get_sites(ApiContext& ctx, const HttpRequest& req) {
     }
     q.near = db::GeoRadius{near->first, near->second, radius};
   }
+  const auto format = req.query.find("format");
+  if (format != req.query.end() && format->second != "json" &&
+      format->second != "geojson")
+    return HttpResponse::error(400, "bad_request",
+                               "format must be json or geojson");
+  const auto docs = ctx.store.query(q);
+  if (format != req.query.end() && format->second == "geojson")
+    return HttpResponse::geojson(sites_geojson(docs));
   Json sites = Json::array();
-  for (const auto& d : ctx.store.query(q)) sites.push_back(to_json(d));
+  for (const auto& d : docs) sites.push_back(to_json(d));
   return HttpResponse::json(200, Json{{"sites", sites}});
 }
 

@@ -38,6 +38,12 @@ std::string HttpRequest::header(const std::string& lower_name) const {
   return it == headers.end() ? std::string() : it->second;
 }
 
+HttpResponse HttpResponse::geojson(const Json& body) {
+  HttpResponse r = json(200, body);
+  r.content_type = "application/geo+json";
+  return r;
+}
+
 HttpResponse HttpResponse::json(int status, const Json& body) {
   HttpResponse r;
   r.status = status;

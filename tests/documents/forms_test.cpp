@@ -3,11 +3,14 @@
 // versions or hands may have stored.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <nlohmann/json.hpp>
 
 #include "arscout/documents/capture.h"
 #include "arscout/documents/document_error.h"
 #include "arscout/documents/engine_state.h"
+#include "arscout/documents/geojson.h"
 #include "arscout/documents/gps.h"
 #include "arscout/documents/model.h"
 #include "arscout/documents/site.h"
@@ -165,6 +168,53 @@ TEST(EngineStateForm, RoundTripsExactlyAndDefaultsWhatIsMissing) {
                DocumentError);
   EXPECT_THROW(engine_state_from_json(Json{{"statuses", {{"a", 3}}}}),
                DocumentError);
+}
+
+// Cameras looking north, east and straight down (world-to-camera
+// quaternions w x y z, ENU world), and one with no geodetic position.
+TEST(GeoJson, CamerasSitAtTheirPositionsLookingTheirWay) {
+  ModelDocument model;
+  model.site = "s1";
+  const std::array<std::array<double, 4>, 3> looks = {
+      {{std::sqrt(0.5), std::sqrt(0.5), 0, 0},
+       {0.5, 0.5, -0.5, 0.5},
+       {0, 1, 0, 0}}};
+  for (int i = 0; i < 4; ++i) {
+    ModelImageEntry image;
+    image.id = "a." + std::to_string(i);
+    image.camera = "c";
+    image.qvec = looks[i % 3];
+    if (i < 3) image.geodetic = GeoPoint{47.0 + i, 15.0, 350.0};
+    model.images.push_back(image);
+  }
+  EXPECT_THROW(cameras_geojson(model), DocumentError);  // frame: local
+  model.geo_registered = true;
+  const Json map = through_text(cameras_geojson(model));
+  ASSERT_EQ(map.at("features").size(), 3u);
+  const Json& north = map["features"][0];
+  EXPECT_EQ(north["id"], "a.0");
+  EXPECT_EQ(north["geometry"]["coordinates"], Json({15.0, 47.0, 350.0}));
+  EXPECT_NEAR(north["properties"]["heading_deg"].get<double>(), 0, 1e-9);
+  EXPECT_NEAR(north["properties"]["pitch_deg"].get<double>(), 0, 1e-9);
+  EXPECT_NEAR(map["features"][1]["properties"]["heading_deg"].get<double>(), 90,
+              1e-9);
+  EXPECT_NEAR(map["features"][2]["properties"]["pitch_deg"].get<double>(), -90,
+              1e-9);
+}
+
+TEST(GeoJson, SitesArePointsOrNullBeforeTheirFirstFix) {
+  Site placed;
+  placed.name = "graz";
+  placed.captures = {"a.1", "a.2"};
+  placed.centre = GeoPoint{47.07, 15.44, 353};
+  const Json map =
+      through_text(sites_geojson({{"s-graz", placed}, {"s-new", Site{}}}));
+  EXPECT_EQ(map["type"], "FeatureCollection");
+  ASSERT_EQ(map["features"].size(), 2u);
+  EXPECT_EQ(map["features"][0]["geometry"]["coordinates"],
+            Json({15.44, 47.07, 353.0}));
+  EXPECT_EQ(map["features"][0]["properties"]["captures"], 2);
+  EXPECT_TRUE(map["features"][1]["geometry"].is_null());
 }
 
 TEST(ModelForm, RoundTrips) {

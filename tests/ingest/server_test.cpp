@@ -564,6 +564,27 @@ TEST_P(ServerTest, SitesNearAPlace) {
   ASSERT_EQ(near.json()["sites"].size(), 1u);
   EXPECT_EQ(near.json()["sites"][0]["path"], "/sites/graz");
   EXPECT_EQ(c.get("/v1/sites").json()["sites"].size(), 2u);
+
+  // For web maps: GeoJSON, [longitude, latitude, height]; the same filter.
+  store_->put("/sites/new", "site", Json{{"name", "no fix yet"}});
+  HttpResult map = c.get("/v1/sites?format=geojson&near=47.0701,15.4401");
+  ASSERT_EQ(map.status, 200) << map.body;
+  EXPECT_EQ(map.headers["content-type"], "application/geo+json");
+  const Json collection = map.json();
+  EXPECT_EQ(collection["type"], "FeatureCollection");
+  ASSERT_EQ(collection["features"].size(), 1u);
+  const Json& graz = collection["features"][0];
+  EXPECT_EQ(graz["id"], "graz");
+  EXPECT_EQ(graz["geometry"]["coordinates"][0], 15.44);
+  EXPECT_EQ(graz["geometry"]["coordinates"][1], 47.07);
+  const Json all = c.get("/v1/sites?format=geojson").json();
+  ASSERT_EQ(all["features"].size(), 3u);
+  for (const Json& f : all["features"]) {
+    if (f["id"] == "new") {
+      EXPECT_TRUE(f["geometry"].is_null());
+    }
+  }
+  EXPECT_EQ(c.get("/v1/sites?format=kml").status, 400);
 }
 
 TEST_P(ServerTest, LongPollWaitsForTheNextChange) {

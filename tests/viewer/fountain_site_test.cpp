@@ -7,6 +7,7 @@
 //   the model's geo-registration and compares with the ground truth; the
 //   PLYs hold the clouds in their frames.
 // - HTTP: the same bytes through the server, and its errors.
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -288,6 +289,19 @@ TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
   EXPECT_TRUE(
       client.get("/v1/sites/nowhere/captures").json().at("captures").empty());
 
+  // The cameras on a map: each at the model document's geodetic position.
+  const auto cameras = client.get("/v1/sites/" + site_ + "/cameras.geojson");
+  ASSERT_EQ(cameras.status, 200) << cameras.body;
+  EXPECT_EQ(cameras.headers.at("content-type"), "application/geo+json");
+  const Json features = cameras.json().at("features");
+  ASSERT_EQ(features.size(), 10u);
+  for (const Json& f : features) {
+    const Json& image = *std::find_if(
+        model_.attrs.at("images").begin(), model_.attrs.at("images").end(),
+        [&](const Json& i) { return i.at("id") == f.at("id"); });
+    EXPECT_EQ(f["geometry"]["coordinates"][0], image["geodetic"]["lon"]);
+    EXPECT_EQ(f["geometry"]["coordinates"][1], image["geodetic"]["lat"]);
+  }
   EXPECT_EQ(client.get("/v1/sites/" + site_ + "/export?format=obj").status,
             400);
   EXPECT_EQ(client.get("/v1/sites/nowhere/export?format=ply").status, 404);

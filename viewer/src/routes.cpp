@@ -5,6 +5,8 @@
 
 #include "arscout/db/errors.h"
 #include "arscout/db/path.h"
+#include "arscout/documents/document_error.h"
+#include "arscout/documents/geojson.h"
 #include "arscout/ingest/image_budget.h"
 #include "arscout/viewer/exports.h"
 #include "arscout/viewer/overlay.h"
@@ -160,6 +162,17 @@ HttpResponse site_captures(db::Store& store, const std::string& site) {
   return HttpResponse::json(200, Json{{"captures", docs}});
 }
 
+// The registered cameras on a map (documents/geojson.h); 422 before the
+// model is geo-registered.
+HttpResponse site_cameras_geojson(db::Store& store, const std::string& site) {
+  const SiteModel model = load_site_model(store, site);
+  try {
+    return HttpResponse::geojson(documents::cameras_geojson(model.document));
+  } catch (const documents::DocumentError& e) {
+    return HttpResponse::error(422, "not_geo_registered", e.what());
+  }
+}
+
 // GET /v1/{collection}/{id}/{leaf}. Other methods get ingest's 405, and a
 // db::StoreError the API's status for it, as on every other route.
 ingest::ApiRoute route(
@@ -199,6 +212,10 @@ std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
       route("GET /v1/sites/*/captures", "sites", "captures",
             [s](const HttpRequest&, const std::string& id) {
               return site_captures(*s, id);
+            }),
+      route("GET /v1/sites/*/cameras.geojson", "sites", "cameras.geojson",
+            [s](const HttpRequest&, const std::string& id) {
+              return site_cameras_geojson(*s, id);
             }),
       route("GET /v1/sites/*/export", "sites", "export",
             [s](const HttpRequest& req, const std::string& id) {

@@ -45,6 +45,8 @@ struct HttpResponse {
   std::optional<std::int64_t> park_after;
 
   static HttpResponse json(int status, const Json& body);
+  // 200 with a GeoJSON body (RFC 7946), as application/geo+json.
+  static HttpResponse geojson(const Json& body);
   // {"error": kind, "message": message} plus any fields of `extra`.
   static HttpResponse error(int status, const std::string& kind,
                             const std::string& message,
