@@ -30,10 +30,10 @@ struct ExportArgs {
 int run_export(const ExportArgs& a) {
   const auto format = viewer::parse_export_format(a.format);
   if (!format)
-    throw StoreError(
-        ErrorCode::kInvalidArgument,
-        "--format must be ply, colmap, geocsv, ecef-ply or las, not '" +
-            a.format + "'");
+    throw StoreError(ErrorCode::kInvalidArgument,
+                     "--format must be ply, colmap, geocsv, ecef-ply, las or "
+                     "3dtiles, not '" +
+                         a.format + "'");
   viewer::ExportOptions options;
   options.cloud =
       a.cloud == "sparse" ? viewer::Cloud::kSparse : viewer::Cloud::kDense;
@@ -58,19 +58,20 @@ void add_export_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "export",
       "write a site's current model as ply (ENU), colmap (text model, tar), "
-      "geocsv (camera positions), ecef-ply or las (GIS); docs/frames.md");
+      "geocsv (camera positions), ecef-ply or las (GIS), or 3dtiles (a zip "
+      "for Cesium); docs/frames.md");
   cmd->add_option("--db", args.db,
                   "database URL: sqlite:FILE or postgresql://...")
       ->required();
   cmd->add_option("--site", args.site, "site id, e.g. s-alice-0000")
       ->required();
   cmd->add_option("--format", args.format,
-                  "ply | colmap | geocsv | ecef-ply | las")
+                  "ply | colmap | geocsv | ecef-ply | las | 3dtiles")
       ->required();
-  cmd->add_option(
-         "--cloud", args.cloud,
-         "for ply, ecef-ply and las: dense (when the model has one) or "
-         "sparse")
+  cmd->add_option("--cloud", args.cloud,
+                  "for ply, ecef-ply, las and 3dtiles: dense (when the model "
+                  "has one) or "
+                  "sparse")
       ->capture_default_str()
       ->check(CLI::IsMember({"dense", "sparse"}));
   cmd->add_option("--crs", args.crs,

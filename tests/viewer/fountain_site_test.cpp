@@ -302,6 +302,14 @@ TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
     EXPECT_EQ(f["geometry"]["coordinates"][0], image["geodetic"]["lon"]);
     EXPECT_EQ(f["geometry"]["coordinates"][1], image["geodetic"]["lat"]);
   }
+  // 3D Tiles: a zip of SITE/tileset.json and the tiles, the same bytes.
+  const auto tiles =
+      client.get("/v1/sites/" + site_ + "/export?format=3dtiles");
+  ASSERT_EQ(tiles.status, 200);
+  EXPECT_EQ(tiles.headers.at("content-type"), "application/zip");
+  EXPECT_EQ(tiles.body,
+            export_site(*store_, site_, ExportFormat::k3dTiles).bytes);
+  EXPECT_NE(tiles.body.find(site_ + "/tileset.json"), std::string::npos);
   EXPECT_EQ(client.get("/v1/sites/" + site_ + "/export?format=obj").status,
             400);
   EXPECT_EQ(client.get("/v1/sites/nowhere/export?format=ply").status, 404);

@@ -190,7 +190,8 @@ TEST(ViewerEcefPly, DoublesInEcefWithTheColours) {
 }
 
 TEST(ViewerExportFormat, NamesRoundTrip) {
-  for (const char* name : {"ply", "colmap", "geocsv", "ecef-ply", "las"}) {
+  for (const char* name :
+       {"ply", "colmap", "geocsv", "ecef-ply", "las", "3dtiles"}) {
     const auto format = parse_export_format(name);
     ASSERT_TRUE(format) << name;
     EXPECT_STREQ(to_string(*format), name);

@@ -14,7 +14,9 @@
 #include "arscout/util/file.h"
 #include "las_writer.h"
 #include "output_crs.h"
+#include "point_tileset.h"
 #include "tar_writer.h"
+#include "zip_writer.h"
 
 namespace arscout::viewer {
 namespace {
@@ -95,6 +97,19 @@ ExportFile geo_csv(db::Store& store, const std::string& site) {
           "text/csv; charset=utf-8", util::read_file(file.string())};
 }
 
+// Dated by the model's commit: the same version, the same bytes.
+std::string tileset_zip(const std::vector<engine::ColoredPoint>& cloud,
+                        const engine::Geodetic& origin, const std::string& site,
+                        std::int64_t updated_us) {
+  if (cloud.empty())
+    throw StoreError(ErrorCode::kNotFound,
+                     "site " + site + ": the model has no point cloud");
+  ZipWriter zip;
+  for (const TilesetFile& file : build_point_tileset(cloud, origin))
+    zip.add(site + "/" + file.path, file.bytes, updated_us / 1000000);
+  return zip.finish();
+}
+
 std::string cloud_name(const SiteModel& model, Cloud cloud) {
   return cloud == Cloud::kDense && !model.dense_blobs.empty() ? "dense"
                                                               : "sparse";
@@ -108,6 +123,7 @@ std::optional<ExportFormat> parse_export_format(const std::string& name) {
   if (name == "geocsv") return ExportFormat::kGeoCsv;
   if (name == "ecef-ply") return ExportFormat::kEcefPly;
   if (name == "las") return ExportFormat::kLas;
+  if (name == "3dtiles") return ExportFormat::k3dTiles;
   return std::nullopt;
 }
 
@@ -123,6 +139,8 @@ const char* to_string(ExportFormat format) {
       return "ecef-ply";
     case ExportFormat::kLas:
       return "las";
+    case ExportFormat::k3dTiles:
+      return "3dtiles";
   }
   return "?";
 }
@@ -221,6 +239,10 @@ ExportFile export_site(db::Store& store, const std::string& site,
                                    " dense cloud; frame site")};
   }
   const engine::Geodetic origin = origin_of(model);
+  if (format == ExportFormat::k3dTiles)
+    return {base + "-3dtiles.zip", "application/zip",
+            tileset_zip(load_cloud(store, model, cloud), origin, site,
+                        model.updated_us)};
   if (format == ExportFormat::kLas) {
     // Dated by the model's commit: the same version, the same bytes.
     try {

@@ -128,8 +128,8 @@ HttpResponse site_export(db::Store& store, const HttpRequest& req,
   if (!format)
     return HttpResponse::error(
         400, "bad_request",
-        "query parameter 'format' must be ply, colmap, geocsv, ecef-ply or "
-        "las");
+        "query parameter 'format' must be ply, colmap, geocsv, ecef-ply, las "
+        "or 3dtiles");
   std::optional<HttpResponse> bad;
   ExportOptions options;
   if (auto cloud = cloud_query(req, &bad)) options.cloud = *cloud;

@@ -11,6 +11,9 @@
 //   las       the cloud as LAS 1.4 (point format 7: millimetre integers,
 //             16-bit RGB) in the chosen CRS (ExportOptions), its OGC WKT
 //             in the file
+//   3dtiles   the cloud as a 3D Tiles 1.1 tileset (an octree of glTF point
+//             tiles with an ENU-to-ECEF root transform) in a zip: SITE/
+//             tileset.json and SITE/tiles/*.glb, for Cesium
 #pragma once
 
 #include <cstdint>
@@ -22,9 +25,10 @@
 
 namespace arscout::viewer {
 
-enum class ExportFormat { kPly, kColmap, kGeoCsv, kEcefPly, kLas };
+enum class ExportFormat { kPly, kColmap, kGeoCsv, kEcefPly, kLas, k3dTiles };
 
-// "ply" | "colmap" | "geocsv" | "ecef-ply" | "las"; nullopt otherwise.
+// "ply" | "colmap" | "geocsv" | "ecef-ply" | "las" | "3dtiles"; nullopt
+// otherwise.
 std::optional<ExportFormat> parse_export_format(const std::string& name);
 const char* to_string(ExportFormat format);
 
@@ -35,7 +39,7 @@ struct ExportFile {
 };
 
 struct ExportOptions {
-  Cloud cloud = Cloud::kDense;  // ply, ecef-ply, las
+  Cloud cloud = Cloud::kDense;  // ply, ecef-ply, las, 3dtiles
   // las: the output CRS, "utm" (the site's zone) or "EPSG:N", and the
   // heights, "ellipsoid" or "egm96" (docs/frames.md).
   std::string crs = "utm";
@@ -43,9 +47,9 @@ struct ExportOptions {
 };
 
 // Throws db::StoreError: kNotFound without a model; kInvalidArgument for
-// geocsv, ecef-ply or las on a model that is not geo-registered (its frame
-// is arbitrary, so there is no honest geography to give), and for a CRS or
-// heights option that does not fit the site (the message says why).
+// geocsv, ecef-ply, las or 3dtiles on a model that is not geo-registered (its
+// frame is arbitrary, so there is no honest geography to give), and for a CRS
+// or heights option that does not fit the site (the message says why).
 ExportFile export_site(db::Store& store, const std::string& site,
                        ExportFormat format, const ExportOptions& options);
 ExportFile export_site(db::Store& store, const std::string& site,
