@@ -18,6 +18,7 @@
 #include <GeographicLib/UTMUPS.hpp>
 
 #include "arscout/viewer/exports.h"
+#include "bytes_at.h"
 #include "output_crs.h"
 #include "test_stores.h"
 #include "tool_process.h"
@@ -30,12 +31,7 @@ namespace fs = std::filesystem;
 const engine::Geodetic kGraz{47.0707, 15.4395, 353.5};
 constexpr std::int64_t kCreatedUs = 1764115200000000;  // 2025-11-26
 
-template <typename T>
-T read_at(const std::string& bytes, size_t offset) {
-  T value;
-  std::memcpy(&value, bytes.data() + offset, sizeof value);
-  return value;
-}
+using testing_bytes::read_at;
 
 struct ParsedLas {
   std::uint8_t major = 0, minor = 0, format = 0;

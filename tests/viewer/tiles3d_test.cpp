@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "arscout/viewer/exports.h"
+#include "bytes_at.h"
 #include "point_tileset.h"
 #include "test_stores.h"
 #include "tool_process.h"
@@ -52,12 +53,7 @@ std::vector<engine::ColoredPoint> grid_cloud() {
   return cloud;
 }
 
-template <typename T>
-T read_at(const std::string& bytes, size_t offset) {
-  T value;
-  std::memcpy(&value, bytes.data() + offset, sizeof value);
-  return value;
-}
+using testing_bytes::read_at;
 
 struct TilePoints {
   std::vector<std::array<double, 3>> enu;  // back in the tile frame
