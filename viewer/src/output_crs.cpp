@@ -135,14 +135,14 @@ OutputCrs::OutputCrs(const std::string& crs, const std::string& heights,
   if (heights != "ellipsoid" && heights != "egm96")
     throw std::invalid_argument("heights must be ellipsoid or egm96, not '" +
                                 heights + "'");
-  egm96_ = heights == "egm96";
+  const bool egm96 = heights == "egm96";
   const std::string horizontal = horizontal_code(crs, site);
   PJ* base = proj_create(proj_->context, horizontal.c_str());
   if (!base)
     throw std::invalid_argument(
         horizontal + " is not a CRS PROJ knows: " + proj_->last_error());
   try {
-    check_kind(base, horizontal, egm96_);
+    check_kind(base, horizontal, egm96);
     check_area(proj_->context, base, horizontal, site);
   } catch (...) {
     proj_destroy(base);
@@ -150,11 +150,11 @@ OutputCrs::OutputCrs(const std::string& crs, const std::string& heights,
   }
   geographic_ = proj_get_type(base) != PJ_TYPE_PROJECTED_CRS;
   proj_destroy(base);
-  if (egm96_ && !egm96_grid_present())
+  if (egm96 && !egm96_grid_present())
     throw std::invalid_argument(
         "EGM96 heights need PROJ's EGM96 grid (egm96_15.gtx, Debian package "
         "proj-data), which is not installed");
-  code_ = egm96_ ? horizontal + "+" + std::to_string(kEgm96Height) : horizontal;
+  code_ = egm96 ? horizontal + "+" + std::to_string(kEgm96Height) : horizontal;
   proj_->target = proj_create(proj_->context, code_.c_str());
   proj_->transform = wgs84_to(proj_->context, proj_->target);
   if (!proj_->transform)

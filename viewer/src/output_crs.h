@@ -37,7 +37,6 @@ class OutputCrs {
   std::array<double, 3> from_geodetic(const engine::Geodetic& point) const;
 
   bool geographic() const { return geographic_; }
-  bool egm96_heights() const { return egm96_; }
   // "EPSG:32632", or "EPSG:32632+5773" with EGM96 heights.
   const std::string& code() const { return code_; }
   // PROJ's name, e.g. "WGS 84 / UTM zone 32N + EGM96 height".
@@ -49,7 +48,6 @@ class OutputCrs {
   struct Proj;
   std::unique_ptr<Proj> proj_;
   bool geographic_ = false;
-  bool egm96_ = false;
   std::string code_, name_, wkt_;
 };
 
