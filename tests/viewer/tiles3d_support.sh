@@ -1,0 +1,39 @@
+# Shared by the 3D Tiles tests (tiles3d_browser_test.sh,
+# tiles3d_gltf_test.sh); source it after setting $bin (the arscout
+# executable), $fixture (the viewer_fountain fixture's folder) and $repo.
+#
+# export_site_tileset: in a fresh $work (use_work_dir from
+# ../support/serve_script.sh), a copy of the fixture's database, so that
+# the export cannot touch the fixture the other viewer tests read; then the
+# one site's `arscout export --format 3dtiles` extracted into
+# $work/tileset (sets $tileset, the folder holding tileset.json) and its
+# `--format ecef-ply` in $work/site.ecef.ply (sets $ecef_ply). Both come
+# from the CLI, the same bytes as GET /v1/sites/{id}/export
+# (fountain_site_test.cpp checks that), so what a Cesium user downloads is
+# what is tested.
+#
+# The variables read here are set, and those set here read, by the script
+# that sources this file: hence SC2154 and SC2034 off.
+# shellcheck shell=bash disable=SC2154,SC2034
+
+export_site_tileset() {
+  [ -f "$fixture/ready" ] || { echo "FAIL: no fountain site in $fixture"; exit 1; }
+  use_work_dir
+  cp "$fixture"/arscout.db* "$work/"
+  local db="sqlite:$work/arscout.db"
+  # The fixture holds exactly one site (make_fountain_site.sh); `db ls`
+  # prints PATH<TAB>KIND<TAB>vVERSION per document.
+  local sites
+  sites=$("$bin" db ls "$db" '/sites/*' | cut -f1 | sed -n 's|^/sites/\([^/]*\)$|\1|p')
+  [ "$(printf '%s\n' "$sites" | grep -c .)" -eq 1 ] || {
+    echo "FAIL: expected one site in the fixture, found: ${sites:-none}"; exit 1; }
+  site=$sites
+  "$bin" export --db "$db" --site "$site" --format 3dtiles -o "$work/site.zip"
+  "$bin" export --db "$db" --site "$site" --format ecef-ply -o "$work/site.ecef.ply"
+  node "$repo/tests/viewer/tiles3d_unzip.mjs" "$work/site.zip" "$work/tileset"
+  # The zip holds SITE/tileset.json and SITE/tiles/*.glb (docs/frames.md).
+  tileset="$work/tileset/$site"
+  [ -f "$tileset/tileset.json" ] || {
+    echo "FAIL: the zip has no $site/tileset.json"; find "$work/tileset" | head; exit 1; }
+  ecef_ply="$work/site.ecef.ply"
+}
