@@ -31,8 +31,8 @@ int run_export(const ExportArgs& a) {
   const auto format = viewer::parse_export_format(a.format);
   if (!format)
     throw StoreError(ErrorCode::kInvalidArgument,
-                     "--format must be ply, colmap, geocsv, ecef-ply, las or "
-                     "3dtiles, not '" +
+                     "--format must be ply, colmap, geocsv, ecef-ply, las, "
+                     "3dtiles or geojson, not '" +
                          a.format + "'");
   viewer::ExportOptions options;
   options.cloud =
@@ -58,15 +58,15 @@ void add_export_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "export",
       "write a site's current model as ply (ENU), colmap (text model, tar), "
-      "geocsv (camera positions), ecef-ply or las (GIS), or 3dtiles (a zip "
-      "for Cesium); docs/frames.md");
+      "geocsv (camera positions), ecef-ply or las (GIS), 3dtiles (a zip "
+      "for Cesium) or geojson (the cameras, for web maps); docs/frames.md");
   cmd->add_option("--db", args.db,
                   "database URL: sqlite:FILE or postgresql://...")
       ->required();
   cmd->add_option("--site", args.site, "site id, e.g. s-alice-0000")
       ->required();
   cmd->add_option("--format", args.format,
-                  "ply | colmap | geocsv | ecef-ply | las | 3dtiles")
+                  "ply | colmap | geocsv | ecef-ply | las | 3dtiles | geojson")
       ->required();
   cmd->add_option("--cloud", args.cloud,
                   "for ply, ecef-ply, las and 3dtiles: dense (when the model "

@@ -8,6 +8,7 @@
 //   PLYs hold the clouds in their frames.
 // - HTTP: the same bytes through the server, and its errors.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -338,6 +339,21 @@ TEST_F(FountainSite, ExportCommandWritesTheSameFile) {
   store_ = db::Store::open("sqlite:" + (dir_ / "arscout.db").string());
   EXPECT_EQ(read_file(out),
             export_site(*store_, site_, ExportFormat::kGeoCsv).bytes);
+  // The cameras as GeoJSON: the bytes GET .../cameras.geojson serves.
+  const std::string geojson = (dir_ / "cameras.geojson").string();
+  store_.reset();
+  ASSERT_EQ(std::system((std::string(ARSCOUT_CLI) + " export --db sqlite:" +
+                         (dir_ / "arscout.db").string() + " --site " + site_ +
+                         " --format geojson -o " + geojson)
+                            .c_str()),
+            0);
+  store_ = db::Store::open("sqlite:" + (dir_ / "arscout.db").string());
+  const auto server = serve();
+  ingest::Client client(planner_client(*server, "map"));
+  const auto served = client.get("/v1/sites/" + site_ + "/cameras.geojson");
+  ASSERT_EQ(served.status, 200);
+  EXPECT_EQ(read_file(geojson), served.body);
+  server->stop();
   const std::string bad = std::string(ARSCOUT_CLI) + " export --db sqlite:" +
                           (dir_ / "arscout.db").string() + " --site " + site_ +
                           " --format obj -o " + out + " 2>/dev/null";
@@ -419,6 +435,64 @@ TEST_F(FountainSite, LasExportsAgreeAndCarryGeoidHeights) {
                             .c_str()),
             0);
   EXPECT_EQ(read_file(out), las.bytes);
+}
+
+// The viewer's streamed cloud: the hierarchy of the current version, its
+// nodes' bytes, and the errors for a stale version or an unknown node; and
+// a picked point's coordinates in the site's UTM zone.
+TEST_F(FountainSite, OctreeAndCoordinatesEndpoints) {
+  const auto server = serve();
+  ingest::Client client(planner_client(*server, "viewer"));
+  const std::string base = "/v1/sites/" + site_;
+  const auto hierarchy = client.get(base + "/octree");
+  ASSERT_EQ(hierarchy.status, 200) << hierarchy.body;
+  const Json tree = hierarchy.json();
+  EXPECT_EQ(tree.at("version"), model_.version);
+  EXPECT_EQ(tree.at("cloud"), "dense");
+  const std::size_t dense =
+      load_cloud(*store_, load_site_model(*store_, site_)).size();
+  EXPECT_EQ(tree.at("points"), dense);
+  std::size_t total = 0;
+  for (const Json& node : tree.at("nodes"))
+    total += node.at("points").get<std::size_t>();
+  EXPECT_EQ(total, dense);
+  const std::string version = std::to_string(model_.version);
+  const auto root = client.get(base + "/octree/" + version + "/r.bin");
+  ASSERT_EQ(root.status, 200);
+  EXPECT_EQ(root.body.size(),
+            15 * tree.at("nodes").at(0).at("points").get<std::size_t>());
+  EXPECT_NE(root.headers.at("cache-control").find("immutable"),
+            std::string::npos);
+  EXPECT_EQ(client.get(base + "/octree/" + version + "/r9.bin").status, 404);
+  EXPECT_EQ(client.get(base + "/octree/999999/r.bin").status, 410);
+  const auto sparse = client.get(base + "/octree?cloud=sparse");
+  ASSERT_EQ(sparse.status, 200);
+  EXPECT_EQ(sparse.json().at("cloud"), "sparse");
+  EXPECT_EQ(client.get(base + "/octree?cloud=mesh").status, 400);
+  EXPECT_EQ(client.get("/v1/sites/nowhere/octree").status, 404);
+
+  // The ENU origin is the model's origin on WGS84; in UTM zone 32 north.
+  const auto origin = client.get(base + "/coordinates?x=0&y=0&z=0");
+  ASSERT_EQ(origin.status, 200) << origin.body;
+  const Json& o = model_.attrs.at("enu_origin");
+  EXPECT_NEAR(origin.json().at("wgs84").at("lat"), o.at("lat"), 1e-9);
+  EXPECT_NEAR(origin.json().at("wgs84").at("lon"), o.at("lon"), 1e-9);
+  EXPECT_EQ(origin.json().at("crs"), "EPSG:32632");
+  const auto moved =
+      client.get(base + "/coordinates?x=10&y=20&z=0&heights=egm96");
+  ASSERT_EQ(moved.status, 200) << moved.body;
+  EXPECT_EQ(moved.json().at("crs"), "EPSG:32632+5773");
+  // UTM's scale near the central meridian is close to 1 (0.9996 at it).
+  const Json a = origin.json().at("coordinates"),
+             b = moved.json().at("coordinates");
+  const double metres = std::hypot(b[0].get<double>() - a[0].get<double>(),
+                                   b[1].get<double>() - a[1].get<double>());
+  EXPECT_NEAR(metres, std::hypot(10.0, 20.0), 0.05);
+  EXPECT_EQ(client.get(base + "/coordinates?x=1&y=2").status, 400);
+  EXPECT_EQ(client.get(base + "/coordinates?x=1&y=2&z=nan").status, 400);
+  EXPECT_EQ(client.get(base + "/coordinates?x=0&y=0&z=0&crs=EPSG:27700").status,
+            422);
+  server->stop();
 }
 
 }  // namespace

@@ -191,7 +191,7 @@ TEST(ViewerEcefPly, DoublesInEcefWithTheColours) {
 
 TEST(ViewerExportFormat, NamesRoundTrip) {
   for (const char* name :
-       {"ply", "colmap", "geocsv", "ecef-ply", "las", "3dtiles"}) {
+       {"ply", "colmap", "geocsv", "ecef-ply", "las", "3dtiles", "geojson"}) {
     const auto format = parse_export_format(name);
     ASSERT_TRUE(format) << name;
     EXPECT_STREQ(to_string(*format), name);

@@ -9,6 +9,8 @@
 #include <sstream>
 
 #include "arscout/db/errors.h"
+#include "arscout/documents/document_error.h"
+#include "arscout/documents/geojson.h"
 #include "arscout/engine/geo.h"
 #include "arscout/engine/model_io.h"
 #include "arscout/util/file.h"
@@ -110,9 +112,15 @@ std::string tileset_zip(const std::vector<engine::ColoredPoint>& cloud,
   return zip.finish();
 }
 
-std::string cloud_name(const SiteModel& model, Cloud cloud) {
-  return cloud == Cloud::kDense && !model.dense_blobs.empty() ? "dense"
-                                                              : "sparse";
+// As HttpResponse::json writes it, so the CLI and GET .../cameras.geojson
+// give the same bytes.
+std::string cameras_geojson_text(const SiteModel& model) {
+  try {
+    return documents::cameras_geojson(model.document)
+        .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  } catch (const documents::DocumentError& e) {
+    throw StoreError(ErrorCode::kInvalidArgument, e.what());
+  }
 }
 
 }  // namespace
@@ -124,6 +132,7 @@ std::optional<ExportFormat> parse_export_format(const std::string& name) {
   if (name == "ecef-ply") return ExportFormat::kEcefPly;
   if (name == "las") return ExportFormat::kLas;
   if (name == "3dtiles") return ExportFormat::k3dTiles;
+  if (name == "geojson") return ExportFormat::kGeoJson;
   return std::nullopt;
 }
 
@@ -141,6 +150,8 @@ const char* to_string(ExportFormat format) {
       return "las";
     case ExportFormat::k3dTiles:
       return "3dtiles";
+    case ExportFormat::kGeoJson:
+      return "geojson";
   }
   return "?";
 }
@@ -239,6 +250,9 @@ ExportFile export_site(db::Store& store, const std::string& site,
                                    " dense cloud; frame site")};
   }
   const engine::Geodetic origin = origin_of(model);
+  if (format == ExportFormat::kGeoJson)
+    return {site + "-v" + std::to_string(model.version) + "-cameras.geojson",
+            "application/geo+json", cameras_geojson_text(model)};
   if (format == ExportFormat::k3dTiles)
     return {base + "-3dtiles.zip", "application/zip",
             tileset_zip(load_cloud(store, model, cloud), origin, site,
@@ -258,6 +272,28 @@ ExportFile export_site(db::Store& store, const std::string& site,
                               " cloud; frame ECEF WGS84 (EPSG:4978), metres";
   return {base + "-ecef.ply", "application/x-ply",
           encode_ecef_ply(load_cloud(store, model, cloud), origin, comment)};
+}
+
+SitePoint project_site_point(db::Store& store, const std::string& site,
+                             const std::array<double, 3>& enu,
+                             const std::string& crs,
+                             const std::string& heights) {
+  const SiteModel model = load_site_model(store, site);
+  const engine::Geodetic origin = origin_of(model);
+  try {
+    const OutputCrs output(crs, heights, origin);
+    SitePoint point;
+    point.enu = enu;
+    point.wgs84 =
+        engine::EnuFrame(origin).to_geodetic({enu[0], enu[1], enu[2]});
+    point.crs_code = output.code();
+    point.crs_name = output.name();
+    point.geographic = output.geographic();
+    point.xyz = output.from_geodetic(point.wgs84);
+    return point;
+  } catch (const std::invalid_argument& e) {
+    throw StoreError(ErrorCode::kInvalidArgument, e.what());
+  }
 }
 
 }  // namespace arscout::viewer

@@ -1,5 +1,10 @@
 #include "arscout/viewer/routes.h"
 
+#include <array>
+#include <cmath>
+#include <memory>
+#include <regex>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -10,6 +15,7 @@
 #include "arscout/ingest/image_budget.h"
 #include "arscout/viewer/exports.h"
 #include "arscout/viewer/overlay.h"
+#include "cloud_octree.h"
 
 namespace arscout::viewer {
 namespace {
@@ -128,8 +134,8 @@ HttpResponse site_export(db::Store& store, const HttpRequest& req,
   if (!format)
     return HttpResponse::error(
         400, "bad_request",
-        "query parameter 'format' must be ply, colmap, geocsv, ecef-ply, las "
-        "or 3dtiles");
+        "query parameter 'format' must be ply, colmap, geocsv, ecef-ply, las, "
+        "3dtiles or geojson");
   std::optional<HttpResponse> bad;
   ExportOptions options;
   if (auto cloud = cloud_query(req, &bad)) options.cloud = *cloud;
@@ -173,6 +179,115 @@ HttpResponse site_cameras_geojson(db::Store& store, const std::string& site) {
   }
 }
 
+// A finite number from the query, else a 400 through *bad.
+double number_query(const HttpRequest& req, const std::string& name,
+                    std::optional<HttpResponse>* bad) {
+  auto it = req.query.find(name);
+  try {
+    size_t used = 0;
+    const double v = it == req.query.end() ? NAN : std::stod(it->second, &used);
+    if (used == it->second.size() && std::isfinite(v)) return v;
+  } catch (const std::exception&) {
+  }
+  *bad = HttpResponse::error(400, "bad_request",
+                             "query parameter '" + name +
+                                 "' must be a number (metres in the site's "
+                                 "ENU frame)");
+  return 0;
+}
+
+std::string text_query(const HttpRequest& req, const std::string& name,
+                       const std::string& fallback) {
+  auto it = req.query.find(name);
+  return it == req.query.end() ? fallback : it->second;
+}
+
+// A point of the site's ENU frame in an output CRS: the viewer's picked
+// point, in the coordinates the planner's GIS uses.
+HttpResponse site_coordinates(db::Store& store, const HttpRequest& req,
+                              const std::string& site) {
+  std::optional<HttpResponse> bad;
+  std::array<double, 3> enu{};
+  for (int a = 0; a < 3 && !bad; ++a)
+    enu[a] = number_query(req, std::string(1, "xyz"[a]), &bad);
+  if (bad) return *bad;
+  const SitePoint p =
+      project_site_point(store, site, enu, text_query(req, "crs", "utm"),
+                         text_query(req, "heights", "ellipsoid"));
+  return HttpResponse::json(200, Json{{"enu", p.enu},
+                                      {"wgs84",
+                                       {{"lat", p.wgs84.lat},
+                                        {"lon", p.wgs84.lon},
+                                        {"height", p.wgs84.alt}}},
+                                      {"crs", p.crs_code},
+                                      {"crs_name", p.crs_name},
+                                      {"geographic", p.geographic},
+                                      {"coordinates", p.xyz}});
+}
+
+// The hierarchy of the site's current cloud, built on the first request
+// for its version (cloud_octree.h).
+HttpResponse site_octree(CloudOctreeCache& cache, db::Store& store,
+                         const HttpRequest& req, const std::string& site) {
+  std::optional<HttpResponse> bad;
+  const std::optional<Cloud> cloud = cloud_query(req, &bad);
+  if (bad) return *bad;
+  HttpResponse r =
+      HttpResponse::json(200, cache.current(store, site, *cloud)->hierarchy);
+  r.headers.emplace_back("Cache-Control", "no-cache");
+  return r;
+}
+
+struct NodePath {
+  std::string site;
+  std::int64_t version = 0;
+  std::string node;
+};
+
+// "/v1/sites/{id}/octree/{version}/{node}.bin" -> its parts, or nullopt.
+std::optional<NodePath> parse_node_path(const std::string& path) {
+  static const std::regex form(
+      "^/v1/sites/([^/]+)/octree/([0-9]{1,18})/(r[0-7]{0,32})\\.bin$");
+  std::smatch m;
+  if (!std::regex_match(path, m, form)) return std::nullopt;
+  return NodePath{m[1], std::stoll(m[2]), m[3]};
+}
+
+// One node's points. Node URLs name their version, so they never change;
+// a version no longer current (nor kept) is 410: the viewer then fetches
+// the hierarchy again.
+HttpResponse octree_node(CloudOctreeCache& cache, db::Store& store,
+                         const HttpRequest& req) {
+  const std::optional<NodePath> at = parse_node_path(req.path);
+  if (!at)
+    return HttpResponse::error(
+        404, "not_found",
+        "octree nodes are /v1/sites/{id}/octree/{version}/{node}.bin");
+  db::validate_path("/sites/" + at->site);
+  std::optional<HttpResponse> bad;
+  const std::optional<Cloud> cloud = cloud_query(req, &bad);
+  if (bad) return *bad;
+  const std::string name = *cloud == Cloud::kDense ? "dense" : "sparse";
+  auto octree = cache.find(at->site, at->version, name);
+  if (!octree) octree = cache.current(store, at->site, *cloud);
+  if (octree->version != at->version || octree->cloud != name)
+    return HttpResponse::error(
+        410, "gone",
+        "version " + std::to_string(at->version) + " of site " + at->site +
+            "'s " + name +
+            " cloud is no longer served; fetch its octree again");
+  const auto node = octree->node_bytes.find(at->node);
+  if (node == octree->node_bytes.end())
+    return HttpResponse::error(404, "not_found",
+                               "the octree has no node " + at->node);
+  HttpResponse r;
+  r.content_type = "application/octet-stream";
+  r.body = node->second;
+  r.headers.emplace_back("Cache-Control",
+                         "private, max-age=31536000, immutable");
+  return r;
+}
+
 // GET /v1/{collection}/{id}/{leaf}. Other methods get ingest's 405, and a
 // db::StoreError the API's status for it, as on every other route.
 ingest::ApiRoute route(
@@ -198,8 +313,25 @@ ingest::ApiRoute route(
 
 }  // namespace
 
+ingest::ApiRoute octree_node_route(db::Store& store,
+                                   std::shared_ptr<CloudOctreeCache> cache) {
+  ingest::ApiRoute r;
+  r.name = "GET /v1/sites/*/octree/*";
+  r.methods = {"GET"};
+  r.pattern = "/v1/sites/*/octree/*";
+  r.handle = [&store, cache](const HttpRequest& req, const ingest::Principal&) {
+    try {
+      return octree_node(*cache, store, req);
+    } catch (const StoreError& e) {
+      return ingest::error_response(e);
+    }
+  };
+  return r;
+}
+
 std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
   db::Store* s = &store;
+  auto octrees = std::make_shared<CloudOctreeCache>();
   return {
       route("GET /v1/captures/*/overlay.jpg", "captures", "overlay.jpg",
             [s](const HttpRequest& req, const std::string& id) {
@@ -220,6 +352,15 @@ std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
       route("GET /v1/sites/*/export", "sites", "export",
             [s](const HttpRequest& req, const std::string& id) {
               return site_export(*s, req, id);
+            }),
+      route("GET /v1/sites/*/octree", "sites", "octree",
+            [s, octrees](const HttpRequest& req, const std::string& id) {
+              return site_octree(*octrees, *s, req, id);
+            }),
+      octree_node_route(store, octrees),
+      route("GET /v1/sites/*/coordinates", "sites", "coordinates",
+            [s](const HttpRequest& req, const std::string& id) {
+              return site_coordinates(*s, req, id);
             }),
   };
 }

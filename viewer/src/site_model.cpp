@@ -79,6 +79,11 @@ std::vector<engine::ColoredPoint> load_cloud(db::Store& store,
   return engine::decode_ply(store.get_blob(model.sparse_blob));
 }
 
+const char* cloud_name(const SiteModel& model, Cloud which) {
+  return which == Cloud::kDense && !model.dense_blobs.empty() ? "dense"
+                                                              : "sparse";
+}
+
 std::optional<ImageCamera> image_camera(const SiteModel& model,
                                         const std::string& capture) {
   const documents::ModelImageEntry* image = model.document.image(capture);

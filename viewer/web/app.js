@@ -2,9 +2,10 @@
 // This module holds the state and wires the others together.
 
 import * as THREE from 'three';
-import { ApiClient, UnauthorizedError, healthz, tokenStore, encodePath } from './api.js';
-import { parsePly } from './ply.js';
+import { ApiClient, ApiError, UnauthorizedError, healthz, tokenStore, encodePath } from './api.js';
 import { Viewer, robustBounds } from './scene.js';
+import { OctreeCloud, DEFAULT_POINT_BUDGET } from './lod.js';
+import { Measurement } from './measure.js';
 import { ThumbnailCache, cameraCentre, cameraRotation } from './frusta.js';
 import { LiveFeed } from './live.js';
 import { renderSites, markSelectedSite, captureStatuses, renderCaptures, siteId } from './sites.js';
@@ -15,8 +16,6 @@ const $ = (id) => document.getElementById(id);
 
 // The frusta's depth as a share of the cloud's (robust) size.
 const FRUSTUM_SCALE = 0.04;
-// Parsed blobs kept besides those of the cloud on screen.
-const CLOUD_CACHE_EXTRA = 4;
 const LIST_REFRESH_MS = 500;
 
 const state = {
@@ -32,12 +31,25 @@ const state = {
   framed: false, // the camera was framed on this site's cloud
   frustumDepth: 1,
   thumbnails: null,
+  heightRange: null, // [lo, hi] of the cloud's sample: colour by height
 };
 
 const api = new ApiClient({
   onUnauthorized: () => askForToken('The server rejected the token (401). Please enter it again.'),
 });
 const viewer = new Viewer($('canvas-host'));
+const measurement = new Measurement({
+  labelHost: $('measure-labels'),
+  requestRender: () => viewer.requestRender(),
+  onChange: showMeasurement,
+});
+viewer.scene.add(measurement.group);
+viewer.afterRender.push(() => {
+  measurement.placeLabels((p) => viewer.toScreen(p));
+  showDrawnCount();
+});
+// For the browser tests and the console.
+window.arscoutViewer = { viewer, measurement, state };
 const feed = new LiveFeed({
   token: () => tokenStore.get(),
   onChange: handleChange,
@@ -242,44 +254,18 @@ function showModelDetails(doc) {
 }
 
 /**
- * The blobs that hold a model's cloud: the sparse PLY, or the dense cloud's
- * tiles (attrs.dense_tiles; one "dense" blob in models written before
- * tiles). A tile that did not change keeps its blob, so a new version
- * downloads only the tiles that did.
- */
-function cloudBlobs(doc, kind) {
-  if (kind === 'dense' && Array.isArray(doc?.attrs?.dense_tiles)) {
-    return doc.attrs.dense_tiles.map((tile) => tile.blob).filter(Boolean);
-  }
-  const hash = doc?.blobs?.[kind];
-  return hash ? [hash] : [];
-}
-
-/**
- * The clouds a model offers. A model written before tiles carries an empty
- * dense PLY until its first dense phase: that one does not count.
+ * The clouds a model offers: the sparse one, and the dense one once the
+ * engine has published one (attrs.dense_tiles, or one "dense" blob in
+ * models written before tiles, empty until the first dense phase).
  */
 function cloudKinds(doc) {
   const stats = doc?.attrs?.statistics || {};
+  const tiles = doc?.attrs?.dense_tiles;
+  const dense = Array.isArray(tiles) ? tiles.some((tile) => tile.blob) : Boolean(doc?.blobs?.dense);
   return {
-    sparse: cloudBlobs(doc, 'sparse').length > 0,
-    dense: cloudBlobs(doc, 'dense').length > 0 && stats.dense_points !== 0,
+    sparse: Boolean(doc?.blobs?.sparse),
+    dense: dense && stats.dense_points !== 0,
   };
-}
-
-/** One cloud from several parsed ones (a dense cloud's tiles). */
-function joinClouds(parts) {
-  if (parts.length === 1) return parts[0];
-  const count = parts.reduce((n, part) => n + part.count, 0);
-  const positions = new Float32Array(count * 3);
-  const colors = new Uint8Array(count * 3);
-  let at = 0;
-  for (const part of parts) {
-    positions.set(part.positions.subarray(0, part.count * 3), at);
-    colors.set(part.colors.subarray(0, part.count * 3), at);
-    at += part.count * 3;
-  }
-  return { count, positions, colors };
 }
 
 /** Which cloud to show: the user's choice if the model has it, else dense if present. */
@@ -295,31 +281,6 @@ function showKindControls(doc, kind) {
   $('cloud-dense').disabled = !kinds.dense;
   $('cloud-sparse').checked = kind === 'sparse';
   $('cloud-dense').checked = kind === 'dense';
-}
-
-// Parsed clouds by blob hash (most recently used last).
-const clouds = new Map();
-
-function cloudFor(hash, label, signal) {
-  let entry = clouds.get(hash);
-  if (entry) {
-    clouds.delete(hash);
-  } else {
-    entry = api.download(`/v1/blobs/${encodeURIComponent(hash)}`,
-      (received, total) => progress.show(`loading ${label}`, received, total), signal)
-      .then((buffer) => parsePly(buffer))
-      .finally(() => progress.hide());
-    entry.catch(() => clouds.delete(hash));
-  }
-  clouds.set(hash, entry);
-  return entry;
-}
-
-/** Keeps the blobs of the cloud on screen and the few others used last. */
-function pruneClouds(shown) {
-  const others = [...clouds.keys()].filter((hash) => !shown.includes(hash));
-  const stale = others.slice(0, Math.max(0, others.length - CLOUD_CACHE_EXTRA));
-  for (const hash of stale) clouds.delete(hash);
 }
 
 /** The world's vertical: ENU's z, else the cameras' mean "up" (-y). */
@@ -350,8 +311,8 @@ function viewDirection(attrs, centre, up) {
   return from.normalize().addScaledVector(up, 0.45).normalize();
 }
 
-function frameOn(cloud, attrs) {
-  const bounds = robustBounds(cloud.positions);
+function frameOn(sample, attrs) {
+  const bounds = robustBounds(sample.positions);
   const up = upVector(attrs);
   viewer.frame(bounds, viewDirection(attrs, bounds.centre, up), up);
   state.frustumDepth = bounds.size * FRUSTUM_SCALE;
@@ -371,12 +332,47 @@ function showNoModel() {
   renderCaptureList();
 }
 
+/** The 5th and 95th percentiles of a sample's heights (colour by height). */
+function heightRange(sample) {
+  const heights = [];
+  const step = Math.max(1, Math.floor(sample.count / 50000));
+  for (let i = 0; i < sample.count; i += step) heights.push(sample.positions[i * 3 + 2]);
+  heights.sort((a, b) => a - b);
+  const at = (q) => heights[Math.min(heights.length - 1, Math.round(q * (heights.length - 1)))];
+  return heights.length ? [at(0.05), at(0.95)] : [0, 1];
+}
+
+/** The streamed cloud of the site's current model (lod.js), its root loaded. */
+async function openOctree(site, kind, generation, signal) {
+  const hierarchy = await api.json(
+    `/v1/sites/${encodePath(site)}/octree?cloud=${kind}`, { signal });
+  const lod = new OctreeCloud({
+    hierarchy,
+    material: viewer.material,
+    fetchNode: (name, nodeSignal) => api.download(
+      `/v1/sites/${encodePath(site)}/octree/${hierarchy.version}/${name}.bin?cloud=${hierarchy.cloud}`,
+      () => {}, nodeSignal),
+    onLoad: () => viewer.requestRender(),
+    onError: (err) => {
+      // 410: the server no longer serves that version; show the current one.
+      if (err instanceof ApiError && err.status === 410 && generation === state.generation) {
+        state.model = null;
+        reloadModel();
+      } else {
+        report(err, LOAD_MODEL);
+      }
+    },
+  });
+  lod.budget = Number($('point-budget').value) || DEFAULT_POINT_BUDGET;
+  await lod.rootReady;
+  return lod;
+}
+
 /** Puts a model document's cloud and frusta on screen. */
 async function showModel(doc, generation, signal) {
   const kind = cloudKind(doc);
-  const hashes = cloudBlobs(doc, kind);
   showKindControls(doc, kind);
-  if (hashes.length === 0) {
+  if (!cloudKinds(doc)[kind]) {
     viewer.clearCloud();
     state.model = doc;
     state.shownKind = kind;
@@ -386,23 +382,27 @@ async function showModel(doc, generation, signal) {
     viewMessage('This model has no point cloud.');
     return;
   }
-  const cloud = joinClouds(await Promise.all(
-    hashes.map((hash) => cloudFor(hash, `${kind} cloud`, signal))));
-  pruneClouds(hashes);
-  if (generation !== state.generation) return;
+  const lod = await openOctree(state.site, kind, generation, signal);
+  if (generation !== state.generation) {
+    lod.dispose();
+    return;
+  }
+  const sample = lod.root;
   // The camera is framed once per site (on its first cloud with points);
   // later versions keep the user's view.
-  if (!state.framed && cloud.count > 0) frameOn(cloud, doc.attrs || {});
-  viewer.setCloud(cloud);
+  if (!state.framed && sample?.count > 0) frameOn(sample, doc.attrs || {});
+  if (sample?.count > 0) state.heightRange = heightRange(sample);
+  applyColourMode();
+  viewer.setLod(lod);
   viewer.frusta.update(doc.attrs || {}, state.frustumDepth, state.thumbnails);
   state.model = doc;
   state.shownKind = kind;
-  viewMessage(cloud.count > 0 ? '' : 'The model has no points yet.');
+  viewMessage(lod.totalPoints > 0 ? '' : 'The model has no points yet.');
   showModelVersion(doc.version);
-  showPointCount(cloud.count, kind);
+  showPointCount(lod.totalPoints, kind);
   showModelDetails(doc);
   renderCaptureList();
-  if (cloud.count > 0) document.body.dataset.cloud = 'loaded';
+  if (lod.totalPoints > 0) document.body.dataset.cloud = 'loaded';
 }
 
 /** Fetches the open site's model and shows it if it is newer (or another kind). */
@@ -438,6 +438,93 @@ function handleChange(change) {
   if (path.startsWith('/sites/') || path.startsWith('/captures/')) refreshLists();
 }
 
+// ---- view options and measurement --------------------------------------
+
+function showDrawnCount() {
+  const label = $('points-drawn');
+  const drawn = viewer.pointCount;
+  label.dataset.points = String(drawn);
+  label.textContent = drawn ? `${formatCount(drawn)} drawn` : '';
+}
+
+function applyColourMode() {
+  viewer.setColourMode($('colour-mode').value, state.heightRange);
+}
+
+function showMeasurement(result) {
+  const out = $('measure-result');
+  out.textContent = measurement.summary();
+  out.dataset.kind = result.kind || '';
+  out.dataset.done = String(result.done);
+  out.dataset.result = JSON.stringify(result);
+  for (const button of document.querySelectorAll('#measure-tools button[data-tool]')) {
+    button.classList.toggle('active', measurement.active && button.dataset.tool === result.kind);
+  }
+}
+
+/** The coordinates of a picked point in the chosen CRS, from the server. */
+async function showPickedPoint(point) {
+  const out = $('picked-point');
+  const enu = `E ${point.x.toFixed(3)} N ${point.y.toFixed(3)} U ${point.z.toFixed(3)} (site ENU)`;
+  out.textContent = enu;
+  out.dataset.enu = JSON.stringify(point.toArray());
+  if (!state.model?.attrs?.geo_registered) return;
+  const query = new URLSearchParams({
+    x: point.x, y: point.y, z: point.z, crs: $('crs').value.trim() || 'utm', heights: $('heights').value,
+  });
+  try {
+    const p = await api.json(`/v1/sites/${encodePath(state.site)}/coordinates?${query}`);
+    const [a, b, h] = p.coordinates;
+    const where = p.geographic
+      ? `lon ${a.toFixed(8)} lat ${b.toFixed(8)}`
+      : `E ${a.toFixed(3)} N ${b.toFixed(3)}`;
+    out.textContent = `${where} h ${h.toFixed(3)} (${p.crs}, ${p.crs_name}) · ${enu}`;
+    out.dataset.crs = p.crs;
+    out.dataset.coordinates = JSON.stringify(p.coordinates);
+  } catch (err) {
+    report(err, 'could not convert the point');
+  }
+}
+
+/** A click (not a drag) on the view picks a point: for the tool, and shown. */
+function wirePicking() {
+  const canvas = viewer.canvas;
+  let down = null;
+  canvas.addEventListener('pointerdown', (e) => { down = { x: e.clientX, y: e.clientY }; });
+  canvas.addEventListener('click', (e) => {
+    if (!down || Math.hypot(e.clientX - down.x, e.clientY - down.y) > 4) return;
+    down = null;
+    // The second click of a double click finishes (below); it adds no point.
+    if (e.detail > 1) return;
+    const point = viewer.pick(e.clientX, e.clientY);
+    if (!point) return;
+    measurement.add(point);
+    showPickedPoint(point);
+  });
+  canvas.addEventListener('dblclick', () => measurement.finish());
+  window.addEventListener('keydown', (e) => {
+    if (e.target instanceof HTMLInputElement) return;
+    if (e.key === 'Enter') measurement.finish();
+    if (e.key === 'Escape') measurement.clear();
+  });
+}
+
+function wireViewOptions() {
+  for (const button of document.querySelectorAll('#measure-tools button[data-tool]')) {
+    button.addEventListener('click', () => measurement.start(button.dataset.tool));
+  }
+  $('measure-finish').addEventListener('click', () => measurement.finish());
+  $('measure-clear').addEventListener('click', () => measurement.clear());
+  $('colour-mode').addEventListener('change', applyColourMode);
+  $('edl').addEventListener('change', (e) => viewer.setEyeDomeLighting(e.target.checked));
+  viewer.setEyeDomeLighting($('edl').checked);
+  $('point-budget').addEventListener('change', () => {
+    if (viewer.lod) viewer.lod.budget = Number($('point-budget').value);
+    viewer.requestRender();
+  });
+  wirePicking();
+}
+
 // ---- controls -----------------------------------------------------------
 
 function wireControls() {
@@ -461,19 +548,28 @@ function wireControls() {
     button.addEventListener('click', () => exportSite(button.dataset.format));
   }
   overlayDialog.init();
+  wireViewOptions();
   window.addEventListener('hashchange', () => {
     if (tokenStore.get()) openFromHash();
   });
 }
 
-const EXPORT_EXTENSIONS = { ply: '.ply', 'ecef-ply': '.ply', geocsv: '.csv', colmap: '.tar' };
+const EXPORT_EXTENSIONS = {
+  ply: '.ply', 'ecef-ply': '.ply', geocsv: '.csv', colmap: '.tar', las: '.las', '3dtiles': '.zip',
+};
 
 async function exportSite(format) {
   const id = state.site;
   if (!id) return;
   status.show(`exporting ${format}...`);
   try {
-    const url = `/v1/sites/${encodePath(id)}/export?format=${encodeURIComponent(format)}`;
+    const query = new URLSearchParams({ format });
+    // LAS takes the CRS and heights chosen for picked points.
+    if (format === 'las') {
+      query.set('crs', $('crs').value.trim() || 'utm');
+      query.set('heights', $('heights').value);
+    }
+    const url = `/v1/sites/${encodePath(id)}/export?${query}`;
     const name = await api.saveAs(url, `${id}-${format}`, EXPORT_EXTENSIONS[format] || '');
     status.show(`downloaded ${name}`);
   } catch (err) {

@@ -1,9 +1,12 @@
-// The 3D view: renderer, camera, orbit controls, the point cloud and the
-// camera frusta. Renders on demand (after a change or a control move).
+// The 3D view: renderer, camera, orbit controls, the streamed point cloud
+// (lod.js), eye-dome lighting, picking and the camera frusta. Renders on
+// demand (after a change, a control move or a node's arrival).
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { FrustumSet } from './frusta.js';
+import { createPointsMaterial } from './points_material.js';
+import { EyeDomeLighting } from './edl.js';
 
 // Point colours and thumbnails are sRGB bytes meant to be shown as they are:
 // no colour management, no conversion on output.
@@ -61,12 +64,11 @@ export class Viewer {
     this.makeControls(new THREE.Vector3());
 
     this.pointSizePx = 2;
-    this.material = new THREE.PointsMaterial({
-      size: this.pointSizePx * this.renderer.getPixelRatio(),
-      sizeAttenuation: false,
-      vertexColors: true,
-    });
-    this.points = null;
+    this.material = createPointsMaterial();
+    this.material.setSize(this.pointSizePx * this.renderer.getPixelRatio());
+    this.lod = null; // the OctreeCloud on screen
+    this.edl = new EyeDomeLighting();
+    this.afterRender = []; // callbacks (camera) after each frame: labels
 
     this.frusta = new FrustumSet(() => this.requestRender());
     this.scene.add(this.frusta.group);
@@ -92,6 +94,8 @@ export class Viewer {
     const width = Math.max(1, this.host.clientWidth);
     const height = Math.max(1, this.host.clientHeight);
     this.renderer.setSize(width, height);
+    const buffer = this.renderer.getDrawingBufferSize(new THREE.Vector2());
+    this.edl.setSize(buffer.x, buffer.y);
     this.camera.aspect = width / height;
     this.camera.updateProjectionMatrix();
     this.renderNow();
@@ -105,40 +109,131 @@ export class Viewer {
 
   renderNow() {
     this.frameRequested = false;
-    this.renderer.render(this.scene, this.camera);
+    this.camera.updateMatrixWorld();
+    if (this.lod) this.lod.update(this.camera, this.renderer.getDrawingBufferSize(new THREE.Vector2()).y);
+    if (this.edl.enabled) this.edl.render(this.renderer, this.scene, this.camera);
+    else this.renderer.render(this.scene, this.camera);
+    for (const callback of this.afterRender) callback(this.camera);
   }
 
-  /** Shows a parsed cloud ({count, positions, colors}), replacing the last. */
-  setCloud(cloud) {
-    const geometry = new THREE.BufferGeometry();
-    geometry.setAttribute('position', new THREE.BufferAttribute(cloud.positions, 3));
-    geometry.setAttribute('color', new THREE.BufferAttribute(cloud.colors, 3, true));
-    if (this.points) {
-      this.points.geometry.dispose();
-      this.points.geometry = geometry;
-    } else {
-      this.points = new THREE.Points(geometry, this.material);
-      this.scene.add(this.points);
+  /**
+   * Renders `count` frames, each waited for on the GPU (a one-pixel read),
+   * and returns their times in milliseconds: the viewer's frame cost.
+   */
+  timeFrames(count) {
+    const gl = this.renderer.getContext();
+    const pixel = new Uint8Array(4);
+    const times = [];
+    for (let i = 0; i < count; i++) {
+      const start = performance.now();
+      this.renderNow();
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, pixel);
+      times.push(performance.now() - start);
     }
-    this.renderNow();
+    return times;
   }
 
-  clearCloud() {
-    if (!this.points) return;
-    this.scene.remove(this.points);
-    this.points.geometry.dispose();
-    this.points = null;
+  /** Shows a streamed cloud (lod.js), replacing the last one. */
+  setLod(lod) {
+    if (this.lod) {
+      this.scene.remove(this.lod.group);
+      this.lod.dispose();
+    }
+    this.lod = lod;
+    if (lod) this.scene.add(lod.group);
     this.requestRender();
   }
 
+  clearCloud() {
+    this.setLod(null);
+  }
+
+  /** Points drawn in the last frame. */
   get pointCount() {
-    return this.points ? this.points.geometry.getAttribute('position').count : 0;
+    return this.lod ? this.lod.drawnPoints : 0;
   }
 
   setPointSize(px) {
     this.pointSizePx = px;
-    this.material.size = px * this.renderer.getPixelRatio();
+    this.material.setSize(px * this.renderer.getPixelRatio());
     this.requestRender();
+  }
+
+  /** 'rgb' or 'height' (between `range`'s two heights, metres). */
+  setColourMode(mode, range) {
+    this.material.setMode(mode);
+    if (range) this.material.setHeightRange(range[0], range[1]);
+    this.requestRender();
+  }
+
+  setEyeDomeLighting(enabled) {
+    this.edl.enabled = enabled;
+    this.requestRender();
+  }
+
+  /**
+   * The drawn point nearest the canvas position (clientX, clientY) within
+   * `radiusPx`, among those not hidden on screen: a point is hidden when a
+   * nearer one (by 1 % of the depth and 5 cm) is drawn within a point's
+   * size of it, as its square would cover it. So a click snaps to what is
+   * seen, not to a point behind a surface; null when no point is that
+   * close.
+   */
+  pick(clientX, clientY, radiusPx = 12) {
+    if (!this.lod) return null;
+    const rect = this.canvas.getBoundingClientRect();
+    const candidates = this.pointsNear(clientX - rect.left, clientY - rect.top, rect, radiusPx);
+    const cover = Math.max(1, Math.round(this.pointSizePx));
+    const nearest = new Map(); // least depth by whole pixel
+    const cell = (x, y) => `${x},${y}`;
+    for (const c of candidates) {
+      const key = cell(Math.floor(c.sx), Math.floor(c.sy));
+      nearest.set(key, Math.min(nearest.get(key) ?? Infinity, c.depth));
+    }
+    const hidden = (c) => {
+      const limit = c.depth - Math.max(0.05, 0.01 * c.depth);
+      const x0 = Math.floor(c.sx), y0 = Math.floor(c.sy);
+      for (let y = y0 - cover; y <= y0 + cover; y++) {
+        for (let x = x0 - cover; x <= x0 + cover; x++) {
+          if ((nearest.get(cell(x, y)) ?? Infinity) < limit) return true;
+        }
+      }
+      return false;
+    };
+    let best = null;
+    for (const c of candidates) {
+      if ((!best || c.d2 < best.d2) && !hidden(c)) best = c;
+    }
+    return best && new THREE.Vector3().fromArray(best.positions, best.i);
+  }
+
+  /** The drawn points within radiusPx of (px, py), canvas pixels. */
+  pointsNear(px, py, rect, radiusPx) {
+    const viewProjection = new THREE.Matrix4().multiplyMatrices(
+      this.camera.projectionMatrix, this.camera.matrixWorldInverse);
+    const candidates = [];
+    const p = new THREE.Vector4();
+    for (const object of this.lod.visibleObjects()) {
+      const positions = object.geometry.getAttribute('position').array;
+      for (let i = 0; i < positions.length; i += 3) {
+        p.set(positions[i], positions[i + 1], positions[i + 2], 1).applyMatrix4(viewProjection);
+        if (p.w <= 0) continue;
+        const dx = ((p.x / p.w + 1) / 2) * rect.width - px;
+        const dy = ((1 - p.y / p.w) / 2) * rect.height - py;
+        const d2 = dx * dx + dy * dy;
+        if (d2 <= radiusPx * radiusPx) candidates.push({ d2, sx: dx, sy: dy, depth: p.w, positions, i });
+      }
+    }
+    return candidates;
+  }
+
+  /** Canvas pixel position of a world point (for labels); null behind the eye. */
+  toScreen(point) {
+    const p = new THREE.Vector4(point.x, point.y, point.z, 1)
+      .applyMatrix4(this.camera.matrixWorldInverse).applyMatrix4(this.camera.projectionMatrix);
+    if (p.w <= 0) return null;
+    const rect = this.canvas.getBoundingClientRect();
+    return { x: ((p.x / p.w + 1) / 2) * rect.width, y: ((1 - p.y / p.w) / 2) * rect.height };
   }
 
   /**

@@ -14,8 +14,12 @@
 //   3dtiles   the cloud as a 3D Tiles 1.1 tileset (an octree of glTF point
 //             tiles with an ENU-to-ECEF root transform) in a zip: SITE/
 //             tileset.json and SITE/tiles/*.glb, for Cesium
+//   geojson   the registered cameras as GeoJSON points (WGS84) with their
+//             heading and pitch, for web maps: the bytes of GET
+//             /v1/sites/{id}/cameras.geojson
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -25,10 +29,18 @@
 
 namespace arscout::viewer {
 
-enum class ExportFormat { kPly, kColmap, kGeoCsv, kEcefPly, kLas, k3dTiles };
+enum class ExportFormat {
+  kPly,
+  kColmap,
+  kGeoCsv,
+  kEcefPly,
+  kLas,
+  k3dTiles,
+  kGeoJson
+};
 
-// "ply" | "colmap" | "geocsv" | "ecef-ply" | "las" | "3dtiles"; nullopt
-// otherwise.
+// "ply" | "colmap" | "geocsv" | "ecef-ply" | "las" | "3dtiles" | "geojson";
+// nullopt otherwise.
 std::optional<ExportFormat> parse_export_format(const std::string& name);
 const char* to_string(ExportFormat format);
 
@@ -47,9 +59,10 @@ struct ExportOptions {
 };
 
 // Throws db::StoreError: kNotFound without a model; kInvalidArgument for
-// geocsv, ecef-ply, las or 3dtiles on a model that is not geo-registered (its
-// frame is arbitrary, so there is no honest geography to give), and for a CRS
-// or heights option that does not fit the site (the message says why).
+// geocsv, ecef-ply, las, 3dtiles or geojson on a model that is not
+// geo-registered (its frame is arbitrary, so there is no honest geography to
+// give), and for a CRS or heights option that does not fit the site (the
+// message says why).
 ExportFile export_site(db::Store& store, const std::string& site,
                        ExportFormat format, const ExportOptions& options);
 ExportFile export_site(db::Store& store, const std::string& site,
@@ -68,5 +81,24 @@ std::string encode_site_las(const std::vector<engine::ColoredPoint>& points,
 std::string encode_ecef_ply(const std::vector<engine::ColoredPoint>& points,
                             const engine::Geodetic& origin,
                             const std::string& comment);
+
+// A point of the site's ENU frame in an output CRS (the viewer's picked
+// point): its WGS84 position and its coordinates in `crs` with `heights`
+// (as ExportOptions). Throws db::StoreError kNotFound without a model,
+// kInvalidArgument when the model is not geo-registered or the CRS does not
+// fit the site.
+struct SitePoint {
+  std::array<double, 3> enu{};
+  engine::Geodetic wgs84;
+  std::string crs_code;  // "EPSG:32632", "EPSG:32632+5773"
+  std::string crs_name;  // PROJ's name of it
+  bool geographic = false;
+  // Easting, northing (metres) or longitude, latitude (degrees), then height.
+  std::array<double, 3> xyz{};
+};
+SitePoint project_site_point(db::Store& store, const std::string& site,
+                             const std::array<double, 3>& enu,
+                             const std::string& crs = "utm",
+                             const std::string& heights = "ellipsoid");
 
 }  // namespace arscout::viewer

@@ -6,7 +6,15 @@
 //   GET /v1/sites/{id}/captures         {"captures": [the site's capture
 //       documents]}
 //   GET /v1/sites/{id}/export?format=ply|colmap|geocsv|ecef-ply
-//       (exports.h); ?cloud=dense|sparse for the two PLY formats
+//       (exports.h); ?cloud=dense|sparse for the cloud formats,
+//       ?crs= and ?heights= for las
+//   GET /v1/sites/{id}/cameras.geojson  the registered cameras on a map
+//   GET /v1/sites/{id}/octree           the web viewer's level-of-detail
+//       octree of the current cloud (?cloud=dense|sparse), built once per
+//       model version; its nodes at
+//   GET /v1/sites/{id}/octree/{version}/{node}.bin
+//   GET /v1/sites/{id}/coordinates?x=&y=&z=&crs=&heights=
+//       a point of the site's ENU frame in an output CRS (docs/frames.md)
 //
 // and the web viewer's static files (viewer/web, with three.js from its
 // node_modules at /vendor/three/).

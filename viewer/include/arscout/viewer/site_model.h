@@ -56,6 +56,10 @@ std::vector<engine::ColoredPoint> load_cloud(db::Store& store,
                                              const SiteModel& model,
                                              Cloud which = Cloud::kDense);
 
+// "dense" when `which` is kDense and the model has a dense cloud, else
+// "sparse": the cloud load_cloud gives.
+const char* cloud_name(const SiteModel& model, Cloud which);
+
 // One registered image's camera as the model document states it:
 // intrinsics in original-photo pixels, world-to-camera R and t.
 struct ImageCamera {

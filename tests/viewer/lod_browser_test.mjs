@@ -1,0 +1,273 @@
+#!/usr/bin/env node
+// The web viewer's level of detail and measurement tools in headless
+// Chromium, on two sites holding the synthetic street (synthetic_street.h):
+// a big one (20 million points by default) and a small one drawn whole.
+//
+//  1. Frame time: the median of timed frames (each waited for on the GPU)
+//     at the home view, big site at the default point budget against the
+//     small site drawn whole; the big one must stay within MAX_RATIO.
+//  2. Memory: the proportional set size of the page's renderer and GPU
+//     processes, and the JS heap, with the big site on screen; under
+//     MAX_MEMORY_MB.
+//  3. Measurement, on the big site seen from the street: the distance tool
+//     on the measured house's 10 m roof edge (within 1 %), the height tool
+//     from the pavement to the roof (12 m, within 1 %), the area tool on the
+//     roof (80 m² on the plan, within 2 %), each by clicks at the corners'
+//     places on screen, snapped by the viewer; and the picked point's
+//     coordinates in the site's UTM zone.
+//
+// Prints one JSON line of figures ("figures: {...}") for bench/RESULTS.md.
+// Settings from the environment:
+//   SERVER, PLANNER_TOKEN          the server and a planner token (required)
+//   BIG_SITE, SMALL_SITE           site ids (default street, street-small)
+//   MAX_RATIO (1.5), MAX_MEMORY_MB (1024), FRAMES (30)
+//   SCREENSHOT                     PNG of the distance measurement
+//   CHROMIUM                       browser binary (default /usr/bin/chromium)
+
+import { createRequire } from 'node:module';
+import { fileURLToPath } from 'node:url';
+import fs from 'node:fs';
+import path from 'node:path';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+const requireFromViewer = createRequire(path.resolve(here, '../../viewer/web/package.json'));
+const { chromium } = requireFromViewer('playwright-core');
+
+const started = Date.now();
+const log = (message) => console.log(`[${((Date.now() - started) / 1000).toFixed(1).padStart(6)}s] ${message}`);
+class TestFailure extends Error {}
+const fail = (message) => { throw new TestFailure(message); };
+
+const env = process.env;
+const config = {
+  server: (env.SERVER || '').replace(/\/+$/, ''),
+  token: env.PLANNER_TOKEN || '',
+  bigSite: env.BIG_SITE || 'street',
+  smallSite: env.SMALL_SITE || 'street-small',
+  maxRatio: Number(env.MAX_RATIO || 1.5),
+  maxMemoryMb: Number(env.MAX_MEMORY_MB || 1024),
+  frames: Number(env.FRAMES || 30),
+  screenshot: env.SCREENSHOT || '',
+  chromium: env.CHROMIUM || '/usr/bin/chromium',
+};
+if (!config.server || !config.token) {
+  console.error('lod_browser_test: SERVER and PLANNER_TOKEN are required');
+  process.exit(2);
+}
+
+// The measured house (synthetic_street.h): the box x 0..10, y 9..17, z 0..12.
+const EDGE = [[0, 9, 12], [10, 9, 12]];
+const ROOF = [[0, 9, 12], [10, 9, 12], [10, 17, 12], [0, 17, 12]];
+const PAVEMENT = [2, 7.5, 0];
+// How far a snapped point may lie from the point aimed at: a few point
+// spacings, far less than the distance to another surface.
+const MAX_SNAP_M = 0.2;
+
+const median = (values) => {
+  const sorted = [...values].sort((a, b) => a - b);
+  return sorted[Math.floor(sorted.length / 2)];
+};
+
+/** Opens a site and waits until its streamed cloud has every wanted node. */
+async function openSite(page, site) {
+  await page.evaluate((id) => { location.hash = `#site=${encodeURIComponent(id)}`; }, site);
+  await page.waitForFunction((id) => {
+    const app = window.arscoutViewer;
+    return app?.state.site === id && app.viewer.lod && document.body.dataset.cloud === 'loaded';
+  }, site, { timeout: 300000, polling: 200 });
+  return settle(page);
+}
+
+/** Renders until the cloud wants nothing more; returns the drawn figures. */
+async function settle(page) {
+  await page.waitForFunction(() => {
+    const { viewer } = window.arscoutViewer;
+    viewer.renderNow();
+    return viewer.lod.settled;
+  }, null, { timeout: 300000, polling: 250 });
+  return page.evaluate(() => {
+    const { lod } = window.arscoutViewer.viewer;
+    return { total: lod.totalPoints, drawn: lod.drawnPoints, budget: lod.budget, loaded: lod.loadedPoints };
+  });
+}
+
+async function frameTimes(page) {
+  return page.evaluate((n) => {
+    const { viewer } = window.arscoutViewer;
+    viewer.resetView();
+    viewer.timeFrames(5); // warm-up: shaders, buffers
+    return viewer.timeFrames(n);
+  }, config.frames);
+}
+
+/** PSS (MiB) of the browser's processes by type, from /proc. */
+async function memory(browser, page) {
+  const cdp = await browser.newBrowserCDPSession();
+  const { processInfo } = await cdp.send('SystemInfo.getProcessInfo');
+  const byType = {};
+  for (const { type, id } of processInfo) {
+    let kb = 0;
+    try {
+      const rollup = fs.readFileSync(`/proc/${id}/smaps_rollup`, 'utf8');
+      kb = Number(/^Pss:\s+(\d+) kB/m.exec(rollup)?.[1] || 0);
+    } catch { /* gone meanwhile */ }
+    byType[type] = (byType[type] || 0) + kb / 1024;
+  }
+  const session = await page.context().newCDPSession(page);
+  const heap = await session.send('Runtime.getHeapUsage');
+  return { byType, page: (byType.renderer || 0) + (byType.GPU || byType.gpu || 0), jsHeap: heap.usedSize / 2 ** 20 };
+}
+
+// The overview of the measured house (the memory figure and the
+// screenshot): above the street, south-west of it.
+const VIEW = { eye: [-4, -4, 20], target: [5, 10, 8] };
+// Where the camera is when a point is clicked: 8 m from it, above it and a
+// little south-west, so no other house stands between or just behind.
+const CLICK_DISTANCE_M = 8;
+const CLICK_FROM = [-0.15, -0.45, 1];
+
+/** Moves the camera, and settles. */
+async function look(page, { eye, target }) {
+  await page.evaluate(([e, t]) => {
+    const { viewer } = window.arscoutViewer;
+    viewer.camera.position.set(...e);
+    viewer.controls.target.set(...t);
+    viewer.controls.update();
+  }, [eye, target]);
+  return settle(page);
+}
+
+/**
+ * Zooms in on a world point from above (CLICK_FROM), as one does to click
+ * a corner, then clicks where it is drawn; the viewer snaps to the cloud.
+ */
+async function clickAt(page, point) {
+  const away = CLICK_FROM;
+  const norm = Math.hypot(...away);
+  await look(page, { eye: point.map((p, a) => p + (away[a] / norm) * CLICK_DISTANCE_M), target: point });
+  // Clicks on one spot in quick succession make a double click, which
+  // finishes a measurement: leave the time a hand would.
+  await page.waitForTimeout(600);
+  const at = await page.evaluate(([x, y, z]) => {
+    const { viewer } = window.arscoutViewer;
+    const p = viewer.toScreen({ x, y, z });
+    const rect = viewer.canvas.getBoundingClientRect();
+    return p && { x: rect.left + p.x, y: rect.top + p.y };
+  }, point);
+  if (!at) fail(`${point} is behind the camera`);
+  await page.mouse.click(at.x, at.y);
+  const picked = await page.evaluate(([x, y]) => window.arscoutViewer.viewer.pick(x, y)?.toArray(), [at.x, at.y]);
+  if (process.env.DEBUG_PICK) log(`clicked ${point} at ${at.x.toFixed(0)},${at.y.toFixed(0)}: ${picked}`);
+  if (process.env.DEBUG_PICK) log(JSON.stringify(await page.evaluate((q) => {
+    const { viewer } = window.arscoutViewer;
+    let near = 0; const names = [];
+    for (const n of viewer.lod.nodes) {
+      if (!n.object?.visible) continue;
+      const pos = n.object.geometry.getAttribute('position').array;
+      let k = 0;
+      for (let i = 0; i < pos.length; i += 3) if (Math.hypot(pos[i] - q[0], pos[i + 1] - q[1], pos[i + 2] - q[2]) < 0.3) k++;
+      if (k) names.push(`${n.name}:${k}`);
+      near += k;
+    }
+    const cam = viewer.camera.position.toArray();
+    return { near, names, cam, drawn: viewer.lod.drawnPoints };
+  }, point)));
+}
+
+async function measure(page, tool, points) {
+  await page.click(`#measure-tools button[data-tool="${tool}"]`);
+  for (const point of points) await clickAt(page, point);
+  if (tool !== 'height') await page.click('#measure-finish');
+  const result = JSON.parse(await page.getAttribute('#measure-result', 'data-result'));
+  log(`${tool}: ${JSON.stringify(result)}`);
+  if (!result.done) fail(`the ${tool} measurement did not finish: ${JSON.stringify(result)}`);
+  // Each click snapped to the surface it was aimed at, near its corner.
+  result.points.forEach((p, i) => {
+    const off = Math.hypot(p[0] - points[i][0], p[1] - points[i][1], p[2] - points[i][2]);
+    if (!(off <= MAX_SNAP_M)) fail(`${tool}: the click at ${points[i]} snapped to ${p}, ${off.toFixed(3)} m away`);
+  });
+  return result;
+}
+
+function within(what, value, expected, tolerance) {
+  const error = Math.abs(value - expected) / expected;
+  log(`${what}: ${value.toFixed(4)} (expected ${expected}, error ${(error * 100).toFixed(2)} %)`);
+  if (!(error <= tolerance)) fail(`${what} ${value} is not within ${tolerance * 100} % of ${expected}`);
+}
+
+async function run(browser, page) {
+  await page.goto(`${config.server}/`, { waitUntil: 'load' });
+  await page.waitForSelector('#token-input', { state: 'visible', timeout: 30000 });
+  await page.fill('#token-input', config.token);
+  await page.click('#token-submit');
+
+  const small = await openSite(page, config.smallSite);
+  log(`small site: ${small.drawn} of ${small.total} points drawn (budget ${small.budget})`);
+  if (small.drawn !== small.total) fail('the small site is not drawn whole');
+  const smallTimes = await frameTimes(page);
+
+  const big = await openSite(page, config.bigSite);
+  log(`big site: ${big.drawn} of ${big.total} points drawn (budget ${big.budget})`);
+  if (!(big.drawn > 0 && big.drawn <= big.budget)) fail(`big site draws ${big.drawn} points, budget ${big.budget}`);
+  const bigTimes = await frameTimes(page);
+  const figures = {
+    small_points: small.total, big_points: big.total, big_drawn: big.drawn, budget: big.budget,
+    small_frame_ms: median(smallTimes), big_frame_ms: median(bigTimes),
+  };
+  figures.ratio = figures.big_frame_ms / figures.small_frame_ms;
+  log(`frame time: ${figures.big_frame_ms.toFixed(1)} ms (big) vs ${figures.small_frame_ms.toFixed(1)} ms (small): ratio ${figures.ratio.toFixed(2)}`);
+
+  const near = await look(page, VIEW);
+  log(`close to the house: ${near.drawn} points drawn, ${near.loaded} in memory`);
+  const mem = await memory(browser, page);
+  Object.assign(figures, { page_pss_mb: mem.page, js_heap_mb: mem.jsHeap, pss_by_process_mb: mem.byType });
+  log(`memory: renderer + GPU ${mem.page.toFixed(0)} MiB, JS heap ${mem.jsHeap.toFixed(0)} MiB ` +
+    `(${JSON.stringify(mem.byType, (k, v) => (typeof v === 'number' ? Math.round(v) : v))})`);
+
+  const distance = await measure(page, 'distance', EDGE);
+  figures.edge_m = distance.total;
+  await look(page, VIEW);
+  if (config.screenshot) await page.screenshot({ path: config.screenshot });
+  const picked = await page.evaluate(() => ({ ...document.getElementById('picked-point').dataset }));
+  log(`picked point: ${picked.crs} ${picked.coordinates}`);
+  const height = await measure(page, 'height', [PAVEMENT, EDGE[0]]);
+  figures.height_m = height.dz;
+  const area = await measure(page, 'area', ROOF);
+  figures.roof_plan_m2 = area.plan;
+  console.log(`figures: ${JSON.stringify(figures)}`);
+
+  within('roof edge (distance tool)', distance.total, 10, 0.01);
+  within('pavement to roof (height tool)', height.dz, 12, 0.01);
+  within('roof (area tool, plan)', area.plan, 80, 0.02);
+  if (!/^EPSG:326\d\d$/.test(picked.crs || '')) fail(`the picked point has no UTM coordinates: ${picked.crs}`);
+  if (!(figures.ratio <= config.maxRatio)) fail(`frame time ratio ${figures.ratio.toFixed(2)} > ${config.maxRatio}`);
+  if (!(mem.page < config.maxMemoryMb)) fail(`the page uses ${mem.page.toFixed(0)} MiB >= ${config.maxMemoryMb}`);
+  log('PASS');
+}
+
+async function main() {
+  const browser = await chromium.launch({
+    executablePath: config.chromium,
+    headless: true,
+    args: ['--no-sandbox', '--use-gl=angle', '--use-angle=swiftshader',
+      '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist'],
+  });
+  const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
+  page.on('pageerror', (err) => console.log(`  [browser exception] ${err.message}`));
+  page.on('console', (m) => {
+    if (m.type() === 'error' || m.type() === 'warning') console.log(`  [browser ${m.type()}] ${m.text()}`);
+  });
+  let code = 0;
+  try {
+    await run(browser, page);
+  } catch (err) {
+    code = 1;
+    console.log(`FAIL: ${err instanceof TestFailure ? err.message : err.stack || err}`);
+    if (config.screenshot) await page.screenshot({ path: config.screenshot.replace(/\.png$/, '-failure.png') }).catch(() => {});
+  } finally {
+    await browser.close();
+  }
+  process.exit(code);
+}
+
+main();
