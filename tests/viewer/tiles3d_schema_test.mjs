@@ -1,0 +1,266 @@
+#!/usr/bin/env node
+// A 3D Tiles tileset.json against tiles3d_tileset.schema.json with ajv
+// (npm, JSON Schema draft 2020-12, strict mode), then the rules of the
+// 3D Tiles 1.1 specification that JSON Schema cannot state: a child's
+// geometricError at most its parent's and the tileset's at least the
+// root's, each child's bounding box inside its parent's, every content uri
+// a file of the tileset and every glb referenced exactly once,
+// extensionsRequired within extensionsUsed, groups indices in range,
+// transforms affine. The schema is arscout's, written from the
+// specification's prose: the official schema files could not be obtained
+// here (docs/frames.md).
+//
+// Also what arscout's export promises (docs/frames.md): version 1.1,
+// additive refinement set at the root (a tile without refine inherits
+// it), one transform (the root's), tiles as axis-aligned boxes in the
+// root's frame (half-axes on the diagonal), which is what makes the box
+// nesting check a comparison of intervals.
+//
+// Then the checks are shown able to fail: each of a list of broken copies
+// of the tileset (root geometricError dropped, a child's error above its
+// parent's, a box sticking out, a missing file, ...) must be rejected.
+//   node tiles3d_schema_test.mjs TILESET_DIR [--check-only]
+// --check-only: only check TILESET_DIR (exit 1 if it fails), no broken
+// copies; tiles3d_schema_test.sh runs it on a broken tileset on disk.
+//
+// Uses ajv from viewer/web/node_modules (npm ci --prefix viewer/web).
+
+import { createRequire } from 'node:module';
+import { fileURLToPath } from 'node:url';
+import fs from 'node:fs';
+import path from 'node:path';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+const requireFromViewer = createRequire(path.resolve(here, '../../viewer/web/package.json'));
+const Ajv2020 = requireFromViewer('ajv/dist/2020.js').default;
+const ajvVersion = requireFromViewer('ajv/package.json').version;
+
+const args = process.argv.slice(2);
+const checkOnly = args.includes('--check-only');
+const [tilesetDir] = args.filter((arg) => arg !== '--check-only');
+if (!tilesetDir || args.length > (checkOnly ? 2 : 1)) {
+  console.error('usage: node tiles3d_schema_test.mjs TILESET_DIR [--check-only]');
+  process.exit(2);
+}
+
+const started = process.hrtime.bigint();
+const schemaFile = path.join(here, 'tiles3d_tileset.schema.json');
+// strict: unknown keywords, formats and ignored keywords in the schema are
+// errors, so a typo there cannot silently weaken it.
+const ajv = new Ajv2020({ strict: true, allErrors: true });
+const validateSchema = ajv.compile(JSON.parse(fs.readFileSync(schemaFile, 'utf8')));
+
+// Every file under DIR, as paths relative to it with '/'.
+function filesUnder(dir, prefix = '') {
+  const out = [];
+  for (const entry of fs.readdirSync(path.join(dir, prefix), { withFileTypes: true })) {
+    const relative = prefix ? `${prefix}/${entry.name}` : entry.name;
+    if (entry.isDirectory()) out.push(...filesUnder(dir, relative));
+    else out.push(relative);
+  }
+  return out;
+}
+
+// box = [centre x y z, x half-axis, y half-axis, z half-axis]: for an
+// axis-aligned box the half-axes have only their own component.
+function axisAligned(box) {
+  return [4, 5, 6, 8, 9, 10].every((i) => box[i] === 0) &&
+         [3, 7, 11].every((i) => box[i] >= 0);
+}
+function interval(box, axis) {
+  const half = box[3 + 4 * axis];
+  return [box[axis] - half, box[axis] + half];
+}
+// Slack for rounding when comparing box faces, in metres.
+const boxTolerance = 1e-6;
+function boxInside(inner, outer) {
+  for (let axis = 0; axis < 3; ++axis) {
+    const [a, b] = interval(inner, axis);
+    const [lo, hi] = interval(outer, axis);
+    if (a < lo - boxTolerance || b > hi + boxTolerance) return false;
+  }
+  return true;
+}
+
+// A relative URI resolved against the tileset's folder, or null if it
+// is absolute, has a scheme or leaves the folder.
+function resolveUri(uri) {
+  if (/^[a-zA-Z][a-zA-Z0-9+.-]*:/.test(uri) || uri.startsWith('/')) return null;
+  const clean = decodeURIComponent(uri.split(/[?#]/)[0]);
+  const resolved = path.posix.normalize(clean);
+  if (resolved.startsWith('../') || resolved === '..') return null;
+  return resolved;
+}
+
+// All failures of TILESET (parsed JSON) whose folder holds FILES; STATS,
+// if given, receives counts.
+function check(tileset, files, stats = {}) {
+  if (!validateSchema(tileset)) {
+    // The rules below assume the shape the schema checks.
+    return validateSchema.errors.map((e) => `schema: ${e.instancePath || '/'} ${e.message}`);
+  }
+  const failures = [];
+  const fail = (message) => failures.push(message);
+  const root = tileset.root;
+
+  // Specification rules.
+  if (tileset.geometricError < root.geometricError) {
+    fail(`tileset geometricError ${tileset.geometricError} is below the root's ${root.geometricError}`);
+  }
+  const used = tileset.extensionsUsed || [];
+  for (const name of tileset.extensionsRequired || []) {
+    if (!used.includes(name)) fail(`extension ${name} is required but not in extensionsUsed`);
+  }
+  const references = new Map();
+  let tiles = 0;
+  let depth = 0;
+  function visit(tile, where, parent, refine, level) {
+    ++tiles;
+    depth = Math.max(depth, level);
+    const effectiveRefine = tile.refine || refine;
+    if (parent && tile.geometricError > parent.geometricError) {
+      fail(`${where}: geometricError ${tile.geometricError} exceeds its parent's ${parent.geometricError}`);
+    }
+    if (tile.transform) {
+      const m = tile.transform;
+      if (m[3] !== 0 || m[7] !== 0 || m[11] !== 0 || m[15] !== 1) {
+        fail(`${where}: transform is not affine (last row ${m[3]} ${m[7]} ${m[11]} ${m[15]})`);
+      }
+    }
+    const contents = tile.contents || (tile.content ? [tile.content] : []);
+    contents.forEach((content, i) => {
+      const resolved = resolveUri(content.uri);
+      if (resolved === null) {
+        fail(`${where}: content uri "${content.uri}" does not name a file of the tileset`);
+      } else {
+        references.set(resolved, (references.get(resolved) || 0) + 1);
+        if (!files.includes(resolved)) fail(`${where}: content "${content.uri}" is not in the zip`);
+      }
+      if (content.group !== undefined && !(content.group < (tileset.groups || []).length)) {
+        fail(`${where}: content ${i} names group ${content.group}, the tileset has ${(tileset.groups || []).length}`);
+      }
+      const inner = content.boundingVolume && content.boundingVolume.box;
+      if (inner && tile.boundingVolume.box && !boxInside(inner, tile.boundingVolume.box)) {
+        fail(`${where}: content ${i}'s box is not inside the tile's box`);
+      }
+    });
+
+    // What arscout's export promises.
+    if (effectiveRefine !== 'ADD') fail(`${where}: refine ${effectiveRefine}, the export refines by ADD`);
+    if (tile.transform && parent) fail(`${where}: a transform below the root (the export has one frame)`);
+    const box = tile.boundingVolume.box;
+    if (!box) {
+      fail(`${where}: no box bounding volume`);
+    } else if (!axisAligned(box)) {
+      fail(`${where}: box ${JSON.stringify(box)} is not axis-aligned`);
+    } else if (parent && parent.boundingVolume.box && !boxInside(box, parent.boundingVolume.box)) {
+      fail(`${where}: box ${JSON.stringify(box)} is not inside its parent's ` +
+           `${JSON.stringify(parent.boundingVolume.box)}`);
+    }
+
+    (tile.children || []).forEach((child, i) => {
+      visit(child, `${where}/children/${i}`, tile, effectiveRefine, level + 1);
+    });
+  }
+  visit(root, 'root', null, undefined, 0);
+  if (tileset.asset.version !== '1.1') fail(`asset.version ${tileset.asset.version}, the export writes 1.1`);
+
+  for (const [file, count] of references) {
+    if (count > 1) fail(`${file} is referenced by ${count} contents`);
+  }
+  const unreferenced = files.filter((file) => file.endsWith('.glb') && !references.has(file));
+  if (unreferenced.length) fail(`glb files no tile refers to: ${unreferenced.join(', ')}`);
+  Object.assign(stats, { tiles, depth, contents: references.size });
+  return failures;
+}
+
+// Broken copies: each mutation must make check() fail with a message
+// matching its pattern (so it fails for the intended reason).
+function parentWithChildren(tile) {
+  if (tile.children && tile.children.some((child) => child.children)) return tile;
+  for (const child of tile.children || []) {
+    const found = parentWithChildren(child);
+    if (found) return found;
+  }
+  return null;
+}
+function firstContentTile(tile) {
+  if (tile.content) return tile;
+  for (const child of tile.children || []) {
+    const found = firstContentTile(child);
+    if (found) return found;
+  }
+  return null;
+}
+const mutations = [
+  ['root geometricError dropped', /root must have required property 'geometricError'/,
+    (t) => { delete t.root.geometricError; }],
+  ['tileset geometricError dropped', /must have required property 'geometricError'/,
+    (t) => { delete t.geometricError; }],
+  ['a child\'s geometricError above its parent\'s', /\/children\/0: geometricError .* exceeds its parent's/,
+    (t) => { const p = parentWithChildren(t.root); p.children[0].geometricError = p.geometricError * 2 + 1; }],
+  ['tileset geometricError below the root\'s', /below the root's/,
+    (t) => { t.geometricError = t.root.geometricError / 2; }],
+  ['root refine dropped', /root must have required property 'refine'/,
+    (t) => { delete t.root.refine; }],
+  ['refine in lower case', /refine must be equal to one of the allowed values/,
+    (t) => { t.root.refine = 'add'; }],
+  ['a box of 11 numbers', /box must NOT have fewer than 12 items/,
+    (t) => { t.root.boundingVolume.box.pop(); }],
+  ['a transform of 15 numbers', /transform must NOT have fewer than 16 items/,
+    (t) => { t.root.transform.pop(); }],
+  ['a negative sphere radius', /sphere\/3 must be >= 0/,
+    (t) => { t.root.boundingVolume = { sphere: [0, 0, 0, -1] }; }],
+  ['children empty', /children must NOT have fewer than 1 items/,
+    (t) => { firstContentTile(t.root.children[0]).children = []; }],
+  ['content without uri', /content must have required property 'uri'/,
+    (t) => { delete t.root.content.uri; }],
+  ['asset without version', /asset must have required property 'version'/,
+    (t) => { delete t.asset.version; }],
+  ['a child\'s box sticking out of its parent\'s', /^root\/children\/0: box .* is not inside its parent's/,
+    (t) => { t.root.children[0].boundingVolume.box[0] += 2 * t.root.boundingVolume.box[3]; }],
+  ['a content uri with no file', /is not in the zip/,
+    (t) => { firstContentTile(t.root.children[0]).content.uri = 'tiles/missing.glb'; }],
+  ['a glb no tile refers to', /glb files no tile refers to/,
+    (t) => { delete firstContentTile(t.root.children[0]).content; }],
+  ['a glb referenced twice', /referenced by 2 contents/,
+    (t) => { firstContentTile(t.root.children[0]).content.uri = t.root.content.uri; }],
+  ['a content uri leaving the folder', /does not name a file of the tileset/,
+    (t) => { t.root.content.uri = '../r.glb'; }],
+];
+
+const tileset = JSON.parse(fs.readFileSync(path.join(tilesetDir, 'tileset.json'), 'utf8'));
+const files = filesUnder(tilesetDir);
+const stats = {};
+const failures = check(tileset, files, stats);
+console.log(`ajv ${ajvVersion} (draft 2020-12, strict), schema ${path.basename(schemaFile)}: ` +
+            `${tilesetDir}/tileset.json, ${stats.tiles ?? '?'} tiles, depth ${stats.depth ?? '?'}, ` +
+            `${files.filter((f) => f.endsWith('.glb')).length} glb files`);
+for (const failure of failures) console.log(`FAIL: ${failure}`);
+
+let broken = 0;
+if (!checkOnly) {
+  for (const [name, expected, mutate] of mutations) {
+    const copy = structuredClone(tileset);
+    mutate(copy);
+    const found = check(copy, files);
+    if (!found.length) {
+      failures.push(`broken copy passed: ${name}`);
+      console.log(`FAIL: broken copy "${name}" passed the checks`);
+    } else if (!found.some((message) => expected.test(message))) {
+      failures.push(`broken copy failed for another reason: ${name}`);
+      console.log(`FAIL: broken copy "${name}" failed, but not with ${expected}: ${found.join('; ')}`);
+    } else {
+      ++broken;
+      console.log(`  rejected as expected: ${name} (${found.find((m) => expected.test(m))})`);
+    }
+  }
+}
+
+const ms = Number(process.hrtime.bigint() - started) / 1e6;
+if (failures.length) {
+  console.log(`FAIL: ${failures.length} problems (${ms.toFixed(0)} ms)`);
+  process.exit(1);
+}
+console.log(`PASS: tileset.json valid against the schema and the specification's tree rules` +
+            (checkOnly ? '' : `; ${broken} broken copies all rejected`) + ` (${ms.toFixed(0)} ms)`);
