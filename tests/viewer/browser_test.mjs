@@ -21,32 +21,16 @@
 //
 // Uses playwright-core from viewer/web/node_modules (npm install there).
 
-import { createRequire } from 'node:module';
-import { fileURLToPath } from 'node:url';
 import fs from 'node:fs';
 import path from 'node:path';
+import {
+  requireFromViewer, log, TestFailure, fail, keyValueSettings, SOFTWARE_WEBGL_ARGS,
+} from './harness.mjs';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
-const requireFromViewer = createRequire(path.resolve(here, '../../viewer/web/package.json'));
 const { chromium } = requireFromViewer('playwright-core');
 
-const started = Date.now();
-function log(message) {
-  const seconds = ((Date.now() - started) / 1000).toFixed(1).padStart(6);
-  console.log(`[${seconds}s] ${message}`);
-}
-
-class TestFailure extends Error {}
-function fail(message) {
-  throw new TestFailure(message);
-}
-
 function settings() {
-  const values = { ...process.env };
-  for (const arg of process.argv.slice(2)) {
-    const at = arg.indexOf('=');
-    if (at > 0) values[arg.slice(0, at)] = arg.slice(at + 1);
-  }
+  const values = keyValueSettings();
   const required = ['SERVER', 'PLANNER_TOKEN', 'SCOUT_TOKEN', 'UPLOAD_IMAGE', 'UPLOAD_META'];
   const missing = required.filter((key) => !values[key]);
   if (missing.length) {
@@ -284,13 +268,7 @@ async function main() {
   const browser = await chromium.launch({
     executablePath: config.chromium,
     headless: true,
-    args: [
-      '--no-sandbox',
-      '--use-gl=angle',
-      '--use-angle=swiftshader',
-      '--enable-unsafe-swiftshader',
-      '--ignore-gpu-blocklist',
-    ],
+    args: SOFTWARE_WEBGL_ARGS,
   });
   const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
   page.on('console', (message) => {

@@ -24,19 +24,10 @@
 //   SCREENSHOT                     PNG of the distance measurement
 //   CHROMIUM                       browser binary (default /usr/bin/chromium)
 
-import { createRequire } from 'node:module';
-import { fileURLToPath } from 'node:url';
 import fs from 'node:fs';
-import path from 'node:path';
+import { requireFromViewer, log, TestFailure, fail, SOFTWARE_WEBGL_ARGS } from './harness.mjs';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
-const requireFromViewer = createRequire(path.resolve(here, '../../viewer/web/package.json'));
 const { chromium } = requireFromViewer('playwright-core');
-
-const started = Date.now();
-const log = (message) => console.log(`[${((Date.now() - started) / 1000).toFixed(1).padStart(6)}s] ${message}`);
-class TestFailure extends Error {}
-const fail = (message) => { throw new TestFailure(message); };
 
 const env = process.env;
 const config = {
@@ -254,8 +245,7 @@ async function main() {
   const browser = await chromium.launch({
     executablePath: config.chromium,
     headless: true,
-    args: ['--no-sandbox', '--use-gl=angle', '--use-angle=swiftshader',
-      '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist'],
+    args: SOFTWARE_WEBGL_ARGS,
   });
   const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
   page.on('pageerror', (err) => console.log(`  [browser exception] ${err.message}`));

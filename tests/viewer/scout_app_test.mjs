@@ -22,22 +22,12 @@
 // SCENE (fountain-P11 folder), CHROMIUM, SCREENSHOTS (a folder: the capture
 // and see-through screens as PNG), TIMEOUT_S (engine waits, default 420).
 
-import { createRequire } from 'node:module';
-import { fileURLToPath } from 'node:url';
 import crypto from 'node:crypto';
 import fs from 'node:fs';
 import path from 'node:path';
+import { requireFromViewer, log, TestFailure, fail } from './harness.mjs';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
-const requireFromViewer = createRequire(path.resolve(here, '../../viewer/web/package.json'));
 const { chromium } = requireFromViewer('playwright-core');
-
-const started = Date.now();
-const log = (m) => console.log(`[${((Date.now() - started) / 1000).toFixed(1).padStart(6)}s] ${m}`);
-class TestFailure extends Error {}
-const fail = (m) => {
-  throw new TestFailure(m);
-};
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
 const env = process.env;

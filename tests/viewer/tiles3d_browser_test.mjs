@@ -17,34 +17,17 @@
 // Uses playwright-core, three and 3d-tiles-renderer from
 // viewer/web/node_modules (npm ci --prefix viewer/web).
 
-import { createRequire } from 'node:module';
-import { fileURLToPath } from 'node:url';
 import fs from 'node:fs';
 import http from 'node:http';
 import path from 'node:path';
+import {
+  here, webRoot, requireFromViewer, log, TestFailure, fail, keyValueSettings, SOFTWARE_WEBGL_ARGS,
+} from './harness.mjs';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
-const webRoot = path.resolve(here, '../../viewer/web');
-const requireFromViewer = createRequire(path.join(webRoot, 'package.json'));
 const { chromium } = requireFromViewer('playwright-core');
 
-const started = Date.now();
-function log(message) {
-  const seconds = ((Date.now() - started) / 1000).toFixed(1).padStart(6);
-  console.log(`[${seconds}s] ${message}`);
-}
-
-class TestFailure extends Error {}
-function fail(message) {
-  throw new TestFailure(message);
-}
-
 function settings() {
-  const values = { ...process.env };
-  for (const arg of process.argv.slice(2)) {
-    const at = arg.indexOf('=');
-    if (at > 0) values[arg.slice(0, at)] = arg.slice(at + 1);
-  }
+  const values = keyValueSettings();
   const missing = ['TILESET_DIR', 'ECEF_PLY'].filter((key) => !values[key]);
   if (missing.length) {
     console.error(`tiles3d_browser_test: missing settings: ${missing.join(', ')}`);
@@ -259,13 +242,7 @@ async function main() {
   const browser = await chromium.launch({
     executablePath: config.chromium,
     headless: true,
-    args: [
-      '--no-sandbox',
-      '--use-gl=angle',
-      '--use-angle=swiftshader',
-      '--enable-unsafe-swiftshader',
-      '--ignore-gpu-blocklist',
-    ],
+    args: SOFTWARE_WEBGL_ARGS,
   });
   try {
     const page = await browser.newPage({ viewport: { width: 960, height: 640 } });

@@ -10,20 +10,14 @@
 # Exit 77 (skipped) without Node, Chromium, npm packages or data, except
 # under CI=true, where that is a failure.
 set -euo pipefail
-bin=$(realpath "$1")
-fixture=$2
-scene="$3/strecha/fountain-P11"
-repo=$(cd "$(dirname "$0")/../.." && pwd)
 chromium=${CHROMIUM:-/usr/bin/chromium}
 
 # shellcheck source=browser_support.sh
 source "$(dirname "$0")/browser_support.sh"
 # shellcheck source=tiles3d_support.sh
 source "$(dirname "$0")/tiles3d_support.sh"
+tiles3d_setup "$@" 3d-tiles-renderer
 need_browser
-[ -d "$repo/viewer/web/node_modules/3d-tiles-renderer" ] ||
-  skip "3d-tiles-renderer is missing (npm ci --prefix viewer/web)"
-[ -d "$scene/images" ] || skip "$scene not found"
 
 export_site_tileset
 TILESET_DIR="$tileset" ECEF_PLY="$ecef_ply" TOLERANCE_M=0.01 \

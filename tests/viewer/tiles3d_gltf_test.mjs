@@ -11,13 +11,10 @@
 //
 // Uses gltf-validator from viewer/web/node_modules (npm ci --prefix viewer/web).
 
-import { createRequire } from 'node:module';
-import { fileURLToPath } from 'node:url';
 import fs from 'node:fs';
 import path from 'node:path';
+import { requireFromViewer } from './harness.mjs';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
-const requireFromViewer = createRequire(path.resolve(here, '../../viewer/web/package.json'));
 const validator = requireFromViewer('gltf-validator');
 
 const [tilesetDir, ecefPly] = process.argv.slice(2);

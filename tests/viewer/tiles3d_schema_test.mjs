@@ -25,13 +25,10 @@
 //
 // Uses ajv from viewer/web/node_modules (npm ci --prefix viewer/web).
 
-import { createRequire } from 'node:module';
-import { fileURLToPath } from 'node:url';
 import fs from 'node:fs';
 import path from 'node:path';
+import { here, requireFromViewer } from './harness.mjs';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
-const requireFromViewer = createRequire(path.resolve(here, '../../viewer/web/package.json'));
 const Ajv2020 = requireFromViewer('ajv/dist/2020.js').default;
 const ajvVersion = requireFromViewer('ajv/package.json').version;
 

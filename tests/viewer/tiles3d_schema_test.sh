@@ -10,20 +10,9 @@
 # Exit 77 (skipped) without Node, the npm package or data, except under
 # CI=true, where that is a failure.
 set -euo pipefail
-bin=$(realpath "$1")
-fixture=$2
-scene="$3/strecha/fountain-P11"
-repo=$(cd "$(dirname "$0")/../.." && pwd)
-
-# serve_script.sh for skip and use_work_dir (no server is started here).
-# shellcheck source=../support/serve_script.sh
-source "$(dirname "$0")/../support/serve_script.sh"
 # shellcheck source=tiles3d_support.sh
 source "$(dirname "$0")/tiles3d_support.sh"
-command -v node > /dev/null || skip "node is not installed (deploy/install-deps.sh)"
-[ -d "$repo/viewer/web/node_modules/ajv" ] ||
-  skip "ajv is missing (npm ci --prefix viewer/web)"
-[ -d "$scene/images" ] || skip "$scene not found"
+tiles3d_setup "$@" ajv
 
 export_site_tileset
 check="$repo/tests/viewer/tiles3d_schema_test.mjs"

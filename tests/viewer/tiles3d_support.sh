@@ -1,6 +1,11 @@
 # Shared by the 3D Tiles tests (tiles3d_browser_test.sh,
-# tiles3d_gltf_test.sh); source it after setting $bin (the arscout
-# executable), $fixture (the viewer_fountain fixture's folder) and $repo.
+# tiles3d_gltf_test.sh, tiles3d_schema_test.sh). Sources serve_script.sh
+# (skip, use_work_dir).
+#
+# tiles3d_setup ARSCOUT_BINARY FIXTURE_DIR SHARED_DATA NPM_PACKAGE: sets
+# $bin, $fixture, $scene and $repo from the test's arguments; skips (fails
+# under CI=true) without Node, viewer/web/node_modules/NPM_PACKAGE or the
+# fountain-P11 data.
 #
 # export_site_tileset: in a fresh $work (use_work_dir from
 # ../support/serve_script.sh), a copy of the fixture's database, so that
@@ -15,6 +20,20 @@
 # The variables read here are set, and those set here read, by the script
 # that sources this file: hence SC2154 and SC2034 off.
 # shellcheck shell=bash disable=SC2154,SC2034
+
+# shellcheck source=../support/serve_script.sh
+source "$(dirname "${BASH_SOURCE[0]}")/../support/serve_script.sh"
+
+tiles3d_setup() {
+  bin=$(realpath "$1")
+  fixture=$2
+  scene="$3/strecha/fountain-P11"
+  repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
+  command -v node > /dev/null || skip "node is not installed (deploy/install-deps.sh)"
+  [ -d "$repo/viewer/web/node_modules/$4" ] ||
+    skip "$4 is missing (npm ci --prefix viewer/web)"
+  [ -d "$scene/images" ] || skip "$scene not found"
+}
 
 export_site_tileset() {
   [ -f "$fixture/ready" ] || { echo "FAIL: no fountain site in $fixture"; exit 1; }
