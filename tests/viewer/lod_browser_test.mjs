@@ -15,6 +15,8 @@
 //     roof (80 m² on the plan, within 2 %), each by clicks at the corners'
 //     places on screen, snapped by the viewer; and the picked point's
 //     coordinates in the site's UTM zone.
+//  4. Shading: colour by height puts the ground at the ramp's blue end and
+//     the roof at its red end; eye-dome lighting darkens the view.
 //
 // Prints one JSON line of figures ("figures: {...}") for bench/RESULTS.md.
 // Settings from the environment:
@@ -180,6 +182,64 @@ async function measure(page, tool, points) {
   return result;
 }
 
+/**
+ * The mean colour of the drawn (non-background) pixels in a 15-pixel
+ * square around where a world point is drawn, and the canvas's mean
+ * luminance; from the canvas itself.
+ */
+async function pixels(page, points) {
+  return page.evaluate((worldPoints) => {
+    const { viewer } = window.arscoutViewer;
+    viewer.renderNow();
+    const source = viewer.canvas;
+    const scratch = document.createElement('canvas');
+    scratch.width = source.width;
+    scratch.height = source.height;
+    const context = scratch.getContext('2d', { willReadFrequently: true });
+    context.drawImage(source, 0, 0);
+    const scale = source.width / source.getBoundingClientRect().width;
+    const around = worldPoints.map(([x, y, z]) => {
+      const p = viewer.toScreen({ x, y, z });
+      const { data } = context.getImageData(Math.round(p.x * scale) - 7, Math.round(p.y * scale) - 7, 15, 15);
+      const sum = [0, 0, 0];
+      let n = 0;
+      for (let i = 0; i < data.length; i += 4) {
+        if (Math.abs(data[i] - 0x16) + Math.abs(data[i + 1] - 0x18) + Math.abs(data[i + 2] - 0x1c) < 6) continue;
+        for (let c = 0; c < 3; c++) sum[c] += data[i + c];
+        n++;
+      }
+      return n ? sum.map((v) => v / n) : null;
+    });
+    const { data } = context.getImageData(0, 0, source.width, source.height);
+    let luminance = 0;
+    for (let i = 0; i < data.length; i += 4) luminance += 0.299 * data[i] + 0.587 * data[i + 1] + 0.114 * data[i + 2];
+    return { around, luminance: luminance / (data.length / 4) };
+  }, points);
+}
+
+/**
+ * Colour by height puts the ground at the blue end of the ramp and the
+ * roof at the red end; eye-dome lighting darkens the picture (edges).
+ */
+async function checkShading(page) {
+  await page.click('#measure-clear');
+  await look(page, VIEW);
+  const probes = [[5, 13, 12], PAVEMENT];
+  await page.selectOption('#colour-mode', 'height');
+  const [roof, ground] = (await pixels(page, probes)).around;
+  log(`colour by height: roof rgb ${roof?.map(Math.round)}, pavement rgb ${ground?.map(Math.round)}`);
+  if (!roof || !ground) fail('no points drawn at the roof or the pavement');
+  if (!(roof[0] > roof[2] + 40)) fail(`the roof is not at the red end of the ramp: ${roof}`);
+  if (!(ground[2] > ground[0] + 40)) fail(`the pavement is not at the blue end of the ramp: ${ground}`);
+  await page.selectOption('#colour-mode', 'rgb');
+  const withEdl = (await pixels(page, [])).luminance;
+  await page.uncheck('#edl');
+  const withoutEdl = (await pixels(page, [])).luminance;
+  await page.check('#edl');
+  log(`eye-dome lighting: mean luminance ${withEdl.toFixed(1)} on, ${withoutEdl.toFixed(1)} off`);
+  if (!(withEdl < withoutEdl * 0.99)) fail('eye-dome lighting does not shade the view');
+}
+
 function within(what, value, expected, tolerance) {
   const error = Math.abs(value - expected) / expected;
   log(`${what}: ${value.toFixed(4)} (expected ${expected}, error ${(error * 100).toFixed(2)} %)`);
@@ -230,6 +290,7 @@ async function run(browser, page) {
   figures.height_m = height.dz;
   const area = await measure(page, 'area', ROOF);
   figures.roof_plan_m2 = area.plan;
+  await checkShading(page);
   console.log(`figures: ${JSON.stringify(figures)}`);
 
   within('roof edge (distance tool)', distance.total, 10, 0.01);
