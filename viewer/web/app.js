@@ -443,6 +443,7 @@ function handleChange(change) {
 function showDrawnCount() {
   const label = $('points-drawn');
   const drawn = viewer.pointCount;
+  if (label.dataset.points === String(drawn)) return; // every frame: keep it cheap
   label.dataset.points = String(drawn);
   label.textContent = drawn ? `${formatCount(drawn)} drawn` : '';
 }
@@ -503,7 +504,9 @@ function wirePicking() {
   });
   canvas.addEventListener('dblclick', () => measurement.finish());
   window.addEventListener('keydown', (e) => {
-    if (e.target instanceof HTMLInputElement) return;
+    // A focused field or button takes its own keys.
+    if (e.target instanceof HTMLInputElement || e.target instanceof HTMLButtonElement ||
+        e.target instanceof HTMLSelectElement) return;
     if (e.key === 'Enter') measurement.finish();
     if (e.key === 'Escape') measurement.clear();
   });
@@ -511,7 +514,11 @@ function wirePicking() {
 
 function wireViewOptions() {
   for (const button of document.querySelectorAll('#measure-tools button[data-tool]')) {
-    button.addEventListener('click', () => measurement.start(button.dataset.tool));
+    button.addEventListener('click', () => {
+      measurement.start(button.dataset.tool);
+      // Enter and Escape are the view's now, not this button's.
+      button.blur();
+    });
   }
   $('measure-finish').addEventListener('click', () => measurement.finish());
   $('measure-clear').addEventListener('click', () => measurement.clear());
