@@ -382,6 +382,9 @@ async function showModel(doc, generation, signal) {
     viewMessage('This model has no point cloud.');
     return;
   }
+  // The first request for a version builds its octree on the server:
+  // seconds for tens of millions of points.
+  if (!viewer.lod) viewMessage(`Preparing the ${kind} cloud...`);
   const lod = await openOctree(state.site, kind, generation, signal);
   if (generation !== state.generation) {
     lod.dispose();
@@ -440,12 +443,15 @@ function handleChange(change) {
 
 // ---- view options and measurement --------------------------------------
 
+/** Points drawn, and the nodes still on their way (streaming progress). */
 function showDrawnCount() {
   const label = $('points-drawn');
   const drawn = viewer.pointCount;
-  if (label.dataset.points === String(drawn)) return; // every frame: keep it cheap
+  const loading = viewer.lod?.loading || 0;
+  const text = (drawn ? `${formatCount(drawn)} drawn` : '') + (loading ? ` · loading ${loading} nodes` : '');
+  if (label.textContent === text) return; // every frame: keep it cheap
   label.dataset.points = String(drawn);
-  label.textContent = drawn ? `${formatCount(drawn)} drawn` : '';
+  label.textContent = text;
 }
 
 function applyColourMode() {
