@@ -39,23 +39,19 @@ Json node_json(const OctreeNode& node) {
 
 }  // namespace
 
-std::size_t CloudOctree::byte_size() const {
-  std::size_t total = 0;
-  for (const auto& [name, bytes] : node_bytes) total += bytes.size();
-  return total;
-}
-
 CloudOctree build_cloud_octree(const std::vector<engine::ColoredPoint>& points,
                                const std::string& site, std::int64_t version,
                                const std::string& cloud,
                                const OctreeOptions& options) {
-  CloudOctree octree{site, version, cloud, {}, {}};
+  CloudOctree octree{site, version, cloud, {}, {}, 0};
   Json nodes = Json::array();
   if (!points.empty()) {
     const std::vector<OctreeNode> tree = build_point_octree(points, options);
     for (const OctreeNode& node : tree) {
       nodes.push_back(node_json(node));
-      octree.node_bytes.emplace(node.name, node_bytes(points, node));
+      const auto added =
+          octree.node_bytes.emplace(node.name, node_bytes(points, node));
+      octree.byte_size += added.first->second.size();
     }
   }
   octree.hierarchy = {{"site", site},
@@ -130,7 +126,7 @@ void CloudOctreeCache::evict_locked() {
     if (entry.wait_for(std::chrono::seconds(0)) != std::future_status::ready)
       return 0;
     try {
-      return entry.get()->byte_size();
+      return entry.get()->byte_size;
     } catch (const std::exception&) {
       return 0;  // a failed build, erased by its builder
     }

@@ -39,7 +39,7 @@ struct CloudOctree {
   // first; no nodes for a cloud without points.
   nlohmann::json hierarchy;
   std::map<std::string, std::string> node_bytes;  // by node name
-  std::size_t byte_size() const;
+  std::size_t byte_size = 0;  // of node_bytes in all, for the cache's bound
 };
 
 // Nodes far smaller than the 3D Tiles export's: the viewer draws a point
