@@ -140,10 +140,12 @@ void print_progress(int n, int total, const engine::AddResult& r) {
             << "  inliers " << r.pose_inliers << "  reproj "
             << std::setprecision(3) << r.mean_reprojection_px << " px"
             << std::setprecision(2) << (r.geo_registered ? "  geo" : "")
-            << (r.loops_closed ? "  loop closed" : "") << "  | decode "
-            << t.decode_s << " undistort " << t.undistort_s << " features "
-            << t.features_s << " match " << t.matching_s << " pose " << t.pose_s
-            << " triang " << t.triangulation_s << " ba "
+            << (r.loops_closed ? "  loop closed" : "");
+  if (r.component >= 0) std::cout << "  component " << r.component;
+  if (r.components_merged > 0) std::cout << "  merged " << r.components_merged;
+  std::cout << "  | decode " << t.decode_s << " undistort " << t.undistort_s
+            << " features " << t.features_s << " match " << t.matching_s
+            << " pose " << t.pose_s << " triang " << t.triangulation_s << " ba "
             << t.bundle_adjustment_s << " total " << t.total_s << " s";
   if (!r.also_registered.empty()) {
     std::cout << "  (also registered:";
@@ -258,7 +260,9 @@ void write_outputs(const engine::Reconstruction& site,
   engine::write_colmap_text(model, a.out + "/sparse");
   engine::write_geo_csv(model, a.out + "/cameras_geo.csv");
   engine::write_points_ply(model, a.out + "/sparse.ply");
-  std::cout << "registered " << model.images.size() << " images, "
+  std::cout << "registered " << model.images.size() << " images in "
+            << model.components.size()
+            << (model.components.size() == 1 ? " component, " : " components, ")
             << model.points.size() << " points, mean reprojection error "
             << std::setprecision(3) << model.mean_reprojection_px << " px"
             << (model.geo_registered ? ", geo-registered (ENU)"
@@ -370,6 +374,10 @@ void add_reconstruct_command(CLI::App& app) {
                   "no limit")
       ->capture_default_str()
       ->check(CLI::Range(0, 100000));
+  cmd->add_flag(
+      "--single-model", [](int64_t) { args.options.multiple_models = false; },
+      "one chain, as COLMAP's Mapper.multiple_models 0: photos that reach no "
+      "point of the model wait instead of starting a component");
   cmd->add_option("--refine-intrinsics", args.options.refine_intrinsics,
                   "auto (uncalibrated cameras only), on or off")
       ->capture_default_str()

@@ -56,6 +56,7 @@ Json to_json(const Capture& c) {
   put_if_set(j, "site_hint", c.site_hint);
   put_if_set(j, "filename", c.filename);
   put_if_set(j, "site", c.site);
+  if (c.component) j["component"] = *c.component;
   if (Json exif = exif_json(c.exif); !exif.empty()) j["exif"] = exif;
   return j;
 }
@@ -79,13 +80,19 @@ Capture capture_from_json(const Json& attrs) {
   c.filename = string_or(attrs, "filename");
   c.exif = exif_from_json(attrs);
   c.site = string_or(attrs, "site");
+  if (const Json* component = fields::find(attrs, "component");
+      component && fields::is_whole_number(*component, 0))
+    c.component = component->get<int>();
   return c;
 }
 
 Json status_patch(const std::string& status, const std::string& reason,
-                  const std::string& site) {
+                  const std::string& site, std::optional<int> component) {
   Json patch{{"status", status}, {"status_reason", reason}};
   if (!site.empty()) patch["site"] = site;
+  // null removes it in a merge patch: a withdrawn or dissolved photo has
+  // no component.
+  patch["component"] = component ? Json(*component) : Json(nullptr);
   return patch;
 }
 

@@ -53,6 +53,7 @@ Json image_json(const ModelImageEntry& image) {
             {"centre", image.centre}};
   if (image.geodetic) j["geodetic"] = geo_json(*image.geodetic);
   if (image.dense) j["dense"] = *image.dense;
+  if (image.component) j["component"] = *image.component;
   return j;
 }
 
@@ -68,6 +69,9 @@ ModelImageEntry image_from_json(const Json& j) {
     if (const Json* dense = fields::find(j, "dense");
         dense && dense->is_boolean())
       image.dense = dense->get<bool>();
+    if (const Json* component = fields::find(j, "component");
+        component && fields::is_whole_number(*component, 0))
+      image.component = component->get<int>();
     return image;
   } catch (const Json::exception& e) {
     throw DocumentError(std::string("model: an image entry is incomplete (") +
@@ -135,6 +139,10 @@ Json to_json(const ModelDocument& m) {
   }
   for (const ModelImageEntry& i : m.images)
     j["images"].push_back(image_json(i));
+  j["components"] = Json::array();
+  for (const ModelComponentEntry& c : m.components)
+    j["components"].push_back(
+        {{"id", c.id}, {"images", c.images}, {"points", c.points}});
   for (const auto& [name, member] : kTimings)
     j["timings"][name] = m.timings.*member;
   if (!m.dense_state.empty()) j["dense_state"] = m.dense_state;
@@ -155,6 +163,13 @@ ModelDocument model_from_json(const Json& attrs) {
       m.cameras.push_back({fields::string_or(c, "id"), camera_from_json(c)});
   if (const Json* images = fields::find(attrs, "images"))
     for (const Json& i : *images) m.images.push_back(image_from_json(i));
+  if (const Json* components = fields::find(attrs, "components");
+      components && components->is_array())
+    for (const Json& c : *components)
+      m.components.push_back(
+          {static_cast<int>(fields::number(c, "id").value_or(0)),
+           static_cast<std::size_t>(fields::number(c, "images").value_or(0)),
+           static_cast<std::size_t>(fields::number(c, "points").value_or(0))});
   if (const Json* statuses = fields::find(attrs, "captures"))
     for (const auto& [id, status] : statuses->items())
       if (status.is_string())

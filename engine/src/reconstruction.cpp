@@ -477,6 +477,8 @@ AddResult Reconstruction::add_capture(const CaptureInput& capture) {
   result.mean_reprojection_px = mapper.mean_reprojection_px();
   result.geo_registered = scene.geo_registered;
   result.loops_closed = mapper.loops_closed();
+  result.components_merged = mapper.components_merged();
+  result.component = added.registered ? added.component : -1;
   timings.total_s = seconds_since(start);
   return result;
 }
@@ -530,7 +532,8 @@ std::vector<CaptureState> Reconstruction::captures() const {
     if (image.removed) continue;
     states.push_back(
         {image.id, image.registered ? CaptureStatus::kRegistered : image.status,
-         image.registered ? "" : image.reason});
+         image.registered ? "" : image.reason,
+         image.registered ? image.component : -1});
   }
   return states;
 }

@@ -249,7 +249,7 @@ TEST(BundleAdjusterTest, GpsPriorsPutTheModelInPlace) {
 
   // As the mapper does: solve the gauge against the fixes first, then adjust.
   const BundleOptions options = gps_options();
-  const auto sim = fit_model_to_priors(g.scene, options);
+  const auto sim = fit_model_to_priors(g.scene, options, 0);
   ASSERT_TRUE(sim.has_value());
   apply_similarity(g.scene, *sim);
   const BundleReport report = adjust_bundle(g.scene, {}, true, options);
@@ -447,7 +447,7 @@ TEST(BundleAdjusterTest, FitModelToPriorsRecoversKnownSimilarity) {
   const Similarity to_enu = wrong_frame();
   apply_similarity(scene, inverse(to_enu));
 
-  const auto fitted = fit_model_to_priors(scene, gps_options());
+  const auto fitted = fit_model_to_priors(scene, gps_options(), 0);
   ASSERT_TRUE(fitted.has_value());
   EXPECT_NEAR(fitted->scale, to_enu.scale, 1e-6);
   EXPECT_LT(synthetic::rotation_error_deg(fitted->R, to_enu.R), 1e-4);
@@ -472,14 +472,14 @@ TEST(BundleAdjusterTest, FitModelToPriorsNeedsThreeFixes) {
     scene.images[i].gps = GeoFix{47.0, 8.0, 400.0, 3.0, 6.0};
     scene.images[i].gps_enu = truth.poses[i].centre();
   }
-  EXPECT_FALSE(fit_model_to_priors(scene, gps_options()).has_value());
+  EXPECT_FALSE(fit_model_to_priors(scene, gps_options(), 0).has_value());
   // A fix on an unregistered image does not count.
   scene.images[2].gps = GeoFix{47.0, 8.0, 400.0, 3.0, 6.0};
   scene.images[2].gps_enu = truth.poses[2].centre();
   scene.images[2].registered = false;
-  EXPECT_FALSE(fit_model_to_priors(scene, gps_options()).has_value());
+  EXPECT_FALSE(fit_model_to_priors(scene, gps_options(), 0).has_value());
   scene.images[2].registered = true;
-  EXPECT_TRUE(fit_model_to_priors(scene, gps_options()).has_value());
+  EXPECT_TRUE(fit_model_to_priors(scene, gps_options(), 0).has_value());
 }
 
 }  // namespace

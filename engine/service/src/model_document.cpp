@@ -20,6 +20,7 @@ documents::ModelImageEntry image_entry(
   entry.centre = image.centre;
   if (image.geodetic) entry.geodetic = geo_point(*image.geodetic);
   if (dense_views) entry.dense = dense_views->count(image.id) > 0;
+  entry.component = image.component;
   return entry;
 }
 
@@ -72,6 +73,9 @@ documents::ModelDocument model_document(
     doc.cameras.push_back({c.id, c.intrinsics});
   for (const ModelImage& i : model.images)
     doc.images.push_back(image_entry(i, model, dense_views));
+  for (const ModelComponent& c : model.components)
+    doc.components.push_back({c.id, static_cast<std::size_t>(c.images),
+                              static_cast<std::size_t>(c.points)});
   for (const CaptureState& c : captures)
     doc.capture_statuses[c.id] = to_string(c.status);
   doc.statistics = statistics(model, captures, report);

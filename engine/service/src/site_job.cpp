@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -262,21 +264,30 @@ Increment SiteJob::run(const std::vector<Work>& work) {
   return increment;
 }
 
-// The capture statuses that changed since they were last published.
+// The capture statuses that changed since they were last published. A
+// status is kept as "status\nreason"; a registered capture has no reason,
+// and "#N" in its place names its component.
 void SiteJob::add_status_ops(const std::vector<CaptureState>& captures,
                              std::vector<db::WriteOp>* ops) {
   for (const CaptureState& c : captures) {
     const std::string status = published_status(c.status);
-    const std::string key = status + "\n" + c.reason;
+    const std::string key =
+        status + "\n" +
+        (c.component >= 0 ? "#" + std::to_string(c.component) : c.reason);
     if (statuses_.count(c.id) && statuses_.at(c.id) == key) continue;
     pending_statuses_[c.id] = key;
   }
   for (const auto& [capture, key] : pending_statuses_) {
     const size_t cut = key.find('\n');
+    std::string reason = key.substr(cut + 1);
+    std::optional<int> component;
+    if (!reason.empty() && reason[0] == '#') {
+      component = std::atoi(reason.c_str() + 1);
+      reason.clear();
+    }
     ops->push_back(db::WriteOp::patch(
-        "/captures/" + capture, Json{{"site", id_},
-                                     {"status", key.substr(0, cut)},
-                                     {"status_reason", key.substr(cut + 1)}}));
+        "/captures/" + capture,
+        documents::status_patch(key.substr(0, cut), reason, id_, component)));
   }
 }
 

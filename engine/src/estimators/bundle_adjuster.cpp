@@ -500,7 +500,8 @@ void refine_relative_pose(const std::vector<Eigen::Vector2d>& x1,
 }
 
 std::optional<Similarity> fit_model_to_priors(const Scene& scene,
-                                              const BundleOptions& options) {
+                                              const BundleOptions& options,
+                                              int component) {
   const double upright =
       options.upright_sigma_deg > 0
           ? 1.0 / std::sin(options.upright_sigma_deg * M_PI / 180)
@@ -511,7 +512,8 @@ std::optional<Similarity> fit_model_to_priors(const Scene& scene,
   ceres::Problem problem;
   int fixes = 0;
   for (const SceneImage& image : scene.images) {
-    if (!image.registered || !image.gps) continue;
+    if (!image.registered || !image.gps || image.component != component)
+      continue;
     ++fixes;
     const Eigen::Vector3d x_axis =
         image.q.toRotationMatrix().row(0).transpose();

@@ -86,9 +86,11 @@ struct BundleReport {
 // fixes (weighted per axis, as in the adjustment) while keeping them level
 // (the upright prior): the directions in which reprojection errors do not
 // constrain the model, solved on their own so that the adjustment starts
-// at their optimum. nullopt with fewer than 3 fixes.
+// at their optimum. Over the images of one component (each is placed in
+// ENU on its own until components merge). nullopt with fewer than 3 fixes.
 std::optional<Similarity> fit_model_to_priors(const Scene& scene,
-                                              const BundleOptions& options);
+                                              const BundleOptions& options,
+                                              int component);
 
 // Refines a relative pose (x2 = R x1 + t, |t| = 1) on its inlier
 // correspondences (normalized coordinates) by minimizing the Sampson

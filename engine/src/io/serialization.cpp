@@ -16,7 +16,8 @@ namespace {
 constexpr char kMagic[8] = {'A', 'R', 'S', 'C', 'E', 'N', 'E', '1'};
 // Version 2 added the per-image flag for features kept apart.
 // Version 3 adds the keypoint patches and the refined keypoints.
-constexpr uint32_t kVersion = 3;
+// Version 4 adds each image's component and the next component id.
+constexpr uint32_t kVersion = 4;
 constexpr char kFeaturesMagic[8] = {'A', 'R', 'S', 'F', 'E', 'A', 'T', '1'};
 // Features with patches; the form written now.
 constexpr char kFeaturesMagic2[8] = {'A', 'R', 'S', 'F', 'E', 'A', 'T', '2'};
@@ -269,6 +270,7 @@ void write_image(Writer& w, const SceneImage& image, bool features_apart) {
   w.pod(image.pose_inliers);
   w.matrix(image.q.coeffs());
   w.matrix(image.t);
+  w.pod(image.component);
 }
 
 // The refined positions overwrite the detected ones the features hold (and
@@ -316,6 +318,9 @@ SceneImage read_image(Reader& r, uint32_t version,
   image.pose_inliers = r.pod<int>();
   image.q.coeffs() = r.matrix<Eigen::Vector4d>();
   image.t = r.matrix<Eigen::Vector3d>();
+  // States before components held one model: component 0.
+  image.component = version >= 4 ? r.pod<int>() : 0;
+  if (image.component < 0) r.fail("component of image " + image.id);
   if (image.point_of.size() != image.keypoints.size() ||
       image.colors.size() != image.keypoints.size() ||
       image.descriptors.rows != static_cast<int>(image.keypoints.size()) ||
@@ -442,6 +447,7 @@ std::string serialize_scene(const Scene& scene, bool features_apart) {
   w.pod(scene.registered_at_last_global_ba);
   w.pod(scene.reference_image);
   w.pod(scene.scale_image);
+  w.pod(scene.next_component);
   return w.take();
 }
 
@@ -484,6 +490,7 @@ Scene deserialize_scene(const std::string& bytes,
   scene.registered_at_last_global_ba = r.pod<int>();
   scene.reference_image = r.pod<int>();
   scene.scale_image = r.pod<int>();
+  if (version >= 4) scene.next_component = r.pod<int>();
   if (!r.done()) r.fail("trailing bytes");
   check_indices(r, scene);
   return scene;

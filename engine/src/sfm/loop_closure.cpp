@@ -24,9 +24,10 @@ struct SplitMatches {
 SplitMatches split_matches(const Scene& scene, int image, int min_age) {
   SplitMatches split;
   std::set<int> seen_old, seen_recent;
+  const int component = scene.images[image].component;
   for (const auto& [other, pair] : scene.pairs_of(image)) {
     const SceneImage& partner = scene.images[other];
-    if (!partner.registered) continue;
+    if (!partner.registered || partner.component != component) continue;
     const bool old = image - other > min_age;
     if (old) split.newest_old = std::max(split.newest_old, other);
     Correspondences& out = old ? split.old_points : split.recent_points;
@@ -87,12 +88,13 @@ struct Correction {
   }
 };
 
-// Moves each registered image after `first` by its share of the correction
-// (rising linearly to 1 at `last`), and each point by the mean share of
-// the images observing it.
+// Moves each registered image of `last`'s component after `first` by its
+// share of the correction (rising linearly to 1 at `last`), and each point
+// by the mean share of the images observing it.
 void spread(Scene& scene, const Correction& correction, int first, int last) {
+  const int component = scene.images[last].component;
   auto weight = [&](int k) {
-    if (k <= first) return 0.0;
+    if (k <= first || scene.images[k].component != component) return 0.0;
     if (k >= last) return 1.0;
     return static_cast<double>(k - first) / (last - first);
   };

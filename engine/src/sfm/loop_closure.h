@@ -26,11 +26,11 @@ struct LoopClosure {
   double correction_deg = 0;  // and turned
 };
 
-// `image` is registered. Its verified pairs with registered images added
-// more than `options.loop_min_age` captures earlier are its old partners;
-// nothing happens when they give fewer than `options.min_pose_inliers`
-// agreeing 2D-3D matches, or when the image's pose already explains them
-// (within `options.max_reprojection_px`).
+// `image` is registered. Its verified pairs with registered images of its
+// component added more than `options.loop_min_age` captures earlier are its old
+// partners; nothing happens when they give fewer than
+// `options.min_pose_inliers` agreeing 2D-3D matches, or when the image's pose
+// already explains them (within `options.max_reprojection_px`).
 LoopClosure close_loop(Scene& scene, int image,
                        const ReconstructionOptions& options);
 

@@ -16,17 +16,6 @@
 namespace arscout::engine {
 namespace {
 
-class StageClock {
- public:
-  explicit StageClock(double& total)
-      : total_(total), start_(std::chrono::steady_clock::now()) {}
-  ~StageClock() { total_ += seconds_since(start_); }
-
- private:
-  double& total_;
-  std::chrono::steady_clock::time_point start_;
-};
-
 constexpr int kGlobalIterations = 30;
 
 // P3P with fewer inliers than this gets a second opinion from the
@@ -83,6 +72,10 @@ std::vector<int> IncrementalMapper::update() {
     }
   }
   register_by_points(registered, options_.max_registrations_per_update, {});
+  // Photos that no component reaches start one of their own (one a call,
+  // so that an increment stays bounded), which may let more register.
+  if (start_component(registered))
+    register_by_points(registered, options_.max_registrations_per_update, {});
   return registered;
 }
 
@@ -104,13 +97,14 @@ void IncrementalMapper::register_by_points(std::vector<int>& registered,
       return;
     }
     size_t best_count = 0;
-    const int best = next_image(failed, &best_count);
+    int component = 0;
+    const int best = next_image(failed, &best_count, &component);
     if (best < 0) break;
     const bool enough =
         static_cast<int>(best_count) >= options_.min_pose_inliers;
-    const bool by_points = enough && register_image(best);
+    const bool by_points = enough && register_image(best, component);
     if (by_points) second_opinion(best);
-    if (!by_points && !register_from_pair(best)) {
+    if (!by_points && !register_from_pair(best, component)) {
       if (!enough) {
         scene_.images[best].reason = "too few matches to the model (" +
                                      std::to_string(best_count) + " 2D-3D)";
@@ -132,7 +126,8 @@ void IncrementalMapper::extend_model(int index) {
   refine_keypoints(index);
   close_loops(index);
   adjust_local(index);
-  geo_register();
+  geo_register(scene_.images[index].component, scene_.geo_registered);
+  merge_through(index);
   if (global_inline() &&
       scene_.registered_count() >=
           options_.global_ba_growth * scene_.registered_at_last_global_ba) {
@@ -238,60 +233,62 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   return result;
 }
 
-// The unregistered image with the most 2D-3D correspondences (-1 if none
-// has any), skipping `failed`.
-int IncrementalMapper::next_image(const std::set<int>& failed,
-                                  size_t* count) const {
+// The unregistered image with the most 2D-3D correspondences to one
+// component (-1 if none has any), skipping `failed`, and that component;
+// only `only`'s when it is >= 0.
+int IncrementalMapper::next_image(const std::set<int>& failed, size_t* count,
+                                  int* component, int only) const {
   int best = -1;
   *count = 0;
   for (size_t i = 0; i < scene_.images.size(); ++i) {
     const SceneImage& image = scene_.images[i];
     if (image.removed || image.registered || failed.count(static_cast<int>(i)))
       continue;
-    const size_t n = correspondences(static_cast<int>(i)).size();
-    if (n > *count) {
+    for (const auto& [c, corr] :
+         correspondences_by_component(static_cast<int>(i))) {
+      if ((only >= 0 && c != only) || corr.size() <= *count) continue;
       best = static_cast<int>(i);
-      *count = n;
+      *count = corr.size();
+      *component = c;
     }
   }
   return best;
 }
 
-std::vector<std::pair<int, int64_t>> IncrementalMapper::correspondences(
-    int image) const {
-  std::vector<std::pair<int, int64_t>> result;
-  std::set<int> seen;
+std::map<int, std::vector<std::pair<int, int64_t>>>
+IncrementalMapper::correspondences_by_component(int image) const {
+  std::map<int, std::vector<std::pair<int, int64_t>>> result;
+  std::map<int, std::set<int>> seen;
   for (const auto& [other, pair] : scene_.pairs_of(image)) {
     const SceneImage& o = scene_.images[other];
     if (!o.registered) continue;
+    auto& out = result[o.component];
+    std::set<int>& taken = seen[o.component];
     for (const auto& [mine, theirs] : oriented_matches(image, other, *pair)) {
       const int64_t point = o.point_of[theirs];
-      if (point < 0 || !seen.insert(mine).second) continue;
-      result.emplace_back(mine, point);
+      if (point < 0 || !taken.insert(mine).second) continue;
+      out.emplace_back(mine, point);
     }
   }
   return result;
+}
+
+std::vector<std::pair<int, int64_t>> IncrementalMapper::correspondences(
+    int image, int component) const {
+  auto all = correspondences_by_component(image);
+  auto it = all.find(component);
+  if (it == all.end()) return {};
+  return std::move(it->second);
 }
 
 bool IncrementalMapper::initialize() {
   int usable = 0;
   for (const SceneImage& image : scene_.images) usable += image.removed ? 0 : 1;
   if (usable < 3) return false;
-  // Best-conditioned pairs first: many inliers with enough parallax, and
-  // not explained by a homography (a plane or a pure rotation). Parallax
-  // below 4 degrees discounts a pair in proportion; below 1 it is skipped.
-  std::vector<std::pair<double, std::pair<int, int>>> ranked;
-  for (const auto& [key, pair] : scene_.pairs) {
-    if (pair.median_angle_deg < 1.0 || pair.homography_ratio > 0.95) continue;
-    const double parallax = std::min(1.0, pair.median_angle_deg / 4.0);
-    ranked.push_back({pair.matches.size() * parallax, key});
-  }
-  std::sort(ranked.begin(), ranked.end(), [](const auto& x, const auto& y) {
-    return x.first != y.first ? x.first > y.first : x.second < y.second;
-  });
+  const auto ranked = initial_pairs([](int, int) { return true; });
   const size_t attempts = std::min<size_t>(ranked.size(), 3);
   for (size_t i = 0; i < attempts; ++i) {
-    const auto [a, b] = ranked[i].second;
+    const auto [a, b] = ranked[i];
     if (try_initial_pair(a, b, scene_.pairs.at({a, b}))) return true;
   }
   for (SceneImage& image : scene_.images) {
@@ -299,6 +296,26 @@ bool IncrementalMapper::initialize() {
       image.reason = "waiting for a well-conditioned initial pair";
   }
   return false;
+}
+
+// Best-conditioned pairs first: many inliers with enough parallax, and
+// not explained by a homography (a plane or a pure rotation). Parallax
+// below 4 degrees discounts a pair in proportion; below 1 it is skipped.
+std::vector<std::pair<int, int>> IncrementalMapper::initial_pairs(
+    const std::function<bool(int, int)>& usable) const {
+  std::vector<std::pair<double, std::pair<int, int>>> ranked;
+  for (const auto& [key, pair] : scene_.pairs) {
+    if (pair.median_angle_deg < 1.0 || pair.homography_ratio > 0.95) continue;
+    if (!usable(key.first, key.second)) continue;
+    const double parallax = std::min(1.0, pair.median_angle_deg / 4.0);
+    ranked.push_back({pair.matches.size() * parallax, key});
+  }
+  std::sort(ranked.begin(), ranked.end(), [](const auto& x, const auto& y) {
+    return x.first != y.first ? x.first > y.first : x.second < y.second;
+  });
+  std::vector<std::pair<int, int>> result;
+  for (const auto& entry : ranked) result.push_back(entry.second);
+  return result;
 }
 
 bool IncrementalMapper::try_initial_pair(int a, int b, const ImagePair& pair) {
@@ -310,6 +327,7 @@ bool IncrementalMapper::try_initial_pair(int a, int b, const ImagePair& pair) {
   second.q = Eigen::Quaterniond(pair.R).normalized();
   second.t = pair.t;
   first.registered = second.registered = true;
+  first.component = second.component = 0;
   scene_.reference_image = a;
   scene_.scale_image = b;
   {
@@ -326,35 +344,22 @@ bool IncrementalMapper::try_initial_pair(int a, int b, const ImagePair& pair) {
   adjust_global();
   // The model exists once a third image registers against it.
   scene_.initialized = true;
-  std::set<int> failed;
-  bool third = false;
-  for (int attempt = 0; attempt < 5 && !third; ++attempt) {
-    size_t best_count = 0;
-    const int best = next_image(failed, &best_count);
-    if (best < 0 || static_cast<int>(best_count) < options_.min_pose_inliers)
-      break;
-    if (register_image(best)) {
-      third = true;
-      triangulate_image(best);
-      refine_keypoints(best);
-      adjust_global();
-    } else {
-      failed.insert(best);
-    }
-  }
-  if (!third) {
+  const int third = register_third(0);
+  if (third < 0) {
     reset_model();
     return false;
   }
-  geo_register();
+  refine_keypoints(third);
+  adjust_global();
+  geo_register(0, false);
   return true;
 }
 
-bool IncrementalMapper::register_image(int index) {
+bool IncrementalMapper::register_image(int index, int component) {
   StageClock clock(timings_.pose_s);
   SceneImage& image = scene_.images[index];
   const SceneCamera& camera = scene_.cameras[image.camera];
-  const auto corr = correspondences(index);
+  const auto corr = correspondences(index, component);
   std::vector<Eigen::Vector3d> world;
   std::vector<Eigen::Vector2d> points;
   for (const auto& [keypoint, point] : corr) {
@@ -371,6 +376,7 @@ bool IncrementalMapper::register_image(int index) {
   image.q = pose->q;
   image.t = pose->t;
   image.registered = true;
+  image.component = component;
   image.status = CaptureStatus::kRegistered;
   image.reason.clear();
   image.pose_inliers = static_cast<int>(pose->inliers.size());
@@ -389,15 +395,15 @@ bool IncrementalMapper::register_image(int index) {
 // the registered neighbour it matches best gives the orientation and the
 // direction of the baseline; the 2D-3D matches it has then only need to
 // agree on the baseline's length.
-bool IncrementalMapper::register_from_pair(int index) {
+bool IncrementalMapper::register_from_pair(int index, int component) {
   StageClock clock(timings_.pose_s);
-  const auto corr = correspondences(index);
-  const auto pose = pair_pose(index, corr);
+  const auto corr = correspondences(index, component);
+  const auto pose = pair_pose(index, corr, component);
   // Few agreeing matches of many mean no hypothesis holds.
   if (!pose || pose->agreeing.size() < 3 ||
       3 * pose->agreeing.size() < corr.size())
     return false;
-  set_pose(index, pose->q, pose->centre, pose->agreeing);
+  set_pose(index, pose->q, pose->centre, pose->agreeing, component);
   return true;
 }
 
@@ -408,8 +414,9 @@ void IncrementalMapper::second_opinion(int index) {
   SceneImage& image = scene_.images[index];
   if (image.pose_inliers >= kConfidentInliers) return;
   StageClock clock(timings_.pose_s);
-  const auto corr = correspondences(index);
-  const auto pose = pair_pose(index, corr);
+  const int component = image.component;
+  const auto corr = correspondences(index, component);
+  const auto pose = pair_pose(index, corr, component);
   if (!pose || static_cast<int>(pose->agreeing.size()) <= image.pose_inliers)
     return;
   for (size_t k = 0; k < image.point_of.size(); ++k) {
@@ -419,16 +426,17 @@ void IncrementalMapper::second_opinion(int index) {
                Observation{index, static_cast<int>(k)});
     image.point_of[k] = -1;
   }
-  set_pose(index, pose->q, pose->centre, pose->agreeing);
+  set_pose(index, pose->q, pose->centre, pose->agreeing, component);
 }
 
 void IncrementalMapper::set_pose(
     int index, const Eigen::Quaterniond& q, const Eigen::Vector3d& centre,
-    const std::vector<std::pair<int, int64_t>>& agreeing) {
+    const std::vector<std::pair<int, int64_t>>& agreeing, int component) {
   SceneImage& image = scene_.images[index];
   image.q = q;
   image.t = -(q * centre);
   image.registered = true;
+  image.component = component;
   image.status = CaptureStatus::kRegistered;
   image.reason.clear();
   image.pose_inliers = static_cast<int>(agreeing.size());
@@ -441,13 +449,15 @@ void IncrementalMapper::set_pose(
 }
 
 // The best pose the relative pose to the best-matched registered
-// neighbour offers, and the 2D-3D matches it explains.
+// neighbour of `component` offers, and the 2D-3D matches it explains.
 std::optional<IncrementalMapper::PairPose> IncrementalMapper::pair_pose(
-    int index, const std::vector<std::pair<int, int64_t>>& corr) const {
+    int index, const std::vector<std::pair<int, int64_t>>& corr,
+    int component) const {
   int other = -1;
   const ImagePair* best = nullptr;
   for (const auto& [candidate, pair] : scene_.pairs_of(index)) {
-    if (!scene_.images[candidate].registered) continue;
+    const SceneImage& partner = scene_.images[candidate];
+    if (!partner.registered || partner.component != component) continue;
     if (!best || pair->matches.size() > best->matches.size()) {
       best = pair;
       other = candidate;
@@ -628,8 +638,10 @@ bool IncrementalMapper::triangulate_pair_match(Observation first,
 
 void IncrementalMapper::triangulate_image(int index) {
   StageClock clock(timings_.triangulation_s);
+  const int component = scene_.images[index].component;
   for (const auto& [other, pair] : scene_.pairs_of(index)) {
-    if (!scene_.images[other].registered) continue;
+    const SceneImage& partner = scene_.images[other];
+    if (!partner.registered || partner.component != component) continue;
     for (const auto& [mine, theirs] : oriented_matches(index, other, *pair)) {
       const int64_t p_mine = scene_.images[index].point_of[mine];
       const int64_t p_theirs = scene_.images[other].point_of[theirs];
@@ -834,13 +846,13 @@ void IncrementalMapper::filter_points(const std::vector<int>& images) {
 // The model's up direction from its cameras: level cameras have horizontal
 // x axes, so up is the direction most nearly perpendicular to all of them;
 // the mean of the cameras' up axes (-y) breaks the tie when the x axes are
-// nearly parallel (cameras all facing one way).
-Eigen::Vector3d IncrementalMapper::model_up() const {
+// nearly parallel (cameras all facing one way). Over one component.
+Eigen::Vector3d IncrementalMapper::model_up(int component) const {
   Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
   Eigen::Vector3d mean_up = Eigen::Vector3d::Zero();
   int count = 0;
   for (const SceneImage& image : scene_.images) {
-    if (!image.registered) continue;
+    if (!image.registered || image.component != component) continue;
     const Eigen::Matrix3d R = image.q.toRotationMatrix();
     const Eigen::Vector3d x_axis = R.row(0).transpose();
     scatter += x_axis * x_axis.transpose();
@@ -859,56 +871,64 @@ Eigen::Vector3d IncrementalMapper::model_up() const {
 // ENU up: the GPS heights are too noisy to fix the tilt.
 void IncrementalMapper::level(Similarity& sim,
                               const std::vector<Eigen::Vector3d>& fixes,
-                              const std::vector<int>& inliers) const {
+                              const std::vector<int>& inliers,
+                              int component) const {
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   for (int i : inliers) centroid += fixes[i];
   centroid /= std::max<size_t>(1, inliers.size());
-  const Eigen::Matrix3d fix = Eigen::Quaterniond::FromTwoVectors(
-                                  sim.R * model_up(), Eigen::Vector3d::UnitZ())
-                                  .toRotationMatrix();
+  const Eigen::Matrix3d fix =
+      Eigen::Quaterniond::FromTwoVectors(sim.R * model_up(component),
+                                         Eigen::Vector3d::UnitZ())
+          .toRotationMatrix();
   sim.R = fix * sim.R;
   sim.t = fix * (sim.t - centroid) + centroid;
 }
 
-// Moves the model into the site's ENU frame with a robust similarity from
-// camera centres to GPS positions, whenever the two disagree by more than
-// the adjustment itself would fix (the first time, and while few fixes make
-// the early fit uncertain).
-void IncrementalMapper::geo_register() {
-  if (!scene_.enu_origin) return;
+// Moves a component into the site's ENU frame with a robust similarity
+// from camera centres to GPS positions, whenever the two disagree by more
+// than the adjustment itself would fix (the first time, and while few fixes
+// make the early fit uncertain). `placed`: the component is in ENU already.
+// True when it is in ENU afterwards.
+bool IncrementalMapper::geo_register(int component, bool placed) {
+  if (!scene_.enu_origin) return placed;
   std::vector<Eigen::Vector3d> centres, fixes;
   double accuracy = 0;
   for (const SceneImage& image : scene_.images) {
-    if (!image.registered || !image.gps) continue;
+    if (!image.registered || !image.gps || image.component != component)
+      continue;
     centres.push_back(image.centre());
     fixes.push_back(image.gps_enu);
     accuracy += std::hypot(image.gps->h_acc * std::sqrt(2.0), image.gps->v_acc);
   }
-  if (centres.size() < 3) return;
+  if (centres.size() < 3) return placed;
   accuracy /= centres.size();
   std::vector<int> inliers;
   auto sim = estimate_similarity(centres, fixes, std::max(3 * accuracy, 5.0),
                                  scene_.images.size(), &inliers);
-  if (!sim) return;
-  if (options_.upright_sigma_deg > 0) level(*sim, fixes, inliers);
+  if (!sim) return placed;
+  if (options_.upright_sigma_deg > 0) level(*sim, fixes, inliers, component);
   const double angle = Eigen::AngleAxisd(sim->R).angle() * 180 / M_PI;
-  const bool far = !scene_.geo_registered || angle > 2 ||
+  const bool far = !placed || angle > 2 ||
                    std::abs(std::log(sim->scale)) > 0.02 || sim->t.norm() > 1.0;
-  if (!far) return;
-  transform_model(*sim);
+  if (!far) return true;
+  transform_model(*sim, component);
   scene_.geo_registered = true;
   if (global_inline()) {
     adjust_global();
   } else {
     scene_.registered_at_last_global_ba = 0;  // refine() is due
   }
+  return true;
 }
 
-void IncrementalMapper::transform_model(const Similarity& sim) {
-  for (auto& [id, point] : scene_.points) point.xyz = sim.apply(point.xyz);
+void IncrementalMapper::transform_model(const Similarity& sim, int component) {
+  for (auto& [id, point] : scene_.points) {
+    if (scene_.component_of_point(id) == component)
+      point.xyz = sim.apply(point.xyz);
+  }
   const Eigen::Quaterniond rotation(sim.R);
   for (SceneImage& image : scene_.images) {
-    if (!image.registered) continue;
+    if (!image.registered || image.component != component) continue;
     const Eigen::Vector3d centre = sim.apply(image.centre());
     image.q = (image.q * rotation.conjugate()).normalized();
     image.t = -(image.q * centre);
@@ -930,13 +950,16 @@ BundleOptions IncrementalMapper::bundle_options(int max_iterations) const {
 // directions; solving them first lets it converge in a few iterations.
 void IncrementalMapper::align_to_priors(const BundleOptions& ba) {
   if (!scene_.geo_registered) return;
-  auto sim = fit_model_to_priors(scene_, ba);
-  // Once in ENU the scale is known to a few percent; fixes that would halve
-  // or double it cannot tell (their noise exceeds the model's extent, as on
-  // the first steps of a walk), and following them would collapse it.
-  if (sim && sim->scale > 0.5 && sim->scale < 2 && sim->R.allFinite() &&
-      sim->t.allFinite())
-    transform_model(*sim);
+  for (const auto& [component, size] : scene_.component_sizes()) {
+    auto sim = fit_model_to_priors(scene_, ba, component);
+    // Once in ENU the scale is known to a few percent; fixes that would
+    // halve or double it cannot tell (their noise exceeds the model's
+    // extent, as on the first steps of a walk), and following them would
+    // collapse it.
+    if (sim && sim->scale > 0.5 && sim->scale < 2 && sim->R.allFinite() &&
+        sim->t.allFinite())
+      transform_model(*sim, component);
+  }
 }
 
 void IncrementalMapper::reset_model() {
@@ -956,6 +979,10 @@ void IncrementalMapper::reset_model() {
 }
 
 void IncrementalMapper::repair_after_removal() {
+  // A component left with fewer than 3 photos no longer holds itself up.
+  for (const auto& [component, size] : scene_.component_sizes()) {
+    if (size < 3) dissolve_component(component);
+  }
   if (scene_.registered_count() < 3) {
     reset_model();
     return;

@@ -2,9 +2,16 @@
 // initialization from the best-conditioned pair, registration of further
 // images by absolute pose, triangulation, bundle adjustment (local, and
 // global when the model has grown) and geo-registration to ENU.
+//
+// A scene holds components: separately reconstructed parts of one site
+// (a walk with a break, scouts starting in different places). Photos that
+// no component reaches start one of their own once the first is in ENU,
+// each is placed in ENU through its own photos' fixes, and a photo that
+// matches two of them merges them (sfm/components.cpp, docs/engine.md).
 #pragma once
 
 #include <functional>
+#include <map>
 #include <optional>
 #include <random>
 #include <set>
@@ -36,19 +43,38 @@ class IncrementalMapper {
   int loops_closed() const { return loops_closed_; }
   // Mean reprojection error over all observations, working pixels.
   double mean_reprojection_px() const;
-  // 2D-3D correspondences an unregistered image has (keypoint, point).
-  std::vector<std::pair<int, int64_t>> correspondences(int image) const;
+  // Components merged by this mapper's update() calls.
+  int components_merged() const { return components_merged_; }
+  // 2D-3D correspondences an image has with one component's points
+  // (keypoint, point).
+  std::vector<std::pair<int, int64_t>> correspondences(int image,
+                                                       int component) const;
+  // The same for every component its matches reach, by component.
+  std::map<int, std::vector<std::pair<int, int64_t>>>
+  correspondences_by_component(int image) const;
 
  private:
-  int next_image(const std::set<int>& failed, size_t* count) const;
+  int next_image(const std::set<int>& failed, size_t* count, int* component,
+                 int only = -1) const;
   bool initialize();
+  std::vector<std::pair<int, int>> initial_pairs(
+      const std::function<bool(int, int)>& usable) const;
   bool try_initial_pair(int a, int b, const ImagePair& pair);
+  // Components (sfm/components.cpp).
+  bool start_component(std::vector<int>& registered);
+  bool try_component_pair(int a, int b, std::vector<int>& registered);
+  int register_third(int component);
+  void dissolve_component(int component);
+  void merge_through(int index);
+  bool merge_components(int a, int b, int via);
+  void weld_seam(int component,
+                 const std::vector<std::pair<int64_t, int64_t>>& same_points);
   void register_by_points(std::vector<int>& registered, int limit,
                           const std::function<bool()>& stop);
   void extend_model(int index);
   bool catch_up(const std::function<bool()>& stop, RefineResult& result);
-  bool register_image(int index);
-  bool register_from_pair(int index);
+  bool register_image(int index, int component);
+  bool register_from_pair(int index, int component);
   void second_opinion(int index);
   struct PairPose {
     Eigen::Quaterniond q;
@@ -56,10 +82,12 @@ class IncrementalMapper {
     std::vector<std::pair<int, int64_t>> agreeing;
   };
   std::optional<PairPose> pair_pose(
-      int index, const std::vector<std::pair<int, int64_t>>& corr) const;
+      int index, const std::vector<std::pair<int, int64_t>>& corr,
+      int component) const;
   void set_pose(int index, const Eigen::Quaterniond& q,
                 const Eigen::Vector3d& centre,
-                const std::vector<std::pair<int, int64_t>>& agreeing);
+                const std::vector<std::pair<int, int64_t>>& agreeing,
+                int component);
   std::optional<double> baseline_length(
       int index, const Eigen::Matrix3d& R, const Eigen::Vector3d& C0,
       const Eigen::Vector3d& direction,
@@ -83,13 +111,13 @@ class IncrementalMapper {
   void adjust_global();
   bool global_inline() const;
   void filter_points(const std::vector<int>& images);
-  void geo_register();
-  void transform_model(const Similarity& sim);
+  bool geo_register(int component, bool placed);
+  void transform_model(const Similarity& sim, int component);
   BundleOptions bundle_options(int max_iterations) const;
   void align_to_priors(const BundleOptions& ba);
-  Eigen::Vector3d model_up() const;
+  Eigen::Vector3d model_up(int component) const;
   void level(Similarity& sim, const std::vector<Eigen::Vector3d>& fixes,
-             const std::vector<int>& inliers) const;
+             const std::vector<int>& inliers, int component) const;
   void reset_model();
   double threshold_normalized(int image) const;
   std::vector<int> covisible_images(int index, int limit) const;
@@ -98,6 +126,7 @@ class IncrementalMapper {
   const ReconstructionOptions& options_;
   StageTimings& timings_;
   int loops_closed_ = 0;
+  int components_merged_ = 0;
 };
 
 }  // namespace arscout::engine

@@ -1,5 +1,6 @@
 #include "sfm/model_builder.h"
 
+#include <algorithm>
 #include <map>
 
 namespace arscout::engine {
@@ -39,6 +40,30 @@ CameraIntrinsics refined_intrinsics(const SceneCamera& camera) {
   return c;
 }
 
+namespace {
+
+// The components' sizes, largest first.
+std::vector<ModelComponent> components_of(const Model& model) {
+  std::map<int, ModelComponent> by_id;
+  for (const ModelImage& image : model.images) {
+    by_id[image.component].id = image.component;
+    ++by_id[image.component].images;
+  }
+  for (const ModelPoint& point : model.points) {
+    if (!point.track.empty())
+      ++by_id[model.images[point.track.front().first].component].points;
+  }
+  std::vector<ModelComponent> result;
+  for (const auto& [id, component] : by_id) result.push_back(component);
+  std::stable_sort(result.begin(), result.end(),
+                   [](const ModelComponent& x, const ModelComponent& y) {
+                     return x.images > y.images;
+                   });
+  return result;
+}
+
+}  // namespace
+
 Model build_model(const Scene& scene) {
   Model model;
   model.geo_registered = scene.geo_registered;
@@ -60,6 +85,7 @@ Model build_model(const Scene& scene) {
     ModelImage out;
     out.id = image.id;
     out.camera = camera_index[image.camera];
+    out.component = image.component;
     out.qvec = {image.q.w(), image.q.x(), image.q.y(), image.q.z()};
     out.tvec = {image.t.x(), image.t.y(), image.t.z()};
     const Eigen::Vector3d c = image.centre();
@@ -97,6 +123,7 @@ Model build_model(const Scene& scene) {
     model.points.push_back(std::move(out));
   }
   model.mean_reprojection_px = error_count ? error_sum / error_count : 0;
+  model.components = components_of(model);
   return model;
 }
 

@@ -10,6 +10,18 @@ int Scene::registered_count() const {
                     [](const SceneImage& image) { return image.registered; }));
 }
 
+std::map<int, int> Scene::component_sizes() const {
+  std::map<int, int> sizes;
+  for (const SceneImage& image : images)
+    if (image.registered) ++sizes[image.component];
+  return sizes;
+}
+
+int Scene::component_of_point(int64_t id) const {
+  const ScenePoint& point = points.at(id);
+  return point.track.empty() ? -1 : images[point.track.front().image].component;
+}
+
 int Scene::find_image(const std::string& id) const {
   for (size_t i = 0; i < images.size(); ++i) {
     if (!images[i].removed && images[i].id == id) return static_cast<int>(i);

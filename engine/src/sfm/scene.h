@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -67,6 +68,10 @@ struct SceneImage {
   // because the features, stored apart once, hold the detected positions.
   std::vector<std::pair<int, Eigen::Vector2d>> refined_keypoints;
   bool registered = false;
+  // The component (a separately reconstructed part of the site) a
+  // registered image belongs to; meaningless while unregistered. The first
+  // model's is 0.
+  int component = 0;
   CaptureStatus status = CaptureStatus::kPending;
   std::string reason;
   int pose_inliers = 0;
@@ -107,11 +112,23 @@ struct Scene {
   // restored scene looks once).
   bool registration_backlog = false;
   // Gauge for models without GPS: the first pose is held fixed, and one
-  // coordinate of the second image's position fixes the scale.
+  // coordinate of the second image's position fixes the scale. Only the
+  // first component can be in a frame of its own: later ones start only
+  // once the model is in ENU, and are placed there as they form.
   int reference_image = -1;
   int scale_image = -1;
+  // The id the next component started gets (the first model's is 0).
+  int next_component = 1;
+  // Pairs of unregistered images that failed to start a component, so that
+  // every increment does not try them again (not serialized: a restored
+  // scene tries once more).
+  std::set<std::pair<int, int>> failed_component_pairs;
 
   int registered_count() const;
+  // Registered images per component id.
+  std::map<int, int> component_sizes() const;
+  // The component of a point: that of the images observing it.
+  int component_of_point(int64_t id) const;
   int find_image(const std::string& id) const;  // -1 when absent
   const ImagePair* pair(int a, int b) const;
   // Pointers into `pairs` for every pair touching `image`, with the other

@@ -69,6 +69,8 @@ void parse_head(const std::string& head, PhotoProgress& p) {
     if (word == "inliers") words >> p.inliers;
     if (word == "reproj") words >> p.reproj_px >> word;  // "px"
     if (word == "geo") p.geo = true;
+    if (word == "component") words >> p.component;
+    if (word == "merged") words >> p.merged;
     if (word == "loop" && words >> word && word == "closed")
       p.loop_closed = true;
     if (!words) throw std::runtime_error("bad figures");

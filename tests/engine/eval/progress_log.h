@@ -41,6 +41,8 @@ struct PhotoProgress {
   double reproj_px = kNaN;
   bool geo = false;
   bool loop_closed = false;
+  int component = -1;  // "component N": the one it registered in
+  int merged = 0;      // "merged N": components this increment merged
   // Stage name -> seconds ("decode", "undistort", ..., "ba", "total"); empty
   // for a line without stage times.
   std::map<std::string, double> stage_s;

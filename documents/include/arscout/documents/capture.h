@@ -45,6 +45,9 @@ struct Capture {
   std::string filename;   // or ""
   CaptureExif exif;
   std::string site;  // set by the engine once placed, else ""
+  // The component of the site's model it registered in (docs/engine.md,
+  // "Components"), set by the engine with the status "registered".
+  std::optional<int> component;
 };
 
 // The stored attributes: every field above, except that camera, site_hint,
@@ -58,9 +61,11 @@ nlohmann::json to_json(const Capture& capture);
 Capture capture_from_json(const nlohmann::json& attrs);
 
 // The merge patch that sets a capture's status (and, when `site` is given,
-// the site it was placed in).
+// the site it was placed in). `component` is written when registered and
+// removed otherwise.
 nlohmann::json status_patch(const std::string& status,
                             const std::string& reason,
-                            const std::string& site = "");
+                            const std::string& site = "",
+                            std::optional<int> component = std::nullopt);
 
 }  // namespace arscout::documents

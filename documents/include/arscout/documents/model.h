@@ -34,6 +34,17 @@ struct ModelImageEntry {
   std::array<double, 3> centre{0, 0, 0};
   std::optional<GeoPoint> geodetic;
   std::optional<bool> dense;  // in the published dense cloud (with one)
+  // The component it belongs to (ModelComponentEntry::id); absent in
+  // models written before components, which had one.
+  std::optional<int> component;
+};
+
+// A separately reconstructed part of the site (docs/engine.md,
+// "Components"): its id, registered images and sparse points.
+struct ModelComponentEntry {
+  int id = 0;
+  std::size_t images = 0;
+  std::size_t points = 0;
 };
 
 struct ModelStatistics {
@@ -62,6 +73,8 @@ struct ModelDocument {
   std::optional<GeoPoint> enu_origin;
   std::vector<ModelCameraEntry> cameras;
   std::vector<ModelImageEntry> images;  // in order of registration
+  // Largest first; empty in models written before components.
+  std::vector<ModelComponentEntry> components;
   std::map<std::string, std::string> capture_statuses;  // "captures"
   ModelStatistics statistics;
   std::vector<std::string> added;      // "increment": new in this version

@@ -9,6 +9,12 @@
 //   std::string state = site.serialize();   // ... later, in a new process:
 //   Reconstruction resumed = Reconstruction::restore(state, options);
 //
+// A site's model may be made of several components (separately
+// reconstructed parts: a walk with a break, scouts starting in different
+// places). Photos that reach no component start one of their own, each is
+// placed in ENU through its own fixes, and a photo that matches two merges
+// them (docs/engine.md, "Components").
+//
 // Per capture: decode at the working resolution, undistort through the
 // camera's look-up table, Harris corners with SIFT descriptors, matching
 // against the capture's GPS neighbours and recent captures (never all
@@ -85,6 +91,10 @@ struct ReconstructionOptions {
   // walk); the rest of them are registered by refine(), between captures, so
   // that no increment costs more than this many registrations. 0: no limit.
   int max_registrations_per_update = 8;
+  // Photos that reach no component start one of their own once the model
+  // is in ENU (docs/engine.md, "Components"); false keeps one chain, and
+  // such photos wait until it reaches them (COLMAP's multiple_models).
+  bool multiple_models = true;
   int threads = 2;
   // Fixed seeds and single-threaded solvers: the same inputs give
   // bit-identical output, also across serialize/restore.
@@ -131,6 +141,10 @@ struct AddResult {
   // Loops this capture closed: it matched old captures of the same place
   // whose points had drifted from its own (docs/engine.md).
   int loops_closed = 0;
+  // The component it registered in (-1 when not registered), and how many
+  // merges of two components this increment made.
+  int component = -1;
+  int components_merged = 0;
   StageTimings timings;
 };
 
@@ -145,7 +159,8 @@ struct ModelCamera {
 
 struct ModelImage {
   std::string id;
-  int camera = 0;  // index into Model::cameras
+  int camera = 0;     // index into Model::cameras
+  int component = 0;  // its component's id (ModelComponent::id)
   std::array<double, 4> qvec{1, 0, 0, 0};
   std::array<double, 3> tvec{0, 0, 0};
   std::array<double, 3> centre{0, 0, 0};
@@ -165,12 +180,22 @@ struct ModelPoint {
   std::vector<std::pair<int, int>> track;
 };
 
+// A separately reconstructed part of the model. Ids are stable while the
+// component lives; when two merge, the larger keeps its id.
+struct ModelComponent {
+  int id = 0;
+  int images = 0;
+  int points = 0;
+};
+
 struct Model {
-  bool geo_registered = false;
+  bool geo_registered = false;  // every component is in the site's ENU frame
   std::optional<Geodetic> enu_origin;
   std::vector<ModelCamera> cameras;
   std::vector<ModelImage> images;  // registered only, in order of addition
   std::vector<ModelPoint> points;
+  // Largest first (by images, then lowest id).
+  std::vector<ModelComponent> components;
   double mean_reprojection_px = 0;  // original-photo pixels
 };
 
@@ -194,6 +219,7 @@ struct CaptureState {
   std::string id;
   CaptureStatus status = CaptureStatus::kPending;
   std::string reason;
+  int component = -1;  // when registered
 };
 
 class Reconstruction {
