@@ -94,6 +94,7 @@ void expect_identical(const SceneImage& a, const SceneImage& b) {
   }
   EXPECT_EQ(a.point_of, b.point_of);
   EXPECT_EQ(a.registered, b.registered);
+  EXPECT_EQ(a.component, b.component);
   EXPECT_EQ(a.status, b.status);
   EXPECT_EQ(a.reason, b.reason);
   EXPECT_EQ(a.pose_inliers, b.pose_inliers);
@@ -147,6 +148,7 @@ void expect_identical(const Scene& a, const Scene& b) {
   EXPECT_EQ(a.initialized, b.initialized);
   EXPECT_EQ(a.registered_at_last_global_ba, b.registered_at_last_global_ba);
   EXPECT_EQ(a.reference_image, b.reference_image);
+  EXPECT_EQ(a.next_component, b.next_component);
   EXPECT_EQ(a.scale_image, b.scale_image);
 }
 
@@ -179,6 +181,8 @@ Scene make_rich_scene(int images, int points, int clutter) {
   scene.images[1].gps = GeoFix{47.37691, 8.54171, std::nullopt, 12.0, 30.0};
   scene.images[1].gps_enu = {1.0 / 7.0, 5.5, -0.0};
   scene.images[1].pose_inliers = 123;
+  scene.images[1].component = 7;  // a second component
+  scene.next_component = 8;
   SceneImage& withdrawn = scene.images[images - 2];
   withdrawn.removed = true;
   withdrawn.registered = false;
@@ -331,9 +335,11 @@ TEST(SerializationTest, FeaturesKeptApartMustBeGivenAndBeTheirs) {
 }
 
 // A scene without patches or refined keypoints as an older version wrote
-// it: version 2 had neither the patch count in an image's features nor the
-// refined keypoints after its point ids; version 1 had, besides, no flag
-// byte before the features (they were always inline).
+// it: version 3 had no component at the end of each image's record and no
+// next component id at the end; version 2 had, besides, neither the patch
+// count in an image's features nor the refined keypoints after its point
+// ids; version 1 had, besides, no flag byte before the features (they were
+// always inline).
 std::string as_older_version(const Scene& scene, int version) {
   // Where each image's record starts: the first at its id (a length, then
   // the bytes), the others as far on as the records before them take.
@@ -359,17 +365,20 @@ std::string as_older_version(const Scene& scene, int version) {
     const size_t patch_count = flag + 1 + (8 + 16 * n) + 4 +
                                (rows > 0 ? 8 + 512 * rows : 0) + (8 + 3 * n);
     const size_t refined = patch_count + 4 + 8 + 8 * image.point_of.size();
-    cuts.push_back({refined, 8});
-    cuts.push_back({patch_count, 4});
+    const size_t end = first_record + first_images(k + 1) - first_images(0);
+    cuts.push_back({end - 4, 4});  // the component
+    if (version <= 2) cuts.push_back({refined, 8});
+    if (version <= 2) cuts.push_back({patch_count, 4});
     if (version == 1) cuts.push_back({flag, 1});
   }
+  cuts.push_back({bytes.size() - 4, 4});  // the next component id
   std::sort(cuts.rbegin(), cuts.rend());
   for (const auto& [offset, length] : cuts) bytes.erase(offset, length);
   bytes[8] = static_cast<char>(version);  // the version after the magic
   return bytes;
 }
 
-TEST(SerializationTest, VersionOneAndTwoStatesStillRestore) {
+TEST(SerializationTest, VersionOneTwoAndThreeStatesStillRestore) {
   Scene scene = make_rich_scene(3, 20, 0);
   scene.pairs.clear();
   scene.points.clear();
@@ -377,8 +386,10 @@ TEST(SerializationTest, VersionOneAndTwoStatesStillRestore) {
     std::fill(image.point_of.begin(), image.point_of.end(), -1);
     image.patches = cv::Mat();
     image.refined_keypoints.clear();
+    image.component = 0;  // older states held one model
   }
-  for (int version : {1, 2}) {
+  scene.next_component = 1;
+  for (int version : {1, 2, 3}) {
     SCOPED_TRACE("version " + std::to_string(version));
     const Scene restored = deserialize_scene(as_older_version(scene, version));
     expect_identical(scene, restored);
