@@ -180,6 +180,12 @@ void print_dense_progress(const engine::DenseUpdate& u) {
 
 void print_refine(const engine::RefineResult& r) {
   if (!r.ran) return;
+  if (r.components_merged > 0) {
+    std::cout << std::fixed << std::setprecision(2)
+              << "      components merged: " << r.components_merged << ", "
+              << r.seconds << " s" << std::endl;
+    return;
+  }
   if (!r.registered.empty()) {
     std::cout << std::fixed << std::setprecision(2)
               << "      waiting registered: " << r.registered.size() << " (";
@@ -216,7 +222,7 @@ void refine_to_convergence(engine::Reconstruction& site) {
   for (int round = 0; round < 10 && site.refinement_due();) {
     const engine::RefineResult result = site.refine();
     print_refine(result);
-    if (result.registered.empty()) ++round;
+    if (result.registered.empty() && result.components_merged == 0) ++round;
   }
 }
 

@@ -256,16 +256,17 @@ std::vector<int> Reconstruction::Impl::loop_candidates(
   return result;
 }
 
-// The spatial partners, the captures added just before, registered
-// captures that share points with those, and the best of a cheap visual
-// screen over the rest (which also finds photos turned sideways or upside
-// down): never all pairs.
+// The spatial partners, the captures its scout added just before (several
+// scouts upload at once), registered captures that share points with
+// those, and the best of a cheap visual screen over the rest (which also
+// finds photos turned sideways or upside down): never all pairs.
 std::vector<Candidate> Reconstruction::Impl::neighbours(int index) const {
   const SceneImage& image = scene.images[index];
   std::set<int> chosen;
   int recent = 0;
   for (int i = index - 1; i >= 0 && recent < options.recent_neighbours; --i) {
-    if (scene.images[i].removed) continue;
+    if (scene.images[i].removed || scene.images[i].scout != image.scout)
+      continue;
     chosen.insert(i);
     ++recent;
   }
@@ -443,6 +444,7 @@ AddResult Reconstruction::add_capture(const CaptureInput& capture) {
 
   SceneImage image;
   image.id = capture.id;
+  image.scout = capture.scout;
   image.camera = camera;
   image.width = working.color.cols;
   image.height = working.color.rows;

@@ -95,6 +95,7 @@ void expect_identical(const SceneImage& a, const SceneImage& b) {
   EXPECT_EQ(a.point_of, b.point_of);
   EXPECT_EQ(a.registered, b.registered);
   EXPECT_EQ(a.component, b.component);
+  EXPECT_EQ(a.scout, b.scout);
   EXPECT_EQ(a.status, b.status);
   EXPECT_EQ(a.reason, b.reason);
   EXPECT_EQ(a.pose_inliers, b.pose_inliers);
@@ -182,6 +183,7 @@ Scene make_rich_scene(int images, int points, int clutter) {
   scene.images[1].gps_enu = {1.0 / 7.0, 5.5, -0.0};
   scene.images[1].pose_inliers = 123;
   scene.images[1].component = 7;  // a second component
+  scene.images[1].scout = "bob";
   scene.next_component = 8;
   SceneImage& withdrawn = scene.images[images - 2];
   withdrawn.removed = true;
@@ -366,7 +368,9 @@ std::string as_older_version(const Scene& scene, int version) {
                                (rows > 0 ? 8 + 512 * rows : 0) + (8 + 3 * n);
     const size_t refined = patch_count + 4 + 8 + 8 * image.point_of.size();
     const size_t end = first_record + first_images(k + 1) - first_images(0);
-    cuts.push_back({end - 4, 4});  // the component
+    // The component and the scout (a length, then its bytes).
+    cuts.push_back(
+        {end - 4 - 8 - image.scout.size(), 4 + 8 + image.scout.size()});
     if (version <= 2) cuts.push_back({refined, 8});
     if (version <= 2) cuts.push_back({patch_count, 4});
     if (version == 1) cuts.push_back({flag, 1});
@@ -387,6 +391,7 @@ TEST(SerializationTest, VersionOneTwoAndThreeStatesStillRestore) {
     image.patches = cv::Mat();
     image.refined_keypoints.clear();
     image.component = 0;  // older states held one model
+    image.scout.clear();
   }
   scene.next_component = 1;
   for (int version : {1, 2, 3}) {

@@ -5,6 +5,7 @@
 // second worker on the same store then finds nothing left to do.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -340,6 +341,100 @@ TEST(EngineWorker,
             all.size() - 1);
   const auto after = store->get(sites[0].path + "/model");
   EXPECT_EQ(after->attrs.at("statistics").value("registered", 0), 7);
+}
+
+// The model's cameras as the evaluator's poses, by photo name: the
+// capture id less its scout ("alice-0007" is 0007.jpg).
+std::map<std::string, eval::Pose> model_poses(const Json& model) {
+  std::map<std::string, eval::Pose> poses;
+  for (const Json& image : model.at("images")) {
+    const std::string id = image.at("id").get<std::string>();
+    const std::string name = id.substr(id.find('-') + 1) + ".jpg";
+    const auto q = image.at("qvec").get<std::array<double, 4>>();
+    const auto t = image.at("tvec").get<std::array<double, 3>>();
+    eval::Pose pose;
+    pose.name = name;
+    pose.R = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
+    pose.t = Eigen::Vector3d(t[0], t[1], t[2]);
+    poses[name] = pose;
+  }
+  return poses;
+}
+
+// Two scouts walk a loop round a small block at once, each their own half
+// (bench/service_bench --split): bob starts on the far side, where nothing
+// alice photographs reaches, so his photos start a component of their own
+// (placed by their fixes) instead of waiting; where the walks meet, the
+// components merge. In the end: one site, one component, every photo
+// registered, each capture naming the component, the cameras as accurate
+// as one scout's walk gives (docs/engine.md, "Components").
+TEST(EngineWorker, TwoScoutsSplittingAWalkEndInOneComponent) {
+  constexpr int kViews = 60;
+  auto store = db::Store::open(testing::fresh_sqlite_url());
+  const std::string dir = testing::make_temp_dir("split_walk");
+  const std::string command =
+      std::string(ARSCOUT_CLI) +
+      " render-site --scene block --width 640 --height 480 --seed 7 --views " +
+      std::to_string(kViews) + " --out " + dir + " > " + dir +
+      "/render.log 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  testing::put_calibrated_camera(
+      *store, "synthetic",
+      engine::read_k_matrix(dir + "/images/K.txt", 640, 480));
+  std::mutex seen_mutex;
+  size_t most_components = 0;
+  auto models = store->subscribe(
+      "/sites/*/model", store->last_seq(), [&](const db::Change& change) {
+        auto doc = store->get(change.path);
+        if (!doc) return;
+        std::lock_guard lock(seen_mutex);
+        most_components =
+            std::max(most_components,
+                     doc->attrs.value("components", Json::array()).size());
+      });
+  engine::WorkerOptions options;
+  options.dense = false;
+  engine::EngineWorker worker(*store, options);
+  worker.start();
+  const auto fixes = ingest::read_gps_csv(dir + "/gps.csv");
+  const auto all = photos(dir + "/images");
+  ASSERT_EQ(all.size(), static_cast<size_t>(kViews));
+  for (int i = 0; i < kViews / 2; ++i) {
+    for (const auto& [scout, k] :
+         {std::pair{"alice", i}, std::pair{"bob", i + kViews / 2}}) {
+      upload(*store, scout, all[k], fixes.at(all[k].filename().string()),
+             "synthetic");
+    }
+  }
+  ASSERT_TRUE(worker.wait_idle(std::chrono::minutes(15)));
+  worker.stop();
+  models->stop();
+  const auto sites = store->list_children("/sites");
+  ASSERT_EQ(sites.size(), 1u);
+  const auto model = store->get(sites[0].path + "/model");
+  ASSERT_TRUE(model);
+  const Json& components = model->attrs.at("components");
+  std::cout << "split walk: " << model->attrs.at("statistics").dump()
+            << ", components " << components.dump() << ", at most "
+            << most_components << " at once" << std::endl;
+  EXPECT_EQ(model->attrs.at("statistics").value("registered", 0), kViews);
+  ASSERT_EQ(components.size(), 1u);
+  EXPECT_GE(most_components, 2u) << "bob's half never had its own component";
+  const int component = components[0].value("id", -1);
+  for (const db::Document& capture : store->list_children("/captures")) {
+    EXPECT_EQ(capture.attrs.value("status", ""), "registered") << capture.path;
+    EXPECT_EQ(capture.attrs.value("component", -1), component) << capture.path;
+  }
+  const eval::PoseComparison poses = eval::compare_to_ground_truth(
+      model_poses(model->attrs),
+      eval::read_strecha_ground_truth(dir + "/gt_dense_cameras"));
+  std::cout << "split walk: " << poses.matched << "/" << kViews
+            << " registered, centre error median " << poses.median_centre_error
+            << " m, max " << poses.max_centre_error << " m" << std::endl;
+  EXPECT_EQ(poses.matched, kViews);
+  EXPECT_LE(poses.median_centre_error, 0.02);
+  EXPECT_LE(poses.max_centre_error, 0.10);
+  if (!HasFailure()) fs::remove_all(dir);
 }
 
 }  // namespace

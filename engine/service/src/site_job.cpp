@@ -170,6 +170,7 @@ CaptureInput SiteJob::capture_input(const std::string& capture) {
   input.image_bytes = image_bytes(capture);
   const documents::Capture attrs = documents::capture_from_json(doc->attrs);
   input.gps = geo_fix(attrs.gps);
+  input.scout = attrs.scout;
   if (!attrs.camera.empty()) {
     input.camera_id = attrs.camera;
     if (auto cam = store_.get("/cameras/" + attrs.camera))
@@ -364,11 +365,14 @@ Increment SiteJob::run_refine(const std::function<bool()>& stop) {
   add_state_ops(model, {}, &increment.ops);
   increment.model_written = true;
   increment.refine_again =
-      !refined.registered.empty() && sparse_->refinement_due();
+      (!refined.registered.empty() || refined.components_merged > 0) &&
+      sparse_->refinement_due();
   pending_model_version_ = model_version_ + 1;
   std::ostringstream summary;
   summary << "site " << id_ << ": ";
-  if (refined.registered.empty()) {
+  if (refined.components_merged > 0) {
+    summary << "merged " << refined.components_merged << " components";
+  } else if (refined.registered.empty()) {
     summary << "global refinement of " << refined.images << " key views, "
             << refined.iterations << " iterations";
   } else {

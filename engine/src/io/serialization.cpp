@@ -16,7 +16,8 @@ namespace {
 constexpr char kMagic[8] = {'A', 'R', 'S', 'C', 'E', 'N', 'E', '1'};
 // Version 2 added the per-image flag for features kept apart.
 // Version 3 adds the keypoint patches and the refined keypoints.
-// Version 4 adds each image's component and the next component id.
+// Version 4 adds each image's component and scout, and the next component
+// id.
 constexpr uint32_t kVersion = 4;
 constexpr char kFeaturesMagic[8] = {'A', 'R', 'S', 'F', 'E', 'A', 'T', '1'};
 // Features with patches; the form written now.
@@ -271,6 +272,7 @@ void write_image(Writer& w, const SceneImage& image, bool features_apart) {
   w.matrix(image.q.coeffs());
   w.matrix(image.t);
   w.pod(image.component);
+  w.str(image.scout);
 }
 
 // The refined positions overwrite the detected ones the features hold (and
@@ -321,6 +323,7 @@ SceneImage read_image(Reader& r, uint32_t version,
   // States before components held one model: component 0.
   image.component = version >= 4 ? r.pod<int>() : 0;
   if (image.component < 0) r.fail("component of image " + image.id);
+  if (version >= 4) image.scout = r.str();
   if (image.point_of.size() != image.keypoints.size() ||
       image.colors.size() != image.keypoints.size() ||
       image.descriptors.rows != static_cast<int>(image.keypoints.size()) ||

@@ -122,6 +122,7 @@ void IncrementalMapper::register_by_points(std::vector<int>& registered,
 // What follows a registration: the image's points, its keypoints moved
 // onto their tracks, a loop it may close, the adjustments.
 void IncrementalMapper::extend_model(int index) {
+  scene_.merge_sweep_due = true;
   triangulate_image(index);
   refine_keypoints(index);
   close_loops(index);
@@ -158,7 +159,8 @@ bool IncrementalMapper::global_inline() const {
 bool IncrementalMapper::refinement_due() const {
   return scene_.initialized &&
          (scene_.registration_backlog ||
-          scene_.registered_count() != scene_.registered_at_last_global_ba);
+          scene_.registered_count() != scene_.registered_at_last_global_ba ||
+          (scene_.merge_sweep_due && scene_.component_sizes().size() > 1));
 }
 
 // The captures add_capture left waiting at its limit, registered between
@@ -180,6 +182,12 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   RefineResult result;
   if (!refinement_due()) return result;
   const auto start = std::chrono::steady_clock::now();
+  result.components_merged = sweep_merges(stop);
+  if (result.components_merged > 0) {
+    result.ran = result.converged = true;
+    result.seconds = seconds_since(start);
+    return result;
+  }
   if (catch_up(stop, result)) {
     result.seconds = seconds_since(start);
     return result;

@@ -7,7 +7,8 @@
 // (a walk with a break, scouts starting in different places). Photos that
 // no component reaches start one of their own once the first is in ENU,
 // each is placed in ENU through its own photos' fixes, and a photo that
-// matches two of them merges them (sfm/components.cpp, docs/engine.md).
+// links two of them merges them (sfm/components.cpp,
+// sfm/component_merge.cpp, docs/engine.md).
 #pragma once
 
 #include <functional>
@@ -60,14 +61,35 @@ class IncrementalMapper {
   std::vector<std::pair<int, int>> initial_pairs(
       const std::function<bool(int, int)>& usable) const;
   bool try_initial_pair(int a, int b, const ImagePair& pair);
-  // Components (sfm/components.cpp).
+  // Components (sfm/components.cpp, sfm/component_merge.cpp).
   bool start_component(std::vector<int>& registered);
   bool try_component_pair(int a, int b, std::vector<int>& registered);
   int register_third(int component);
   void dissolve_component(int component);
   void merge_through(int index);
+  int sweep_merges(const std::function<bool()>& stop);
   bool merge_components(int a, int b, int via);
-  void weld_seam(int component,
+  std::map<int, Eigen::Vector3d> bridge_points(int via, const SceneImage& posed,
+                                               int component) const;
+  void common_positions(int keep, int gone, int via,
+                        std::vector<Eigen::Vector3d>* in_keep,
+                        std::vector<Eigen::Vector3d>* in_gone,
+                        std::vector<std::pair<int64_t, int64_t>>* same) const;
+  std::optional<Similarity> point_similarity(
+      int keep, int gone, int via,
+      std::vector<std::pair<int64_t, int64_t>>* agreed) const;
+  struct Hinge {
+    int image = 0;
+    Eigen::Quaterniond keep_q;
+    Eigen::Vector3d keep_centre;
+    Eigen::Quaterniond gone_q;
+    Eigen::Vector3d gone_centre;
+  };
+  std::vector<Hinge> hinges(int keep, int gone) const;
+  std::optional<Similarity> hinge_similarity(
+      const std::vector<Hinge>& hinges) const;
+  std::optional<AbsolutePose> pose_in(int index, int component) const;
+  void weld_seam(int component, const std::vector<int>& bridges,
                  const std::vector<std::pair<int64_t, int64_t>>& same_points);
   void register_by_points(std::vector<int>& registered, int limit,
                           const std::function<bool()>& stop);

@@ -48,6 +48,7 @@ struct ScenePoint {
 
 struct SceneImage {
   std::string id;
+  std::string scout;  // CaptureInput::scout
   int camera = 0;
   bool removed = false;
   int width = 0;  // working resolution
@@ -123,6 +124,9 @@ struct Scene {
   // every increment does not try them again (not serialized: a restored
   // scene tries once more).
   std::set<std::pair<int, int>> failed_component_pairs;
+  // Components may have become mergeable since the last look (a photo
+  // registered or a component started; a restored scene looks once).
+  bool merge_sweep_due = true;
 
   int registered_count() const;
   // Registered images per component id.

@@ -200,6 +200,7 @@ TEST(BlockWalk, AGapGivesTwoComponentsThenOneOrAWaitInOneChain) {
         far_side.insert(photo.component);
       merged += photo.merged;
     }
+    merged += log.components_merged;
     eval::PoseComparison& p = poses[chain ? 0 : 1];
     p = eval::compare_to_ground_truth(
         eval::read_colmap_images_txt(out + "/sparse/images.txt"),

@@ -147,6 +147,11 @@ ProgressLog parse_progress_log(std::istream& in, const std::string& path) {
         if (std::sscanf(text.c_str(), "waiting registered: %d", &count) != 1)
           throw std::runtime_error("bad waiting line");
         log.waiting_registered += count;
+      } else if (starts_with(text, "components merged: ")) {
+        int count = 0;
+        if (std::sscanf(text.c_str(), "components merged: %d", &count) != 1)
+          throw std::runtime_error("bad components line");
+        log.components_merged += count;
       } else if (starts_with(line, "registered ")) {
         std::sscanf(line.c_str(), "registered %d images", &log.registered);
       }

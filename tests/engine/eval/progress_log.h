@@ -65,6 +65,7 @@ struct ProgressLog {
   std::vector<RefineProgress> refines;
   int registered = -1;         // from the final "registered N images" line; -1
   int waiting_registered = 0;  // summed over "waiting registered:" lines
+  int components_merged = 0;   // summed over "components merged:" lines
 
   double refine_seconds() const;
 };

@@ -46,7 +46,7 @@ struct ReconstructionOptions {
   int max_features = 3000;    // Harris corners per image (the strongest)
   int gps_neighbours = 6;     // k nearest captures by GPS to match against
   double gps_radius_m = 150;  // ... within this distance
-  int recent_neighbours = 3;  // and the captures added just before
+  int recent_neighbours = 3;  // and its scout's captures added just before
   int visual_neighbours = 4;  // plus registered captures sharing points
   // Partners for parallax: the nearest capture in each distance band
   // [b, 2b) for b = baseline_min_m, 2 baseline_min_m, ... (this many bands),
@@ -110,6 +110,9 @@ struct CaptureInput {
   // Captures naming the same camera share (and jointly refine) intrinsics.
   std::string camera_id;
   std::optional<GeoFix> gps;
+  // Who took it: a photo is matched with its own scout's recent photos
+  // (its walk), not with whoever uploaded just before. "" when unknown.
+  std::string scout;
 };
 
 struct StageTimings {
@@ -213,6 +216,9 @@ struct RefineResult {
   // Waiting captures this call registered (ids, in order); when any, the
   // call did only that, and the global adjustment is due next.
   std::vector<std::string> registered;
+  // Components this call merged (the photos that link them came in before
+  // the second grew to meet them); when any, the call did only that.
+  int components_merged = 0;
 };
 
 struct CaptureState {
@@ -245,9 +251,11 @@ class Reconstruction {
   // progress made so far (each accepted iteration lowers the cost), so a
   // caller can run it between captures and give way to a new one. Does
   // nothing when nothing was registered since the last complete run.
-  // Captures that add_capture left waiting beyond
-  // `max_registrations_per_update` come first: refine() registers them,
-  // asking `stop` after each, and returns; the adjustment is the next call's.
+  // Components that the photos registered since the last call link come
+  // first: refine() merges them and returns. Then the captures that
+  // add_capture left waiting beyond `max_registrations_per_update`:
+  // refine() registers them, asking `stop` after each, and returns; the
+  // adjustment is the next call's.
   RefineResult refine(const std::function<bool()>& stop = {});
   // True when refine() has work to do.
   bool refinement_due() const;
