@@ -5,8 +5,9 @@
 // a scene would store them.
 //
 //   service_bench [--scene DIR] [--scouts 1] [--interval 2] [--views N]
-//                 [--db URL] [--no-dense] [--per-capture]
-//                 [--dense-new-coverage S] [--dense-long-side PX]
+//                 [--split] [--toward] [--db URL] [--no-dense]
+//                 [--per-capture] [--dense-new-coverage S]
+//                 [--dense-long-side PX]
 //
 // DIR holds images/*.jpg, images/K.txt and gps.csv: a Strecha scene
 // (fountain-P11 by default) or a rendered block walk (`arscout render-site
@@ -14,7 +15,14 @@
 // --scouts scouts; each scout stores one every --interval seconds, the
 // scouts evenly staggered, so the engine sees the walk in order at
 // scouts / interval photos per second (two scouts covering both sides of
-// one street walk together).
+// one street walk together). With --split each scout walks a contiguous
+// part of the walk instead (scout k the k-th of --scouts equal parts), all
+// at once, so they start in different places; with --toward as well, every
+// second scout walks its part backwards, so that two scouts on the first
+// half of a loop walk (--views half the rendered views) start at its two
+// ends, half the block apart, and walk toward each other. The report then
+// adds, per scout, the share registered and its latency, and when the
+// sites' components merged.
 //
 // The worker runs in this process on the store (as `arscout serve
 // --with-engine` does); captures are written as the API writes them. Times
@@ -67,6 +75,8 @@ struct Options {
   double interval_s = 2;
   int scouts = 1;
   int views = 0;  // all
+  bool split = false;
+  bool toward = false;
   bool no_dense = false;
   bool per_capture = false;
   double new_coverage = 0;  // DenseOptions::new_coverage_share
@@ -92,8 +102,17 @@ struct IncrementSeen {
 };
 
 // What the model feed showed, keyed by capture id.
+// A site's components as one model version showed them.
+struct ComponentsSeen {
+  double at_s = 0;  // since the first photo was stored
+  std::string site;
+  size_t components = 0;
+};
+
 struct Observed {
   std::mutex mutex;
+  std::int64_t start_us = 0;  // the first photo's commit
+  std::vector<ComponentsSeen> components;
   std::map<std::string, std::int64_t> stored_us;
   std::map<std::string, std::int64_t> registered_us;
   std::map<std::string, std::int64_t> dense_us;
@@ -118,12 +137,23 @@ std::vector<Photo> walk_photos(const Options& o) {
   if (o.views > 0 && paths.size() > static_cast<size_t>(o.views))
     paths.resize(static_cast<size_t>(o.views));
   std::vector<Photo> photos;
-  for (size_t i = 0; i < paths.size(); ++i) {
-    const int scout = static_cast<int>(i % static_cast<size_t>(o.scouts));
-    const double round = static_cast<double>(i / o.scouts);
-    photos.push_back({paths[i], paths[i].stem().string(), scout,
-                      o.interval_s * (round + double(scout) / o.scouts)});
+  const size_t n = paths.size();
+  const size_t scouts = static_cast<size_t>(o.scouts);
+  for (size_t i = 0; i < n; ++i) {
+    // Round robin, or each scout its own part (the k-th of `scouts`).
+    const size_t scout = o.split ? i * scouts / n : i % scouts;
+    const size_t begin = (scout * n + scouts - 1) / scouts;
+    const size_t end = ((scout + 1) * n + scouts - 1) / scouts;
+    size_t step = o.split ? i - begin : i / scouts;
+    if (o.split && o.toward && scout % 2 == 1) step = end - 1 - i;
+    photos.push_back({paths[i], paths[i].stem().string(),
+                      static_cast<int>(scout),
+                      o.interval_s * (double(step) + double(scout) / scouts)});
   }
+  // Stored in the order they are taken.
+  std::stable_sort(
+      photos.begin(), photos.end(),
+      [](const Photo& a, const Photo& b) { return a.at_s < b.at_s; });
   return photos;
 }
 
@@ -151,6 +181,10 @@ void on_model(arscout::db::Store& store, const arscout::db::Change& change,
   const double sparse_s =
       attrs.value("timings", Json::object()).value("sparse_s", 0.0);
   if (added > 0 && sparse_s > 0) seen.increments.push_back({added, sparse_s});
+  const size_t components = attrs.value("components", Json::array()).size();
+  if (seen.start_us > 0)
+    seen.components.push_back({double(change.time_us - seen.start_us) / 1e6,
+                               attrs.value("site", std::string()), components});
   // Each image says whether the cloud covers its view (its depth map or
   // its key views'); a model without that says it for all at once.
   const bool dense_current = attrs.value("dense_state", "") != "pending";
@@ -183,6 +217,7 @@ void store_photo(arscout::db::Store& store, const Photo& photo,
   const auto doc = store.get("/captures/" + photo.id);
   std::lock_guard lock(seen.mutex);
   seen.stored_us[photo.id] = doc->created_us;
+  if (seen.start_us == 0) seen.start_us = doc->created_us;
 }
 
 // Latencies in walk order (seconds); NaN for a capture never reached.
@@ -267,6 +302,47 @@ void print_state_bytes(arscout::db::Store& store, int registered) {
       depth / 1e6, depth / n / 1e3);
 }
 
+// Per scout: the share of its photos registered, and their latency.
+void print_scouts(const Options& o, const std::vector<Photo>& photos,
+                  const std::vector<double>& registered) {
+  std::printf(
+      "\n| scout | photos | registered | latency p50 | p95 | max |\n"
+      "|---|---|---|---|---|---|\n");
+  for (int scout = 0; scout < o.scouts; ++scout) {
+    std::vector<double> mine;
+    size_t count = 0;
+    for (size_t i = 0; i < photos.size(); ++i) {
+      if (photos[i].scout != scout) continue;
+      ++count;
+      if (std::isfinite(registered[i])) mine.push_back(registered[i]);
+    }
+    std::printf(
+        "| %d | %zu | %.1f %% | %.2f s | %.2f s | %.2f s |\n", scout + 1, count,
+        100.0 * mine.size() / std::max<size_t>(1, count), percentile(mine, .5),
+        percentile(mine, .95), percentile(mine, 1.0));
+  }
+}
+
+// When each site's component count changed (a new one, or a merge), and
+// the sites with models at the end.
+void print_components(const Observed& seen) {
+  std::map<std::string, size_t> last;
+  std::printf("\ncomponents over time (s since the first photo):");
+  for (const ComponentsSeen& c : seen.components) {
+    auto it = last.find(c.site);
+    if (it != last.end() && it->second == c.components) continue;
+    std::printf(
+        " %.0f s %s: %zu%s;", c.at_s, c.site.c_str(), c.components,
+        it != last.end() && it->second > c.components ? " (merged)" : "");
+    last[c.site] = c.components;
+  }
+  std::printf("\nat the end: %zu site(s) with a model:", last.size());
+  for (const auto& [site, components] : last)
+    std::printf(" %s (%zu component%s)", site.c_str(), components,
+                components == 1 ? "" : "s");
+  std::printf("\n");
+}
+
 void print_report(arscout::db::Store& store, const Options& o,
                   const std::vector<Photo>& photos, Observed& seen) {
   std::lock_guard lock(seen.mutex);
@@ -281,11 +357,17 @@ void print_report(arscout::db::Store& store, const Options& o,
   }
   std::printf("\n%s", bench::machine_summary().c_str());
   std::printf(
-      "%zu photos from %s, %d scout(s), one every %.1f s each, "
+      "%zu photos from %s, %d scout(s)%s, one every %.1f s each, "
       "dense %s (long side %d px, new coverage %.2f)\n",
-      photos.size(), o.scene.c_str(), o.scouts, o.interval_s,
-      o.no_dense ? "off" : "on", o.dense_long_side, o.new_coverage);
+      photos.size(), o.scene.c_str(), o.scouts,
+      o.split ? (o.toward ? " each on its part, toward each other"
+                          : " each on its part of the walk")
+              : " sharing the walk",
+      o.interval_s, o.no_dense ? "off" : "on", o.dense_long_side,
+      o.new_coverage);
   print_latency("to a model registering it", registered);
+  print_scouts(o, photos, registered);
+  print_components(seen);
   if (!o.no_dense) {
     print_latency("to its dense cloud", dense);
     print_latency("to a model with dense_state current (the earlier rule)",
@@ -352,6 +434,11 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 64));
   app.add_option("--views", o.views, "only the first N photos (0: all)")
       ->check(CLI::NonNegativeNumber);
+  app.add_flag("--split", o.split,
+               "each scout walks its own contiguous part of the walk, all "
+               "at once (else they share it round robin)");
+  app.add_flag("--toward", o.toward,
+               "with --split: every second scout walks its part backwards");
   app.add_flag("--no-dense", o.no_dense, "sparse only");
   app.add_flag("--per-capture", o.per_capture, "a row per capture");
   app.add_option("--dense-new-coverage", o.new_coverage,

@@ -46,6 +46,7 @@ Json to_json(const Site& s) {
             {"model_version", s.model_version},
             {"state", s.state},
             {"engine", s.engine}};
+  if (!s.merged_into.empty()) j["merged_into"] = s.merged_into;
   if (s.centre)
     j["gps"] = {
         {"lat", s.centre->lat}, {"lon", s.centre->lon}, {"alt", s.centre->alt}};
@@ -68,6 +69,7 @@ Site site_from_json(const Json& attrs, const std::string& id) {
       fields::number(attrs, "model_version").value_or(0));
   s.state = fields::string_or(attrs, "state");
   s.engine = fields::string_or(attrs, "engine");
+  s.merged_into = fields::string_or(attrs, "merged_into");
   return s;
 }
 

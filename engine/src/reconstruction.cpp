@@ -33,6 +33,10 @@ constexpr int kScreenMaxImages = 60;
 constexpr int kSpatialScreen = 4;
 // Old captures near a new one screened for a loop.
 constexpr int kLoopScreen = 8;
+// When two sites' scenes join: the photos of the other nearest this one's,
+// each matched with this many of its nearest photos here.
+constexpr size_t kAcrossPhotos = 8;
+constexpr size_t kAcrossPartners = 3;
 
 // Registered captures closer than this fraction of the scene's depth and
 // turned less than this are near duplicates as match partners.
@@ -99,6 +103,8 @@ struct Reconstruction::Impl {
   std::vector<Candidate> visual_screen(int index,
                                        const std::set<int>& skip) const;
   int match_image(int index, StageTimings& timings);
+  bool verify_pair(int index, int other_index, int turns);
+  int match_across(int first);
   void set_gps(SceneImage& image, const std::optional<GeoFix>& fix);
 };
 
@@ -363,34 +369,71 @@ std::vector<Candidate> Reconstruction::Impl::visual_screen(
 int Reconstruction::Impl::match_image(int index, StageTimings& timings) {
   const auto start = std::chrono::steady_clock::now();
   int verified = 0;
+  for (const auto& [other_index, turns] : neighbours(index))
+    verified += verify_pair(index, other_index, turns) ? 1 : 0;
+  timings.matching_s += seconds_since(start);
+  return verified;
+}
+
+// Matches `index` (its descriptors turned by `turns` quarter turns) with
+// the earlier `other_index` and keeps the pair when the essential matrix
+// verifies it.
+bool Reconstruction::Impl::verify_pair(int index, int other_index, int turns) {
   const SceneImage& image = scene.images[index];
   const SceneCamera& camera = scene.cameras[image.camera];
-  for (const auto& [other_index, turns] : neighbours(index)) {
-    const SceneImage& other = scene.images[other_index];
-    const SceneCamera& other_camera = scene.cameras[other.camera];
-    const auto matches = match_descriptors(
-        other.descriptors, rotate_descriptors(image.descriptors, turns),
-        options.ratio, options.threads);
-    std::vector<Eigen::Vector2d> x1, x2;
-    for (const auto& [a, b] : matches) {
-      x1.push_back(normalize(other_camera, other.keypoints[a]));
-      x2.push_back(normalize(camera, image.keypoints[b]));
-    }
-    const double threshold =
-        kEssentialThresholdPx * 2 / (camera.params[0] + other_camera.params[0]);
-    const auto pose =
-        estimate_relative_pose(x1, x2, threshold, options.min_pair_inliers);
-    if (!pose) continue;
-    ImagePair pair;
-    for (int i : pose->inliers) pair.matches.push_back(matches[i]);
-    pair.R = pose->R;
-    pair.t = pose->t;
-    pair.median_angle_deg = pose->median_angle_deg;
-    pair.homography_ratio = pose->homography_ratio;
-    scene.pairs[{other_index, index}] = std::move(pair);
-    ++verified;
+  const SceneImage& other = scene.images[other_index];
+  const SceneCamera& other_camera = scene.cameras[other.camera];
+  const auto matches = match_descriptors(
+      other.descriptors, rotate_descriptors(image.descriptors, turns),
+      options.ratio, options.threads);
+  std::vector<Eigen::Vector2d> x1, x2;
+  for (const auto& [a, b] : matches) {
+    x1.push_back(normalize(other_camera, other.keypoints[a]));
+    x2.push_back(normalize(camera, image.keypoints[b]));
   }
-  timings.matching_s += seconds_since(start);
+  const double threshold =
+      kEssentialThresholdPx * 2 / (camera.params[0] + other_camera.params[0]);
+  const auto pose =
+      estimate_relative_pose(x1, x2, threshold, options.min_pair_inliers);
+  if (!pose) return false;
+  ImagePair pair;
+  for (int i : pose->inliers) pair.matches.push_back(matches[i]);
+  pair.R = pose->R;
+  pair.t = pose->t;
+  pair.median_angle_deg = pose->median_angle_deg;
+  pair.homography_ratio = pose->homography_ratio;
+  scene.pairs[{other_index, index}] = std::move(pair);
+  return true;
+}
+
+// After absorbing another scene (its photos from `first` on): the absorbed
+// photos nearest this scene's own are matched with their nearest own
+// photos, a bounded number (the two sites met where their photos are
+// close). Returns the pairs verified.
+int Reconstruction::Impl::match_across(int first) {
+  std::vector<std::pair<double, int>> nearest;  // (distance to ours, theirs)
+  for (int j = first; j < static_cast<int>(scene.images.size()); ++j) {
+    if (scene.images[j].removed || scene.images[j].keypoints.empty()) continue;
+    double best = options.gps_radius_m;
+    for (int i = 0; i < first; ++i) {
+      if (scene.images[i].removed || !scene.images[i].gps) continue;
+      best = std::min(best, (position(i) - position(j)).head<2>().norm());
+    }
+    if (best < options.gps_radius_m) nearest.push_back({best, j});
+  }
+  std::sort(nearest.begin(), nearest.end());
+  if (nearest.size() > kAcrossPhotos) nearest.resize(kAcrossPhotos);
+  int verified = 0;
+  for (const auto& [distance, j] : nearest) {
+    std::vector<std::pair<double, int>> ours;
+    for (int i = 0; i < first; ++i) {
+      if (scene.images[i].removed || !scene.images[i].gps) continue;
+      ours.push_back({(position(i) - position(j)).head<2>().norm(), i});
+    }
+    std::sort(ours.begin(), ours.end());
+    for (size_t k = 0; k < ours.size() && k < kAcrossPartners; ++k)
+      verified += verify_pair(j, ours[k].second, 0) ? 1 : 0;
+  }
   return verified;
 }
 
@@ -482,6 +525,34 @@ AddResult Reconstruction::add_capture(const CaptureInput& capture) {
   result.components_merged = mapper.components_merged();
   result.component = added.registered ? added.component : -1;
   timings.total_s = seconds_since(start);
+  return result;
+}
+
+AbsorbResult Reconstruction::absorb(Reconstruction&& other) {
+  Scene& scene = impl_->scene;
+  Scene& theirs = other.impl_->scene;
+  const auto placed = [](const Scene& s) {
+    return s.enu_origin && (s.registered_count() == 0 || s.geo_registered);
+  };
+  if (!placed(scene) || !placed(theirs))
+    throw std::invalid_argument(
+        "only models in the sites' ENU frames can join (a site without GPS "
+        "fixes cannot)");
+  for (const SceneImage& image : theirs.images) {
+    if (!image.removed && scene.find_image(image.id) >= 0)
+      throw std::invalid_argument("capture " + image.id + " is in both");
+  }
+  const int first = static_cast<int>(scene.images.size());
+  AbsorbResult result;
+  result.captures = static_cast<int>(theirs.images.size());
+  absorb_scene(scene, std::move(theirs));
+  other.impl_->scene = Scene{};
+  result.pairs_across = impl_->match_across(first);
+  StageTimings timings;
+  IncrementalMapper mapper(scene, impl_->options, timings);
+  for (int i : mapper.update()) result.registered.push_back(scene.images[i].id);
+  mapper.sweep_merges({});
+  result.components_merged = mapper.components_merged();
   return result;
 }
 

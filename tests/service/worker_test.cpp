@@ -365,9 +365,12 @@ std::map<std::string, eval::Pose> model_poses(const Json& model) {
 // (bench/service_bench --split): bob starts on the far side, where nothing
 // alice photographs reaches, so his photos start a component of their own
 // (placed by their fixes) instead of waiting; where the walks meet, the
-// components merge. In the end: one site, one component, every photo
-// registered, each capture naming the component, the cameras as accurate
-// as one scout's walk gives (docs/engine.md, "Components").
+// components merge. With a site radius of 5 m, bob's first photo (about
+// 20 m from alice's) founds a site of its own, and the two sites become
+// one where the walks meet (docs/service.md, "Sites that grow together").
+// In the end: one site (the other saying where it went), one component,
+// every photo registered, each capture naming the component, the cameras
+// as accurate as one scout's walk gives (docs/engine.md, "Components").
 TEST(EngineWorker, TwoScoutsSplittingAWalkEndInOneComponent) {
   constexpr int kViews = 60;
   auto store = db::Store::open(testing::fresh_sqlite_url());
@@ -394,6 +397,10 @@ TEST(EngineWorker, TwoScoutsSplittingAWalkEndInOneComponent) {
       });
   engine::WorkerOptions options;
   options.dense = false;
+  options.site_radius_m = 5;
+  options.progress = [](const std::string& line) {
+    if (line.find("meet") != std::string::npos || line.find("took") != std::string::npos || line.find("-> site") != std::string::npos) std::cerr << "PROGRESS " << line << std::endl;
+  };
   engine::EngineWorker worker(*store, options);
   worker.start();
   const auto fixes = ingest::read_gps_csv(dir + "/gps.csv");
@@ -409,9 +416,20 @@ TEST(EngineWorker, TwoScoutsSplittingAWalkEndInOneComponent) {
   ASSERT_TRUE(worker.wait_idle(std::chrono::minutes(15)));
   worker.stop();
   models->stop();
-  const auto sites = store->list_children("/sites");
-  ASSERT_EQ(sites.size(), 1u);
-  const auto model = store->get(sites[0].path + "/model");
+  std::vector<db::Document> live, merged;
+  for (const db::Document& site : store->list_children("/sites"))
+    (site.attrs.value("state", "") == "merged" ? merged : live).push_back(site);
+  ASSERT_EQ(live.size(), 1u);
+  ASSERT_EQ(merged.size(), 1u) << "bob never had a site of his own";
+  const std::string kept = live[0].path.substr(std::string("/sites/").size());
+  EXPECT_EQ(merged[0].attrs.value("merged_into", ""), kept);
+  EXPECT_EQ(merged[0].attrs.value("capture_count", -1), 0);
+  EXPECT_FALSE(store->get(merged[0].path + "/model"));
+  EXPECT_FALSE(store->get(merged[0].path + "/engine"));
+  EXPECT_TRUE(store->list_children(merged[0].path + "/features").empty());
+  EXPECT_EQ(live[0].attrs.value("capture_count", 0), kViews);
+  EXPECT_EQ(worker.stats().sites_merged, 1);
+  const auto model = store->get(live[0].path + "/model");
   ASSERT_TRUE(model);
   const Json& components = model->attrs.at("components");
   std::cout << "split walk: " << model->attrs.at("statistics").dump()
@@ -421,7 +439,10 @@ TEST(EngineWorker, TwoScoutsSplittingAWalkEndInOneComponent) {
   ASSERT_EQ(components.size(), 1u);
   EXPECT_GE(most_components, 2u) << "bob's half never had its own component";
   const int component = components[0].value("id", -1);
+  EXPECT_EQ(store->list_children(live[0].path + "/features").size(),
+            static_cast<size_t>(kViews));
   for (const db::Document& capture : store->list_children("/captures")) {
+    EXPECT_EQ(capture.attrs.value("site", ""), kept) << capture.path;
     EXPECT_EQ(capture.attrs.value("status", ""), "registered") << capture.path;
     EXPECT_EQ(capture.attrs.value("component", -1), component) << capture.path;
   }

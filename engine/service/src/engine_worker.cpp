@@ -82,6 +82,11 @@ struct EngineWorker::Impl {
     bool dense_running = false;  // its dense lane
     bool dense_queued = false;
     bool dense_turn = false;  // the dense lane waits for publication()
+    // Sites that grew into this one, to take in once their lanes are idle
+    // (Work::kMerge), and the site this one is to be taken into: it starts
+    // no new phase meanwhile.
+    std::deque<Work> merges;
+    std::string merging_into;
   };
 
   db::Store& store;
@@ -116,7 +121,7 @@ struct EngineWorker::Impl {
       std::lock_guard lock(mutex);
       ++stats.changes_seen;
     }
-    std::optional<std::pair<std::string, Work>> queued;
+    std::vector<std::pair<std::string, Work>> queued;
     // Placing reads the store; while it fails (a restarting database) the
     // feed waits here, in order, rather than skipping the change.
     for (int attempt = 1;; ++attempt) {
@@ -133,14 +138,18 @@ struct EngineWorker::Impl {
       }
     }
     std::lock_guard lock(mutex);
-    if (queued) {
-      SiteQueue& q = sites[queued->first];
+    for (const auto& [site, work] : queued) {
+      SiteQueue& q = sites[site];
+      if (work.kind == Work::Kind::kMerge) {
+        request_merge(site, q, work);
+        continue;
+      }
       in_flight.insert(change.seq);
-      if (held.count(queued->first)) {
-        q.pending.push_back(queued->second);
-        make_ready(queued->first, q);
+      if (held.count(site)) {
+        q.pending.push_back(work);
+        make_ready(site, q);
       } else {
-        q.deferred.push_back(queued->second);
+        q.deferred.push_back(work);
         claim_wanted = true;
         beat_cv.notify_all();
       }
@@ -149,33 +158,34 @@ struct EngineWorker::Impl {
     changed.notify_all();
   }
 
-  // The work a capture change asks for, and its site; nullopt for changes
-  // that need none (the engine's own status updates among them).
-  std::optional<std::pair<std::string, Work>> place(const db::Change& change) {
+  // The work a capture change asks for, and its site: none for changes
+  // that need none (the engine's own status updates among them); with a
+  // new capture, the merges of the sites its fix meets as well.
+  std::vector<std::pair<std::string, Work>> place(const db::Change& change) {
     // Its own status updates need no work.
     if (change.op == db::OpType::kDelete || change.author == options.name)
-      return std::nullopt;
+      return {};
     auto doc = store.get(change.path);
-    if (!doc || doc->kind != "capture") return std::nullopt;
+    if (!doc || doc->kind != "capture") return {};
     const std::string id(db::leaf_name(change.path));
     const documents::Capture capture = documents::capture_from_json(doc->attrs);
     if (capture.status == documents::kStatusWithdrawn) {
       auto site = directory.site_of(id);
-      if (!site) return std::nullopt;
-      return std::make_pair(*site, Work{Work::Kind::kWithdraw, id, change.seq});
+      if (!site) return {};
+      return {{*site, Work{Work::Kind::kWithdraw, id, change.seq}}};
     }
     if (capture.status != documents::kStatusStored &&
         capture.status != documents::kStatusNeedsGps)
-      return std::nullopt;
+      return {};
     // The engine patches `site` in the batch that commits the capture into
     // its site's state: a capture carrying it (a photo still waiting for
     // neighbours, as another worker published it) needs nothing more.
     if (!capture.site.empty() && directory.site_of(id) == capture.site)
-      return std::nullopt;
+      return {};
     // A capture placed before (the change seen again after a restart) goes
     // to its site again: the site's state says whether it was processed.
-    auto site =
-        directory.place(id, service::geo_fix(capture.gps), capture.site_hint);
+    const auto fix = service::geo_fix(capture.gps);
+    auto site = directory.place(id, fix, capture.site_hint);
     if (!site) {
       store.batch({db::WriteOp::patch(
           change.path,
@@ -183,19 +193,55 @@ struct EngineWorker::Impl {
                                   "no GPS fix and no site hint: the engine "
                                   "cannot tell which site it shows"))});
       log("capture " + id + ": rejected (no GPS fix, no site hint)");
-      return std::nullopt;
+      return {};
     }
     {
       std::lock_guard lock(mutex);
       ++stats.captures_placed;
     }
     log("capture " + id + " -> site " + *site);
-    return std::make_pair(*site, Work{Work::Kind::kAdd, id, change.seq});
+    std::vector<std::pair<std::string, Work>> work{
+        {*site, Work{Work::Kind::kAdd, id, change.seq}}};
+    // Sites whose footprints this fix reaches too grow into this one.
+    if (fix) {
+      for (const std::string& other : directory.meeting(*site, *fix))
+        work.push_back({*site, Work{Work::Kind::kMerge, other, change.seq}});
+    }
+    return work;
+  }
+
+  // Site `work.capture` grew into `site`: both held here and neither
+  // promised to a third, it is taken in once its lanes are idle. Else
+  // nothing: the next capture where they meet asks again.
+  void request_merge(const std::string& site, SiteQueue& q, const Work& work) {
+    const std::string& other = work.capture;
+    SiteQueue& qb = sites[other];
+    if (!held.count(site) || !held.count(other) || !q.merging_into.empty() ||
+        !qb.merging_into.empty())
+      return;
+    qb.merging_into = site;
+    in_flight.insert(work.seq);
+    q.merges.push_back(work);
+    log("site " + other + " meets site " + site + ": merging once idle");
+    make_ready(site, q);
+  }
+
+  static bool lanes_idle(const SiteQueue& q) {
+    return !q.running && !q.dense_running && !q.dense_queued && !q.dense_turn;
+  }
+
+  // A merge whose other site's lanes are idle.
+  bool merge_ready(const SiteQueue& q) {
+    return std::any_of(q.merges.begin(), q.merges.end(), [&](const Work& w) {
+      return lanes_idle(sites[w.capture]);
+    });
   }
 
   void make_ready(const std::string& site, SiteQueue& q) {
-    if (q.running || q.ready ||
-        (q.pending.empty() && !q.dense_retry && !q.refine_wanted))
+    // A site promised to another waits for it, its work kept for it.
+    if (q.running || q.ready || !q.merging_into.empty() ||
+        (q.pending.empty() && !q.dense_retry && !q.refine_wanted &&
+         !merge_ready(q)))
       return;
     q.ready = true;
     ready.push_back(site);
@@ -220,6 +266,8 @@ struct EngineWorker::Impl {
         defer(q);
         continue;
       }
+      if (!q.merging_into.empty()) continue;          // waits to be taken in
+      if (directory.current(site) != site) continue;  // taken in already
       q.running = true;
       const bool retry_dense = q.dense_retry;
       q.dense_retry = q.refine_wanted = false;
@@ -237,6 +285,7 @@ struct EngineWorker::Impl {
       service::SiteJob& job = *held_job;
       // A dense phase waiting to publish goes first: the lanes take turns.
       changed.wait(lock, [&] { return stopping || !q.dense_turn; });
+      run_merges(site, job, q, lock);
       bool ok = true;  // nothing to add: a refinement that gave way resumes
       if (!work.empty() || retry_dense) {
         lock.unlock();
@@ -262,8 +311,15 @@ struct EngineWorker::Impl {
         defer(q);
         q.job.reset();
       }
+      wake_merge(q);
       changed.notify_all();
     }
+  }
+
+  // A site promised to another: that one may take it in now.
+  void wake_merge(const SiteQueue& q) {
+    if (q.merging_into.empty()) return;
+    make_ready(q.merging_into, sites[q.merging_into]);
   }
 
   // --- leases (heartbeat thread) ------------------------------------------
@@ -289,6 +345,8 @@ struct EngineWorker::Impl {
   void lose(const std::string& site) {
     log("site " + site + ": lease lost to another worker");
     SiteQueue& q = sites[site];
+    for (const Work& w : q.merges) drop_merge(w);
+    q.merges.clear();
     defer(q);
     // A running one is dropped when done.
     if (!q.running && !q.dense_running) q.job.reset();
@@ -404,6 +462,106 @@ struct EngineWorker::Impl {
     return true;
   }
 
+  // Takes in the sites waiting to merge into `site` whose lanes are idle.
+  // Called and returns with the lock held; `site`'s sparse lane is this one.
+  void run_merges(const std::string& site, service::SiteJob& job, SiteQueue& q,
+                  std::unique_lock<std::mutex>& lock) {
+    for (auto it = q.merges.begin(); it != q.merges.end();) {
+      if (!held.count(it->capture)) {  // lost meanwhile
+        drop_merge(*it);
+        it = q.merges.erase(it);
+        continue;
+      }
+      if (!lanes_idle(sites[it->capture])) {
+        ++it;
+        continue;
+      }
+      const Work w = *it;
+      it = q.merges.erase(it);
+      run_merge(site, job, w, lock);
+      it = q.merges.begin();  // the lock was let go: look again
+    }
+  }
+
+  // Gives up a merge: the other site goes on on its own.
+  void drop_merge(const Work& w) {
+    in_flight.erase(in_flight.find(w.seq));
+    SiteQueue& qb = sites[w.capture];
+    qb.merging_into.clear();
+    make_ready(w.capture, qb);
+  }
+
+  // Merges the site `w` names into `site`. Called and returns with the
+  // lock held, the other site's lanes idle.
+  void run_merge(const std::string& site, service::SiteJob& job, const Work& w,
+                 std::unique_lock<std::mutex>& lock) {
+    const std::string other = w.capture;
+    in_flight.erase(in_flight.find(w.seq));
+    SiteQueue& qb = sites[other];
+    qb.running = true;  // keeps its lanes out
+    if (!qb.job)
+      qb.job = std::make_shared<service::SiteJob>(other, store, options);
+    const std::shared_ptr<service::SiteJob> other_job = qb.job;
+    lock.unlock();
+    bool merged = false;
+    try {
+      std::scoped_lock both(job.publication(), other_job->publication());
+      service::Increment increment =
+          timed([&] { return job.absorb(*other_job); });
+      directory.merge(other, site);
+      documents::Site gone = service::SiteDirectory::to_document(
+          *directory.site(other), directory.radius_m());
+      gone.state = "merged";
+      gone.engine = options.name;
+      increment.ops.push_back(db::WriteOp::put("/sites/" + other, "site",
+                                               documents::to_json(gone)));
+      commit(site, job, increment, std::nullopt);
+      merged = true;
+    } catch (const std::invalid_argument& e) {
+      log("site " + other + " meets site " + site +
+          ", not merged: " + e.what());
+    } catch (const std::exception& e) {
+      reset(job);
+      reset(*other_job);
+      reload_sites({site, other});
+      log("site " + other + " into " + site + ": merge failed: " + e.what());
+    }
+    lock.lock();
+    qb.running = false;
+    qb.merging_into.clear();
+    if (merged) {
+      // Its queued captures are this site's now.
+      SiteQueue& q = sites[site];
+      q.pending.insert(q.pending.end(), qb.pending.begin(), qb.pending.end());
+      q.pending.insert(q.pending.end(), qb.deferred.begin(), qb.deferred.end());
+      std::sort(q.pending.begin(), q.pending.end(),
+                [](const Work& a, const Work& b) { return a.seq < b.seq; });
+      qb.pending.clear();
+      qb.deferred.clear();
+      // So are the sites that were to grow into it.
+      for (const Work& taken : qb.merges) {
+        sites[taken.capture].merging_into = site;
+        q.merges.push_back(taken);
+      }
+      qb.merges.clear();
+      qb.job.reset();
+      ++stats.sites_merged;
+      if (job.dense_due()) start_dense(site, job, lock);
+    } else {
+      make_ready(other, qb);
+    }
+    changed.notify_all();
+  }
+
+  // The directory's view of sites as the store has them (after a failed
+  // merge, whose batch did not commit).
+  void reload_sites(const std::vector<std::string>& ids) {
+    std::map<std::string, db::Json> stored;
+    for (const std::string& id : ids)
+      if (auto doc = store.get("/sites/" + id)) stored[id] = doc->attrs;
+    directory.load(stored);
+  }
+
   // Forgets a job's state after a failure (its next phase restores it).
   static void reset(service::SiteJob& job) {
     std::lock_guard publication(job.publication());
@@ -472,6 +630,10 @@ struct EngineWorker::Impl {
       SiteQueue& q = sites[site];
       q.dense_queued = false;
       if (!held.count(site) || !q.job) continue;
+      if (!q.merging_into.empty()) {  // its views are swept again there
+        wake_merge(q);
+        continue;
+      }
       const std::shared_ptr<service::SiteJob> job = q.job;
       q.dense_running = true;
       lock.unlock();
@@ -483,6 +645,7 @@ struct EngineWorker::Impl {
         dense_failed(site, *job, lock, e);
       }
       q.dense_running = q.dense_turn = false;
+      wake_merge(q);
       if (end.dense_due) start_dense(site, *job, lock);
       // A refinement that gave way to this lane resumes, unless work came.
       q.refine_wanted = end.refinement_due && q.pending.empty();
@@ -567,7 +730,13 @@ struct EngineWorker::Impl {
       dense_due = job.dense_due();
       lock.lock();
       stats.increments += written;
-      if (refined.refine_again && !dense_due) q.refine_wanted = true;
+      // A round that used up its iterations goes on in the next call (the
+      // core bounds the rounds on one model), as does the adjustment that
+      // registered captures or merged components make due; with dense
+      // phases the lane's end asks for it, without them nothing else would.
+      if ((refined.refine_again || (written > 0 && job.refinement_due())) &&
+          !dense_due)
+        q.refine_wanted = true;
     } catch (const std::exception& e) {
       if (lock.owns_lock()) lock.unlock();
       reset(job);

@@ -34,6 +34,7 @@ void SiteDirectory::load(const std::map<std::string, Json>& sites) {
     site.fixes = stored.fixes;
     site.extent_m = stored.extent_m;
     site.captures = stored.captures;
+    site.merged_into = stored.merged_into;
     for (const std::string& capture : site.captures)
       capture_site_[capture] = id;
     sites_[id] = std::move(site);
@@ -58,7 +59,8 @@ std::optional<std::string> SiteDirectory::place(
   if (fix) {
     double best = std::numeric_limits<double>::infinity();
     for (auto& [id, site] : sites_) {
-      if (site.fixes == 0) continue;  // a hint-only site has no centre
+      // A hint-only site has no centre; a merged one takes nothing.
+      if (site.fixes == 0 || !site.merged_into.empty()) continue;
       const double d =
           util::great_circle_m(fix->lat, fix->lon, site.lat, site.lon) -
           site.extent_m;
@@ -69,7 +71,7 @@ std::optional<std::string> SiteDirectory::place(
     }
   } else if (!hint.empty()) {
     for (auto& [id, site] : sites_)
-      if (site.name == hint) chosen = &site;
+      if (site.name == hint && site.merged_into.empty()) chosen = &site;
   } else {
     return std::nullopt;
   }
@@ -100,6 +102,68 @@ std::optional<std::string> SiteDirectory::place(
   return chosen->id;
 }
 
+std::vector<std::string> SiteDirectory::meeting(const std::string& site,
+                                                const GeoFix& fix) const {
+  std::lock_guard lock(mutex_);
+  std::vector<std::pair<double, std::string>> near;
+  for (const auto& [id, other] : sites_) {
+    if (id == site || other.fixes == 0 || !other.merged_into.empty()) continue;
+    const double d =
+        util::great_circle_m(fix.lat, fix.lon, other.lat, other.lon) -
+        other.extent_m;
+    if (d <= radius_m_) near.push_back({d, id});
+  }
+  std::sort(near.begin(), near.end());
+  std::vector<std::string> result;
+  for (const auto& [d, id] : near) result.push_back(id);
+  return result;
+}
+
+bool SiteDirectory::merge(const std::string& from, const std::string& into) {
+  std::lock_guard lock(mutex_);
+  auto a = sites_.find(into), b = sites_.find(from);
+  if (from == into || a == sites_.end() || b == sites_.end() ||
+      !a->second.merged_into.empty() || !b->second.merged_into.empty())
+    return false;
+  Site& kept = a->second;
+  Site& gone = b->second;
+  const double n = kept.fixes, m = gone.fixes;
+  if (n + m > 0) {
+    const double lat = (kept.lat * n + gone.lat * m) / (n + m);
+    const double lon = (kept.lon * n + gone.lon * m) / (n + m);
+    // Every fix of either lay within its extent of its centre.
+    double extent = 0;
+    for (const Site* s : {&kept, &gone}) {
+      if (s->fixes == 0) continue;
+      extent = std::max(
+          extent, util::great_circle_m(lat, lon, s->lat, s->lon) + s->extent_m);
+    }
+    kept.alt = (kept.alt * n + gone.alt * m) / (n + m);
+    kept.lat = lat;
+    kept.lon = lon;
+    kept.extent_m = extent;
+    kept.fixes += gone.fixes;
+  }
+  for (const std::string& capture : gone.captures) {
+    kept.captures.push_back(capture);
+    capture_site_[capture] = into;
+  }
+  gone.captures.clear();
+  gone.merged_into = into;
+  return true;
+}
+
+std::string SiteDirectory::current(const std::string& id) const {
+  std::lock_guard lock(mutex_);
+  std::string at = id;
+  for (int hops = 0; hops < 1000; ++hops) {  // a chain of merges
+    auto it = sites_.find(at);
+    if (it == sites_.end() || it->second.merged_into.empty()) return at;
+    at = it->second.merged_into;
+  }
+  return at;
+}
+
 std::optional<Site> SiteDirectory::site(const std::string& id) const {
   std::lock_guard lock(mutex_);
   auto it = sites_.find(id);
@@ -121,7 +185,9 @@ documents::Site SiteDirectory::to_document(const Site& site, double radius_m) {
   doc.fixes = site.fixes;
   doc.extent_m = site.extent_m;
   doc.captures = site.captures;
-  if (site.fixes > 0)
+  doc.merged_into = site.merged_into;
+  // A merged site is found by its id only, not by place.
+  if (site.fixes > 0 && site.merged_into.empty())
     doc.centre = documents::GeoPoint{site.lat, site.lon, site.alt};
   return doc;
 }

@@ -8,6 +8,11 @@
 // Site ids are derived from the capture that founds the site ("s-" and its
 // id) or from the hint ("h-" and the hint), so placing the same capture
 // again after a crash, before its site was ever stored, gives the same id.
+//
+// Two sites meet when a capture's fix lies within the radius of both
+// footprints: the capture goes to the nearer, and the worker merges the
+// other into it (merge()); a merged site keeps its id, says where it went
+// (`merged_into`) and takes no captures again.
 // Thread-safe.
 #pragma once
 
@@ -35,6 +40,7 @@ struct Site {
   // metres (kept as the centre moves without storing every fix).
   double extent_m = 0;
   std::vector<std::string> captures;  // in order of placement
+  std::string merged_into;            // set once it grew into another
 };
 
 class SiteDirectory {
@@ -55,6 +61,19 @@ class SiteDirectory {
   std::optional<std::string> place(const std::string& capture,
                                    const std::optional<GeoFix>& fix,
                                    const std::string& hint);
+
+  // The live sites other than `site` that the fix lies within the radius
+  // of (they meet `site` there), nearest first.
+  std::vector<std::string> meeting(const std::string& site,
+                                   const GeoFix& fix) const;
+
+  // Moves `from`'s captures into `into` (the centre, the fixes and the
+  // extent follow) and marks `from` merged into it. False, changing
+  // nothing, when either is unknown or merged already, or they are one.
+  bool merge(const std::string& from, const std::string& into);
+  // Where a site's captures are now: the site it was merged into (through
+  // later merges), or itself.
+  std::string current(const std::string& id) const;
 
   // A copy of the site, or nullopt.
   std::optional<Site> site(const std::string& id) const;

@@ -335,6 +335,63 @@ size_t SiteJob::add_state_ops(const Model& model,
   return bytes.size();
 }
 
+Increment SiteJob::absorb(SiteJob& other) {
+  const auto start = Clock::now();
+  if (!loaded_) restore();
+  if (!other.loaded_) other.restore();
+  pending_statuses_.clear();
+  pending_depth_maps_.clear();
+  pending_removed_maps_.clear();
+  pending_through_seq_ = std::max(through_seq_, other.through_seq_);
+  IncrementReport report;
+  for (const CaptureState& c : other.sparse_->captures())
+    report.added.push_back(c.id);
+  const AbsorbResult absorbed = sparse_->absorb(std::move(*other.sparse_));
+  {
+    std::lock_guard lock(other.images_mutex_);
+    std::lock_guard mine(images_mutex_);
+    images_.insert(other.images_.begin(), other.images_.end());
+  }
+  const Model model = sparse_->model();
+  if (dense_) {
+    // Its depth maps are in its own frame: its views are swept again here.
+    dense_due_ = true;
+    for (const std::string& c : report.added) dense_added_.push_back(c);
+  }
+  report.dense_points = dense_points_;
+  report.total_s = seconds_since(start);
+  Increment increment;
+  const std::vector<CaptureState> captures = sparse_->captures();
+  add_status_ops(captures, &increment.ops);
+  increment.ops.push_back(model_op(model, captures, report));
+  increment.model_written = true;
+  add_state_ops(model, report.added, &increment.ops);
+  other.add_departure_ops(&increment.ops);
+  pending_model_version_ = model_version_ + 1;
+  std::ostringstream summary;
+  summary << "site " << id_ << ": took in site " << other.id_ << " ("
+          << absorbed.captures << " captures, " << absorbed.pairs_across
+          << " pairs across, " << absorbed.components_merged
+          << " components merged), " << model.images.size() << " registered in "
+          << model.components.size() << " component(s), model v"
+          << pending_model_version_ << " ("
+          << static_cast<int>(seconds_since(start) * 1000) << " ms)";
+  increment.summary = summary.str();
+  other.reset();
+  return increment;
+}
+
+void SiteJob::add_departure_ops(std::vector<db::WriteOp>* ops) const {
+  for (const char* leaf : {"model", "engine"}) {
+    if (store_.get(site_path(id_, leaf)))
+      ops->push_back(db::WriteOp::remove(site_path(id_, leaf)));
+  }
+  for (const char* folder : {"features", "depth", "dense"}) {
+    for (const db::Document& doc : store_.list_children(site_path(id_, folder)))
+      ops->push_back(db::WriteOp::remove(doc.path));
+  }
+}
+
 bool SiteJob::refinement_due() const {
   return loaded_ && sparse_ && sparse_->refinement_due();
 }

@@ -33,7 +33,9 @@ class Store;
 namespace arscout::engine::service {
 
 struct Work {
-  enum class Kind { kAdd, kWithdraw };
+  // kMerge: the site named by `capture` grew into this one (the worker
+  // runs it, SiteJob::absorb; run() takes the others).
+  enum class Kind { kAdd, kWithdraw, kMerge };
   Kind kind = Kind::kAdd;
   std::string capture;
   std::int64_t seq = 0;  // of the change that asked for it
@@ -123,6 +125,16 @@ class SiteJob {
   // dense phase due (the depth maps follow the moved cameras; the model
   // says `dense_state` "pending" until then). Throws like run().
   Increment run_refine(const std::function<bool()>& stop);
+  // Takes `other`'s site in (two sites that grew together; the worker has
+  // moved its captures here in the directory): its reconstruction joins
+  // this one (Reconstruction::absorb), its captures' features and statuses
+  // are written under this site, its own documents (model, engine state,
+  // features, depth maps, dense tiles) are deleted, and a model version
+  // with both is published; its swept views are swept again here, in this
+  // site's frame. `other` is reset (its state lives here now). Neither
+  // job's lanes may run meanwhile. Throws like run(), and
+  // std::invalid_argument when the models cannot join (no fixes).
+  Increment absorb(SiteJob& other);
   // The batch of the last run(), run_dense() or run_refine() committed.
   void committed();
   // Forgets the in-memory state: the next run() restores it from the store.
@@ -155,6 +167,8 @@ class SiteJob {
   void add_tile_ops(const DenseTiles& tiles,
                     std::vector<db::WriteOp>* ops) const;
   CaptureInput capture_input(const std::string& capture);
+  // Deletions of this site's engine documents (it was merged away).
+  void add_departure_ops(std::vector<db::WriteOp>* ops) const;
   std::string image_bytes(const std::string& capture);
 
   std::string id_;

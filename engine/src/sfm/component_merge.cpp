@@ -29,8 +29,8 @@ constexpr double kMergeScaleRange = 5;
 // this angle.
 constexpr double kHingeSpan = 5.0;
 constexpr double kHingeAngleRad = 2.0 * M_PI / 180;
-// Images of the seam adjusted after a merge.
-constexpr size_t kSeamImages = 12;
+// Images of the seam triangulated and adjusted after a merge.
+constexpr size_t kSeamImages = 24;
 
 Eigen::Matrix<double, 3, 4> pose_matrix(const SceneImage& image) {
   Eigen::Matrix<double, 3, 4> P;
@@ -234,6 +234,18 @@ bool IncrementalMapper::merge_components(int a, int b, int via) {
     sim = hinge_similarity(posed);
   }
   if (!sim) return false;
+  // The photos with verified pairs across the seam: once one component,
+  // their matches there become tracks that tie the two sides together.
+  for (const auto& [key, pair] : scene_.pairs) {
+    const SceneImage& x = scene_.images[key.first];
+    const SceneImage& y = scene_.images[key.second];
+    if (x.registered && y.registered &&
+        ((x.component == keep && y.component == gone) ||
+         (x.component == gone && y.component == keep))) {
+      seam.push_back(key.first);
+      seam.push_back(key.second);
+    }
+  }
   transform_model(*sim, gone);
   for (SceneImage& image : scene_.images) {
     if (image.registered && image.component == gone) image.component = keep;

@@ -44,6 +44,9 @@ class IncrementalMapper {
   int loops_closed() const { return loops_closed_; }
   // Mean reprojection error over all observations, working pixels.
   double mean_reprojection_px() const;
+  // Merges the components that registered photos link (sfm/
+  // component_merge.cpp); returns the merges made.
+  int sweep_merges(const std::function<bool()>& stop);
   // Components merged by this mapper's update() calls.
   int components_merged() const { return components_merged_; }
   // 2D-3D correspondences an image has with one component's points
@@ -67,7 +70,6 @@ class IncrementalMapper {
   int register_third(int component);
   void dissolve_component(int component);
   void merge_through(int index);
-  int sweep_merges(const std::function<bool()>& stop);
   bool merge_components(int a, int b, int via);
   std::map<int, Eigen::Vector3d> bridge_points(int via, const SceneImage& posed,
                                                int component) const;

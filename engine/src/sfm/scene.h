@@ -146,6 +146,14 @@ struct Scene {
                     const std::vector<Observation>& track);
 };
 
+// Takes `other` (another site's scene) in: its cameras (shared by id),
+// photos, pairs and points after this scene's own, its components
+// renumbered after this one's, its poses, points and fixes moved from its
+// ENU frame into this one's (sfm/scene_absorb.cpp). Where a scene has
+// registered photos it must be in ENU (the caller checks); the refinement
+// and a merge sweep are due afterwards.
+void absorb_scene(Scene& into, Scene&& other);
+
 // The matches of a pair oriented so that `.first` is a keypoint of `image`
 // (the pair's `other` image gives `.second`).
 std::vector<std::pair<int, int>> oriented_matches(int image, int other,

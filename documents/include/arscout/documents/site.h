@@ -28,13 +28,16 @@ struct Site {
   // Of the last model the engine committed.
   int registered = 0;
   std::int64_t model_version = 0;
-  std::string state;   // "waiting" (no model yet) or "modelled"
+  // "waiting" (no model yet), "modelled", or "merged": the site grew into
+  // another, `merged_into`, which holds its captures and model since.
+  std::string state;
   std::string engine;  // the worker that committed it
+  std::string merged_into;
 };
 
 // {"name", "radius", "fixes", "extent_m", "captures", "capture_count",
 //  "gps": {"lat", "lon", "alt"} (with a centre), "registered",
-//  "model_version", "state", "engine"}.
+//  "model_version", "state", "engine", "merged_into" (when merged)}.
 nlohmann::json to_json(const Site& site);
 
 // Reads what a site document holds (lenient, like capture_from_json: a

@@ -221,6 +221,15 @@ struct RefineResult {
   int components_merged = 0;
 };
 
+// What Reconstruction::absorb did.
+struct AbsorbResult {
+  int captures = 0;      // taken in
+  int pairs_across = 0;  // verified pairs between the two scenes' photos
+  // Captures registered on the links (waiting ones of either side).
+  std::vector<std::string> registered;
+  int components_merged = 0;
+};
+
 struct CaptureState {
   std::string id;
   CaptureStatus status = CaptureStatus::kPending;
@@ -239,6 +248,17 @@ class Reconstruction {
   // for a duplicate id, an image that cannot be decoded or an invalid
   // camera; the model is then unchanged.
   AddResult add_capture(const CaptureInput& capture);
+
+  // Takes another site's reconstruction in (two sites that grew together,
+  // docs/engine.md "Sites that grow together"): its captures, their
+  // features, matches, poses and points join this one, moved from its ENU
+  // frame into this one's, its components kept apart (renumbered after
+  // this one's) until photos link them; the photos of each side nearest the
+  // other are matched across at once (a bounded number), and the
+  // components they link merge. `other` is left empty. Throws
+  // std::invalid_argument, changing nothing, when either model has
+  // registered captures but is not in ENU, or a capture is in both.
+  AbsorbResult absorb(Reconstruction&& other);
 
   // Withdraws a capture: its observations go, and so do the points that
   // only it supported; the model is adjusted again. False if unknown.

@@ -84,12 +84,13 @@ struct WorkerOptions {
 struct WorkerStats {
   std::int64_t changes_seen = 0;
   std::int64_t captures_placed = 0;
-  std::int64_t increments = 0;   // committed model versions, all sites
-  std::int64_t checkpoint = 0;   // last feed position saved
-  std::int64_t failures = 0;     // increments that failed (retried later)
-  std::int64_t sites_held = 0;   // site leases held now
-  std::int64_t sites_taken = 0;  // site leases claimed, all time
-  std::int64_t sites = 0;        // sites this worker knows
+  std::int64_t increments = 0;    // committed model versions, all sites
+  std::int64_t checkpoint = 0;    // last feed position saved
+  std::int64_t failures = 0;      // increments that failed (retried later)
+  std::int64_t sites_held = 0;    // site leases held now
+  std::int64_t sites_taken = 0;   // site leases claimed, all time
+  std::int64_t sites_merged = 0;  // sites that grew into another, all time
+  std::int64_t sites = 0;         // sites this worker knows
   // Captures placed and not yet in a committed increment: queued for their
   // site (or deferred while another worker holds it), or being added.
   std::int64_t captures_waiting = 0;
