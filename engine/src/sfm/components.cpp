@@ -64,20 +64,7 @@ bool IncrementalMapper::try_component_pair(int a, int b,
                                            std::vector<int>& registered) {
   const ImagePair& pair = scene_.pairs.at({a, b});
   const int component = scene_.next_component;
-  SceneImage& first = scene_.images[a];
-  SceneImage& second = scene_.images[b];
-  first.q.setIdentity();
-  first.t.setZero();
-  second.q = Eigen::Quaterniond(pair.R).normalized();
-  second.t = pair.t;
-  for (SceneImage* image : {&first, &second}) {
-    image->registered = true;
-    image->component = component;
-  }
-  const size_t before = scene_.points.size();
-  for (const auto& [ka, kb] : pair.matches)
-    triangulate_pair_match({a, ka}, {b, kb});
-  const int third = scene_.points.size() >= before + kStartPoints
+  const int third = place_pair(a, b, pair, component) >= kStartPoints
                         ? register_third(component)
                         : -1;
   if (third < 0 || !geo_register(component, false)) {
@@ -85,7 +72,7 @@ bool IncrementalMapper::try_component_pair(int a, int b,
     return false;
   }
   ++scene_.next_component;
-  for (SceneImage* image : {&first, &second}) {
+  for (SceneImage* image : {&scene_.images[a], &scene_.images[b]}) {
     image->status = CaptureStatus::kRegistered;
     image->reason.clear();
     image->pose_inliers = static_cast<int>(pair.matches.size());

@@ -326,25 +326,33 @@ std::vector<std::pair<int, int>> IncrementalMapper::initial_pairs(
   return result;
 }
 
-bool IncrementalMapper::try_initial_pair(int a, int b, const ImagePair& pair) {
-  reset_model();
+// Puts a pair's two photos in `component` at their relative pose (the
+// first at the origin, a baseline of unit length) and triangulates its
+// matches; returns the points made.
+size_t IncrementalMapper::place_pair(int a, int b, const ImagePair& pair,
+                                     int component) {
   SceneImage& first = scene_.images[a];
   SceneImage& second = scene_.images[b];
   first.q.setIdentity();
   first.t.setZero();
   second.q = Eigen::Quaterniond(pair.R).normalized();
   second.t = pair.t;
-  first.registered = second.registered = true;
-  first.component = second.component = 0;
+  for (SceneImage* image : {&first, &second}) {
+    image->registered = true;
+    image->component = component;
+  }
+  StageClock clock(timings_.triangulation_s);
+  const size_t before = scene_.points.size();
+  for (const auto& [ka, kb] : pair.matches)
+    triangulate_pair_match({a, ka}, {b, kb});
+  return scene_.points.size() - before;
+}
+
+bool IncrementalMapper::try_initial_pair(int a, int b, const ImagePair& pair) {
+  reset_model();
   scene_.reference_image = a;
   scene_.scale_image = b;
-  {
-    StageClock clock(timings_.triangulation_s);
-    for (const auto& [ka, kb] : pair.matches) {
-      triangulate_pair_match({a, ka}, {b, kb});
-    }
-  }
-  if (scene_.points.size() < 50) {
+  if (place_pair(a, b, pair, 0) < 50) {
     reset_model();
     return false;
   }

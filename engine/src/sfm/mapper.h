@@ -64,6 +64,7 @@ class IncrementalMapper {
   std::vector<std::pair<int, int>> initial_pairs(
       const std::function<bool(int, int)>& usable) const;
   bool try_initial_pair(int a, int b, const ImagePair& pair);
+  size_t place_pair(int a, int b, const ImagePair& pair, int component);
   // Components (sfm/components.cpp, sfm/component_merge.cpp).
   bool start_component(std::vector<int>& registered);
   bool try_component_pair(int a, int b, std::vector<int>& registered);
