@@ -398,9 +398,13 @@ TEST(EngineWorker, TwoScoutsSplittingAWalkEndInOneComponent) {
   engine::WorkerOptions options;
   options.dense = false;
   options.site_radius_m = 5;
-  options.progress = [](const std::string& line) {
-    if (line.find("meet") != std::string::npos || line.find("took") != std::string::npos || line.find("-> site") != std::string::npos) std::cerr << "PROGRESS " << line << std::endl;
+  std::mutex lines_mutex;
+  std::vector<std::string> merges;  // the progress lines of site merges
+  options.progress = [&](const std::string& line) {
+    std::lock_guard lock(lines_mutex);
+    if (line.find("took in site") != std::string::npos) merges.push_back(line);
   };
+
   engine::EngineWorker worker(*store, options);
   worker.start();
   const auto fixes = ingest::read_gps_csv(dir + "/gps.csv");
@@ -429,6 +433,7 @@ TEST(EngineWorker, TwoScoutsSplittingAWalkEndInOneComponent) {
   EXPECT_TRUE(store->list_children(merged[0].path + "/features").empty());
   EXPECT_EQ(live[0].attrs.value("capture_count", 0), kViews);
   EXPECT_EQ(worker.stats().sites_merged, 1);
+  for (const std::string& line : merges) std::cout << line << std::endl;
   const auto model = store->get(live[0].path + "/model");
   ASSERT_TRUE(model);
   const Json& components = model->attrs.at("components");
