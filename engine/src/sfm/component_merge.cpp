@@ -32,12 +32,6 @@ constexpr double kHingeAngleRad = 2.0 * M_PI / 180;
 // Images of the seam triangulated and adjusted after a merge.
 constexpr size_t kSeamImages = 24;
 
-Eigen::Matrix<double, 3, 4> pose_matrix(const SceneImage& image) {
-  Eigen::Matrix<double, 3, 4> P;
-  P << image.q.toRotationMatrix(), image.t;
-  return P;
-}
-
 // Points (keep's, gone's) that matches between registered images of the
 // two components say are one.
 std::vector<std::pair<int64_t, int64_t>> common_points(const Scene& scene,
@@ -145,7 +139,6 @@ std::map<int, Eigen::Vector3d> IncrementalMapper::bridge_points(
     int via, const SceneImage& posed, int component) const {
   std::map<int, Eigen::Vector3d> result;
   const SceneImage& image = scene_.images[via];
-  const SceneCamera& camera = scene_.cameras[image.camera];
   if (image.registered && image.component == component) {
     for (size_t k = 0; k < image.point_of.size(); ++k)
       if (image.point_of[k] >= 0)
@@ -154,28 +147,15 @@ std::map<int, Eigen::Vector3d> IncrementalMapper::bridge_points(
   for (const auto& [other, pair] : scene_.pairs_of(via)) {
     const SceneImage& partner = scene_.images[other];
     if (!partner.registered || partner.component != component) continue;
-    const SceneCamera& partner_camera = scene_.cameras[partner.camera];
     for (const auto& [mine, theirs] : oriented_matches(via, other, *pair)) {
       if (result.count(mine)) continue;
       if (partner.point_of[theirs] >= 0) {
         result[mine] = scene_.points.at(partner.point_of[theirs]).xyz;
         continue;
       }
-      const auto X =
-          triangulate({pose_matrix(posed), pose_matrix(partner)},
-                      {normalize(camera, image.keypoints[mine]),
-                       normalize(partner_camera, partner.keypoints[theirs])});
-      Eigen::Vector2d pa, pb;
-      if (!X || !X->allFinite() ||
-          !(triangulation_angle_deg(posed.centre(), partner.centre(), *X) >=
-            options_.min_triangulation_angle_deg) ||
-          !project(camera, posed, *X, &pa) ||
-          !project(partner_camera, partner, *X, &pb) ||
-          (pa - image.keypoints[mine]).norm() > options_.max_reprojection_px ||
-          (pb - partner.keypoints[theirs]).norm() >
-              options_.max_reprojection_px)
-        continue;
-      result[mine] = *X;
+      if (const auto X =
+              triangulated(posed, {via, mine}, partner, {other, theirs}))
+        result[mine] = *X;
     }
   }
   return result;

@@ -626,30 +626,41 @@ void IncrementalMapper::extend_track(int64_t point_id, Observation obs) {
 
 bool IncrementalMapper::triangulate_pair_match(Observation first,
                                                Observation second) {
-  const SceneImage& a = scene_.images[first.image];
-  const SceneImage& b = scene_.images[second.image];
-  const SceneCamera& ca = scene_.cameras[a.camera];
-  const SceneCamera& cb = scene_.cameras[b.camera];
+  const auto X = triangulated(scene_.images[first.image], first,
+                              scene_.images[second.image], second);
+  if (!X) return false;
+  scene_.add_point(*X, {first, second});
+  return true;
+}
+
+// The point two observations see, with `a` and `b` giving their images'
+// poses (an image's own, or a pose it would have elsewhere); none unless
+// it has the parallax and both reprojections a new point needs.
+std::optional<Eigen::Vector3d> IncrementalMapper::triangulated(
+    const SceneImage& a, Observation first, const SceneImage& b,
+    Observation second) const {
+  const SceneImage& image_a = scene_.images[first.image];
+  const SceneImage& image_b = scene_.images[second.image];
+  const SceneCamera& ca = scene_.cameras[image_a.camera];
+  const SceneCamera& cb = scene_.cameras[image_b.camera];
+  const Eigen::Vector2d& ka = image_a.keypoints[first.keypoint];
+  const Eigen::Vector2d& kb = image_b.keypoints[second.keypoint];
   const auto X = triangulate({pose_matrix(a), pose_matrix(b)},
-                             {normalize(ca, a.keypoints[first.keypoint]),
-                              normalize(cb, b.keypoints[second.keypoint])});
-  if (!X || !X->allFinite()) return false;
+                             {normalize(ca, ka), normalize(cb, kb)});
+  if (!X || !X->allFinite()) return std::nullopt;
   // Written to fail on NaN too: two cameras at one place (a turn on the
   // spot) give a point with no defined angle.
   if (!(triangulation_angle_deg(a.centre(), b.centre(), *X) >=
         options_.min_triangulation_angle_deg)) {
-    return false;
+    return std::nullopt;
   }
   Eigen::Vector2d pa, pb;
-  if (!project(ca, a, *X, &pa) || !project(cb, b, *X, &pb)) return false;
-  if ((pa - a.keypoints[first.keypoint]).norm() >
-          options_.max_reprojection_px ||
-      (pb - b.keypoints[second.keypoint]).norm() >
-          options_.max_reprojection_px) {
-    return false;
+  if (!project(ca, a, *X, &pa) || !project(cb, b, *X, &pb)) return std::nullopt;
+  if ((pa - ka).norm() > options_.max_reprojection_px ||
+      (pb - kb).norm() > options_.max_reprojection_px) {
+    return std::nullopt;
   }
-  scene_.add_point(*X, {first, second});
-  return true;
+  return X;
 }
 
 void IncrementalMapper::triangulate_image(int index) {

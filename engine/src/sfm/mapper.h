@@ -128,6 +128,10 @@ class IncrementalMapper {
   void extend_track(int64_t point, Observation obs);
   void merge_tracks(int64_t a, int64_t b);
   bool triangulate_pair_match(Observation first, Observation second);
+  std::optional<Eigen::Vector3d> triangulated(const SceneImage& a,
+                                              Observation first,
+                                              const SceneImage& b,
+                                              Observation second) const;
   void close_loops(int index);
   std::vector<int> key_views() const;
   void adjust_pose(int index);
