@@ -48,13 +48,16 @@
 #include <thread>
 
 #include <CLI/CLI.hpp>
+#include <Eigen/Geometry>
 
 #include "arscout/db/store.h"
 #include "arscout/engine/camera.h"
 #include "arscout/engine/image_size.h"
 #include "arscout/engine/service.h"
+#include "arscout/documents/model.h"
 #include "arscout/ingest/gps.h"
 #include "bench_support.h"
+#include "model_eval.h"
 #include "progress_log.h"
 
 #ifndef ARSCOUT_SOURCE_DIR
@@ -343,6 +346,37 @@ void print_components(const Observed& seen) {
   std::printf("\n");
 }
 
+// Each live site's cameras against the scene's exact truth (a rendered
+// scene's gt_dense_cameras), after a similarity fit; nothing without one.
+void print_accuracy(arscout::db::Store& store, const Options& o) {
+  const std::string truth_dir = o.scene + "/gt_dense_cameras";
+  if (!fs::is_directory(truth_dir)) return;
+  const auto truth = arscout::eval::read_strecha_ground_truth(truth_dir);
+  for (const auto& site : store.list_children("/sites")) {
+    const auto doc = store.get(site.path + "/model");
+    if (!doc) continue;
+    const auto model = arscout::documents::model_from_json(doc->attrs);
+    std::map<std::string, arscout::eval::Pose> poses;
+    for (const auto& image : model.images) {
+      arscout::eval::Pose pose;
+      pose.name = image.id + ".jpg";
+      const auto& q = image.qvec;
+      pose.R = Eigen::Quaterniond(q[0], q[1], q[2], q[3])
+                   .normalized()
+                   .toRotationMatrix();
+      pose.t = Eigen::Vector3d(image.tvec[0], image.tvec[1], image.tvec[2]);
+      poses[pose.name] = pose;
+    }
+    if (poses.size() < 3) continue;
+    const auto c = arscout::eval::compare_to_ground_truth(poses, truth);
+    std::printf(
+        "accuracy %s: %d cameras, centre error after a similarity fit: "
+        "median %.2f cm, max %.2f cm; rotation median %.3f deg\n",
+        site.path.c_str(), c.matched, c.median_centre_error * 100,
+        c.max_centre_error * 100, c.median_rotation_error_deg);
+  }
+}
+
 void print_report(arscout::db::Store& store, const Options& o,
                   const std::vector<Photo>& photos, Observed& seen) {
   std::lock_guard lock(seen.mutex);
@@ -379,6 +413,7 @@ void print_report(arscout::db::Store& store, const Options& o,
   std::printf("\npeak RSS of the process (worker and store): %.0f MiB\n",
               usage.ru_maxrss / 1024.0);
   print_state_bytes(store, static_cast<int>(seen.registered_us.size()));
+  print_accuracy(store, o);
 }
 
 void run(const Options& o) {

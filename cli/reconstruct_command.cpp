@@ -143,6 +143,8 @@ void print_progress(int n, int total, const engine::AddResult& r) {
             << (r.loops_closed ? "  loop closed" : "");
   if (r.component >= 0) std::cout << "  component " << r.component;
   if (r.components_merged > 0) std::cout << "  merged " << r.components_merged;
+  if (r.components_retired > 0)
+    std::cout << "  retired " << r.components_retired;
   std::cout << "  | decode " << t.decode_s << " undistort " << t.undistort_s
             << " features " << t.features_s << " match " << t.matching_s
             << " pose " << t.pose_s << " triang " << t.triangulation_s << " ba "
@@ -384,6 +386,16 @@ void add_reconstruct_command(CLI::App& app) {
       "--single-model", [](int64_t) { args.options.multiple_models = false; },
       "one chain, as COLMAP's Mapper.multiple_models 0: photos that reach no "
       "point of the model wait instead of starting a component");
+  cmd->add_option("--retire-below", args.options.retire_component_below,
+                  "a component with fewer photos than this that stopped "
+                  "growing is retired: its photos wait for another to reach "
+                  "them")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 100000));
+  cmd->add_option("--retire-after", args.options.retire_component_after,
+                  "... once the site took this many photos since it grew")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000000));
   cmd->add_option("--refine-intrinsics", args.options.refine_intrinsics,
                   "auto (uncalibrated cameras only), on or off")
       ->capture_default_str()

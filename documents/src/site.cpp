@@ -1,5 +1,7 @@
 #include "arscout/documents/site.h"
 
+#include <algorithm>
+
 #include <nlohmann/json.hpp>
 
 #include "arscout/documents/document_error.h"
@@ -40,6 +42,8 @@ Json to_json(const Site& s) {
             {"radius", s.radius_m},
             {"fixes", s.fixes},
             {"extent_m", s.extent_m},
+            {"reach_m", s.reach_m},
+            {"cameras", s.cameras},
             {"captures", s.captures},
             {"capture_count", s.captures.size()},
             {"registered", s.registered},
@@ -61,6 +65,10 @@ Site site_from_json(const Json& attrs, const std::string& id) {
   s.radius_m = fields::number(attrs, "radius").value_or(0);
   s.fixes = static_cast<int>(fields::number(attrs, "fixes").value_or(0));
   s.extent_m = fields::number(attrs, "extent_m").value_or(0);
+  // Sites stored before the footprint followed cameras reach their extent.
+  s.reach_m = std::max(s.extent_m,
+                       fields::number(attrs, "reach_m").value_or(s.extent_m));
+  s.cameras = static_cast<int>(fields::number(attrs, "cameras").value_or(0));
   s.captures = capture_list(attrs);
   s.centre = centre_of(attrs);
   s.registered =

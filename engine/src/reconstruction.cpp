@@ -523,6 +523,7 @@ AddResult Reconstruction::add_capture(const CaptureInput& capture) {
   result.geo_registered = scene.geo_registered;
   result.loops_closed = mapper.loops_closed();
   result.components_merged = mapper.components_merged();
+  result.components_retired = mapper.components_retired();
   result.component = added.registered ? added.component : -1;
   timings.total_s = seconds_since(start);
   return result;

@@ -89,6 +89,8 @@ TEST(SiteForm, RoundTrips) {
   s.radius_m = 50;
   s.fixes = 11;
   s.extent_m = 12.5;
+  s.reach_m = 20;
+  s.cameras = 9;
   s.captures = {"alice.0000.jpg", "alice.0001.jpg"};
   s.centre = GeoPoint{47.07, 15.44, 353};
   s.registered = 2;
@@ -101,6 +103,8 @@ TEST(SiteForm, RoundTrips) {
   const Site bare = site_from_json(Json::object(), "s-x");
   EXPECT_EQ(bare.name, "s-x");
   EXPECT_FALSE(bare.centre);
+  // Stored before the footprint followed cameras: it reaches its extent.
+  EXPECT_DOUBLE_EQ(site_from_json(Json{{"extent_m", 30}}, "s-y").reach_m, 30);
   EXPECT_THROW(site_from_json(Json{{"captures", {1, 2}}}, "s-x"),
                DocumentError);
 }

@@ -1,5 +1,6 @@
-// Site placement: distance, footprints that grow along a walk, hints, and
-// ids that come out the same when a capture is placed again.
+// Site placement: distance, footprints that follow registered cameras and
+// reach (boundedly) along a walk not yet registered, hints, and ids that
+// come out the same when a capture is placed again.
 #include "site_directory.h"
 
 #include <gtest/gtest.h>
@@ -37,12 +38,13 @@ TEST(SiteDirectory, NearCapturesShareASiteFarOnesFoundNewOnes) {
   ASSERT_TRUE(far);
   EXPECT_NE(*far, *first);
   EXPECT_EQ(sites.sites().size(), 2u);
-  // The centre is the mean of the fixes.
+  // Until a camera registers, the centre is the founding fix.
   const auto site = sites.site(*first);
   ASSERT_TRUE(site);
-  const GeoFix mid = offset(10, 5);
-  EXPECT_NEAR(util::great_circle_m(site->lat, site->lon, mid.lat, mid.lon), 0,
+  const GeoFix a = offset(0, 0);
+  EXPECT_NEAR(util::great_circle_m(site->lat, site->lon, a.lat, a.lon), 0,
               0.01);
+  EXPECT_NEAR(site->reach_m, 22.36, 0.05);
   EXPECT_EQ(site->captures, (std::vector<std::string>{"a", "b"}));
 }
 
@@ -52,7 +54,7 @@ TEST(SiteDirectory, AStreetWalkStaysOneSite) {
   for (int i = 0; i < 29; ++i)
     sites.place("p" + std::to_string(i), offset(6.0 * i, 0), "");
   ASSERT_EQ(sites.sites().size(), 1u);
-  EXPECT_GE(sites.sites()[0].extent_m, 84);  // half the walk, at least
+  EXPECT_NEAR(sites.sites()[0].reach_m, 168, 0.5);  // none registered yet
   // But a capture 150 m beyond its end founds another.
   sites.place("beyond", offset(6.0 * 28 + 60 + 90, 0), "");
   EXPECT_EQ(sites.sites().size(), 2u);
@@ -91,8 +93,82 @@ TEST(SiteDirectory, PlacingAgainGivesTheSameSiteAndSurvivesAReload) {
   const auto site = reloaded.site("s-a");
   ASSERT_TRUE(site);
   EXPECT_EQ(site->fixes, 2);
-  EXPECT_NEAR(site->extent_m, sites.site("s-a")->extent_m, 1e-9);
+  EXPECT_NEAR(site->reach_m, sites.site("s-a")->reach_m, 1e-9);
   EXPECT_EQ(reloaded.place("c", offset(30, 0), ""), "s-a");
+}
+
+// A footprint of `cameras` cameras around the fix `north_m` north.
+Footprint cameras_at(double north_m, double extent_m, int cameras) {
+  const GeoFix at = offset(north_m, 0);
+  return Footprint{at.lat, at.lon, 350, extent_m, cameras};
+}
+
+double metres_between(const Site& site, const GeoFix& fix) {
+  return util::great_circle_m(site.lat, site.lon, fix.lat, fix.lon);
+}
+
+TEST(SiteDirectory, TheFootprintFollowsRegisteredCameras) {
+  SiteDirectory sites(50);
+  for (int i = 0; i < 10; ++i)
+    sites.place("p" + std::to_string(i), offset(4.0 * i, 0), "");
+  // The engine registered the first six, spread over 20 m around 10 m
+  // north; the last four wait: the reach still covers them.
+  EXPECT_TRUE(sites.follow("s-p0", cameras_at(10, 10, 6),
+                           {"p0", "p1", "p2", "p3", "p4", "p5"}));
+  Site site = *sites.site("s-p0");
+  EXPECT_NEAR(metres_between(site, offset(10, 0)), 0, 0.01);
+  EXPECT_EQ(site.cameras, 6);
+  EXPECT_DOUBLE_EQ(site.extent_m, 10);
+  EXPECT_NEAR(site.reach_m, 26, 0.05);  // p9, 36 m north
+  // Once they are processed without registering, the reach is the extent.
+  sites.follow("s-p0", cameras_at(10, 10, 6), {"p6", "p7", "p8", "p9"});
+  site = *sites.site("s-p0");
+  EXPECT_DOUBLE_EQ(site.reach_m, 10);
+  EXPECT_FALSE(sites.follow("nosuchsite", cameras_at(0, 0, 1), {}));
+  // With no camera registered, only the unconfirmed fixes go.
+  sites.place("q0", offset(0, 3000), "");
+  sites.place("q1", offset(0, 3030), "");
+  sites.follow("s-q0", Footprint{}, {"q1"});
+  EXPECT_NEAR(metres_between(*sites.site("s-q0"), offset(0, 3000)), 0, 0.01);
+}
+
+TEST(SiteDirectory, FixesWalkingAwayFoundNewSitesInsteadOfDraggingOne) {
+  // A registered site, then 400 junk captures whose fixes step 20 m north
+  // each (8 km), all sent before the engine processed any of them.
+  SiteDirectory sites(50);
+  sites.place("fountain", offset(0, 0), "");
+  sites.follow("s-fountain", cameras_at(0, 10, 11), {"fountain"});
+  for (int i = 1; i <= 400; ++i)
+    sites.place("junk" + std::to_string(i), offset(20.0 * i, 0), "");
+  const Site fountain = *sites.site("s-fountain");
+  EXPECT_NEAR(metres_between(fountain, offset(0, 0)), 0, 0.01);
+  // Its reach is bounded: kUnconfirmedReach radii beyond its cameras.
+  EXPECT_LE(fountain.reach_m, 10 + kUnconfirmedReach * 50 + 1e-9);
+  EXPECT_LE(fountain.captures.size(), 14u);           // those within its reach
+  EXPECT_NE(sites.site_of("junk250"), "s-fountain");  // 5 km north
+  // The walk founded a site every few radii: none is kilometres wide.
+  EXPECT_GE(sites.sites().size(), 8000 / 260u);
+  for (const Site& s : sites.sites()) EXPECT_LE(s.reach_m, 210 + 1e-9);
+  // A capture back at the fountain goes to the fountain.
+  EXPECT_EQ(sites.place("back", offset(-5, 0), ""), "s-fountain");
+}
+
+TEST(SiteDirectory, TheFootprintOfAModelIsItsGeoRegisteredCameras) {
+  Model model;
+  for (int i = 0; i < 3; ++i) {
+    ModelImage image;
+    const GeoFix at = offset(10.0 * i, 0);
+    image.geodetic = Geodetic{at.lat, at.lon, 300.0 + i};
+    model.images.push_back(image);
+  }
+  model.images.push_back(ModelImage{});  // no position: not counted
+  const Footprint fp = registered_footprint(model);
+  EXPECT_EQ(fp.cameras, 3);
+  const GeoFix mid = offset(10, 0);
+  EXPECT_NEAR(util::great_circle_m(fp.lat, fp.lon, mid.lat, mid.lon), 0, 0.01);
+  EXPECT_NEAR(fp.alt, 301, 1e-9);
+  EXPECT_NEAR(fp.extent_m, 10, 0.01);
+  EXPECT_EQ(registered_footprint(Model{}).cameras, 0);
 }
 
 }  // namespace

@@ -23,6 +23,10 @@
 // Settings from the environment:
 //   SERVER, PLANNER_TOKEN          the server and a planner token (required)
 //   BIG_SITE, SMALL_SITE           site ids (default street, street-small)
+//   PARTS_SITE                     a site in two components, with
+//                                  "{id}-before" merged into it (default
+//                                  street-parts; make_street_site ...
+//                                  components); "" skips that check
 //   MAX_RATIO (1.5), MAX_MEMORY_MB (1024), FRAMES (30)
 //   SCREENSHOT                     PNG of the distance measurement
 //   CHROMIUM                       browser binary (default /usr/bin/chromium)
@@ -38,6 +42,7 @@ const config = {
   token: env.PLANNER_TOKEN || '',
   bigSite: env.BIG_SITE || 'street',
   smallSite: env.SMALL_SITE || 'street-small',
+  partsSite: env.PARTS_SITE ?? 'street-parts',
   maxRatio: Number(env.MAX_RATIO || 1.5),
   maxMemoryMb: Number(env.MAX_MEMORY_MB || 1024),
   frames: Number(env.FRAMES || 30),
@@ -260,6 +265,46 @@ function within(what, value, expected, tolerance) {
   if (!(error <= tolerance)) fail(`${what} ${value} is not within ${tolerance * 100} % of ${expected}`);
 }
 
+/**
+ * A site in two components: the legend lists both, each tinted, and the
+ * frusta take their component's tint. The site merged into it is not
+ * listed, and its address opens the site it grew into.
+ */
+async function checkComponents(page) {
+  const site = config.partsSite;
+  const listed = await page.$$eval('#sites-body tr', (rows) => rows.map((r) => r.dataset.site));
+  if (listed.includes(`${site}-before`)) fail(`the merged site ${site}-before is listed: ${listed}`);
+  await page.evaluate((id) => { location.hash = `#site=${encodeURIComponent(id)}`; }, `${site}-before`);
+  await page.waitForFunction((id) => {
+    const app = window.arscoutViewer;
+    return app?.state.site === id && app.state.model && document.body.dataset.cloud === 'loaded';
+  }, site, { timeout: 120000, polling: 200 });
+  await page.waitForFunction(() => window.arscoutViewer.state.model?.attrs?.components &&
+    window.arscoutViewer.viewer.frusta.entries.size > 0, null, { timeout: 60000, polling: 200 })
+    .catch(() => fail('the site\'s model with its components and frusta did not show'));
+  const legend = await page.$$eval('#components li', (items) => items.map((li) => ({
+    component: li.dataset.component, colour: li.querySelector('.swatch')?.dataset.colour, text: li.textContent,
+  })));
+  const visible = await page.isVisible('#components');
+  const tints = await page.evaluate(() => {
+    const byComponent = {};
+    for (const { frustum, tint } of window.arscoutViewer.viewer.frusta.entries.values()) {
+      byComponent[frustum.userData.component] = `#${tint.color.getHexString()}`;
+    }
+    return byComponent;
+  });
+  log(`components: legend ${JSON.stringify(legend)}, frusta tints ${JSON.stringify(tints)}`);
+  if (!visible || legend.length !== 2) fail(`the legend does not list 2 components: ${JSON.stringify(legend)}`);
+  if (legend[0].colour === legend[1].colour) fail('both components have one tint');
+  for (const entry of legend) {
+    if (!/6 photos/.test(entry.text)) fail(`legend line without its photos: ${entry.text}`);
+    if (tints[entry.component] !== entry.colour) {
+      fail(`component ${entry.component}: frusta ${tints[entry.component]}, legend ${entry.colour}`);
+    }
+  }
+  if (!(await page.textContent('#site-title')).includes(site)) fail('the title does not name the site it grew into');
+}
+
 async function run(browser, page) {
   await page.goto(`${config.server}/`, { waitUntil: 'load' });
   await page.waitForSelector('#token-input', { state: 'visible', timeout: 30000 });
@@ -312,6 +357,7 @@ async function run(browser, page) {
   if (!/^EPSG:326\d\d$/.test(picked.crs || '')) fail(`the picked point has no UTM coordinates: ${picked.crs}`);
   if (!(figures.ratio <= config.maxRatio)) fail(`frame time ratio ${figures.ratio.toFixed(2)} > ${config.maxRatio}`);
   if (!(mem.page < config.maxMemoryMb)) fail(`the page uses ${mem.page.toFixed(0)} MiB >= ${config.maxMemoryMb}`);
+  if (config.partsSite) await checkComponents(page);
   log('PASS');
 }
 

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The web viewer's level of detail and measurement tools in headless
-# Chromium (lod_browser_test.mjs) against a server holding two synthetic
-# street sites written by make_street_site: "street" with BIG_POINTS points
-# (default 20 million) and "street-small" with 500,000, drawn whole.
+# Chromium (lod_browser_test.mjs) against a server holding synthetic street
+# sites written by make_street_site: "street" with BIG_POINTS points
+# (default 20 million), "street-small" with 500,000, drawn whole, and
+# "street-parts" in two components with "street-parts-before" merged into it.
 #   lod_browser_test.sh ARSCOUT_BINARY MAKE_STREET_SITE [BIG_POINTS]
 # Exit 77 (skipped) without Node, Chromium or the npm packages, except
 # under CI=true, where that is a failure. FIGURES=FILE keeps the figures
@@ -22,6 +23,7 @@ use_work_dir
 db="sqlite:$work/arscout.db"
 "$make_site" "$db" street "$big"
 "$make_site" "$db" street-small 500000
+"$make_site" "$db" street-parts 20000 components
 token=$("$bin" token create --db "$db" --role planner --name pat)
 # The octree of 20 million points is built on the first request for it.
 start_server "$work/server.log" --db "$db" --listen 127.0.0.1:0

@@ -144,5 +144,27 @@ TEST_F(CloudOctreeCacheTest, DropsTheLeastRecentlyUsedBeyondItsBytes) {
   EXPECT_EQ(a->hierarchy.at("points"), 5000);
 }
 
+TEST_F(CloudOctreeCacheTest, AMergedSiteServesTheModelOfTheSiteItGrewInto) {
+  street_cloud::write_street_site(*store_, "s",
+                                  street_cloud::synthetic_street(2000), true);
+  const SiteModel model = load_site_model(*store_, "s-before");
+  EXPECT_EQ(model.site, "s");
+  EXPECT_EQ(model.document.components.size(), 2u);
+  EXPECT_EQ(model.document.images.size(), 12u);
+  CloudOctreeCache cache;
+  EXPECT_EQ(
+      cache.current(*store_, "s-before", Cloud::kDense)->hierarchy.at("points"),
+      2000);
+  // A site never placed is not found, and says so.
+  try {
+    load_site_model(*store_, "nosuchsite");
+    ADD_FAILURE() << "no error for a site that does not exist";
+  } catch (const db::StoreError& e) {
+    EXPECT_EQ(e.code(), db::ErrorCode::kNotFound);
+    EXPECT_NE(std::string(e.what()).find("no site nosuchsite"),
+              std::string::npos);
+  }
+}
+
 }  // namespace
 }  // namespace arscout::viewer

@@ -6,6 +6,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <Eigen/Geometry>
+
 #include "arscout/documents/model.h"
 #include "arscout/documents/site.h"
 
@@ -142,10 +144,53 @@ Json store_tiles(arscout::db::Store& store,
   return tiles;
 }
 
+// Six cameras 1.6 m up along the street's axis, looking north (component
+// 0, x 5..30 m) or south (component 1, x 60..85 m).
+void add_component_cameras(arscout::documents::ModelDocument* model) {
+  arscout::documents::ModelCameraEntry camera;
+  camera.id = "phone";
+  camera.camera.width = 1600;
+  camera.camera.height = 1200;
+  camera.camera.fx = camera.camera.fy = 1400;
+  camera.camera.cx = 800;
+  camera.camera.cy = 600;
+  model->cameras.push_back(camera);
+  for (int component = 0; component < 2; ++component) {
+    const double facing = component == 0 ? 1 : -1;  // +y or -y
+    Eigen::Matrix3d r;  // world-to-camera: rows are the camera's axes
+    r << facing, 0, 0, 0, 0, -1, 0, facing, 0;
+    const Eigen::Quaterniond q(r);
+    for (int i = 0; i < 6; ++i) {
+      arscout::documents::ModelImageEntry image;
+      image.id = "c" + std::to_string(component) + "-" + std::to_string(i);
+      image.camera = camera.id;
+      const Eigen::Vector3d centre(5.0 + 55 * component + 5 * i, 0, 1.6);
+      const Eigen::Vector3d t = -(r * centre);
+      image.qvec = {q.w(), q.x(), q.y(), q.z()};
+      image.tvec = {t.x(), t.y(), t.z()};
+      image.centre = {centre.x(), centre.y(), centre.z()};
+      image.component = component;
+      model->images.push_back(image);
+    }
+    model->components.push_back({component, 6, 0});
+  }
+}
+
+// "{site}-before": a site that grew into `site`.
+void write_merged_site(arscout::db::Store& store, const std::string& site) {
+  arscout::documents::Site doc;
+  doc.name = "synthetic " + site + " (before)";
+  doc.radius_m = 100;
+  doc.state = "merged";
+  doc.merged_into = site;
+  store.put("/sites/" + site + "-before", "site", to_json(doc));
+}
+
 }  // namespace
 
 void write_street_site(arscout::db::Store& store, const std::string& site,
-                       const std::vector<ColoredPoint>& cloud) {
+                       const std::vector<ColoredPoint>& cloud,
+                       bool components) {
   arscout::documents::ModelDocument model;
   model.site = site;
   model.geo_registered = true;
@@ -153,6 +198,7 @@ void write_street_site(arscout::db::Store& store, const std::string& site,
   model.statistics.dense_points = cloud.size();
   model.dense_state = "current";
   model.dense_tiles = store_tiles(store, cloud);
+  if (components) add_component_cameras(&model);
   arscout::db::WriteOp put = arscout::db::WriteOp::put(
       "/sites/" + site + "/model", "model", to_json(model));
   const std::vector<ColoredPoint> sparse(
@@ -167,6 +213,7 @@ void write_street_site(arscout::db::Store& store, const std::string& site,
   doc.model_version = version;
   doc.state = "modelled";
   store.put("/sites/" + site, "site", to_json(doc));
+  if (components) write_merged_site(store, site);
 }
 
 }  // namespace street_cloud

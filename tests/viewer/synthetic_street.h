@@ -29,7 +29,11 @@ std::vector<arscout::engine::ColoredPoint> synthetic_street(
 // as the dense cloud the way the engine publishes one (tiles of at most a
 // million points, each a PLY blob named in the model's "dense_tiles"); the
 // site document names the model's version.
+// With `components`, the model also holds cameras in two components (six
+// frusta each, along either side of the street) and a site "{site}-before"
+// whose document says it grew into this one (merged_into).
 void write_street_site(arscout::db::Store& store, const std::string& site,
-                       const std::vector<arscout::engine::ColoredPoint>& cloud);
+                       const std::vector<arscout::engine::ColoredPoint>& cloud,
+                       bool components = false);
 
 }  // namespace street_cloud

@@ -5,6 +5,7 @@
 #include "arscout/db/errors.h"
 #include "arscout/db/path.h"
 #include "arscout/documents/document_error.h"
+#include "arscout/documents/site.h"
 #include "arscout/engine/service.h"
 
 namespace arscout::viewer {
@@ -28,15 +29,38 @@ documents::ModelDocument read_model_document(const db::Document& doc,
   }
 }
 
+// The site whose model `site` has: `site` itself, or the one it grew
+// into. Throws kNotFound for a site that has no document.
+std::string model_holder(db::Store& store, const std::string& site) {
+  std::string at = site;
+  for (int hops = 0; hops < 64; ++hops) {  // a bounded chain of merges
+    const auto doc = store.get("/sites/" + at);
+    if (!doc) {
+      if (at == site) throw StoreError(ErrorCode::kNotFound, "no site " + site);
+      return at;
+    }
+    std::string next;
+    try {
+      next = documents::site_from_json(doc->attrs, at).merged_into;
+    } catch (const documents::DocumentError& e) {
+      throw StoreError(ErrorCode::kInternal, "the document of site " + at +
+                                                 " is damaged: " + e.what());
+    }
+    if (next.empty() || next.find('/') != std::string::npos) return at;
+    at = next;
+  }
+  return at;
+}
+
 }  // namespace
 
-SiteModel load_site_model(db::Store& store, const std::string& site) {
-  if (site.empty() || site.find('/') != std::string::npos)
+SiteModel load_site_model(db::Store& store, const std::string& requested) {
+  if (requested.empty() || requested.find('/') != std::string::npos)
     throw StoreError(ErrorCode::kInvalidArgument,
-                     "'" + site + "' is not a site id");
-  const std::string path = "/sites/" + site + "/model";
-  db::validate_path(path);
-  const auto doc = store.get(path);
+                     "'" + requested + "' is not a site id");
+  db::validate_path("/sites/" + requested + "/model");
+  const std::string site = model_holder(store, requested);
+  const auto doc = store.get("/sites/" + site + "/model");
   if (!doc)
     throw StoreError(ErrorCode::kNotFound,
                      "site " + site + " has no model yet");

@@ -8,7 +8,8 @@ import { OctreeCloud, DEFAULT_POINT_BUDGET } from './lod.js';
 import { Measurement } from './measure.js';
 import { ThumbnailCache, cameraCentre, cameraRotation } from './frusta.js';
 import { LiveFeed } from './live.js';
-import { renderSites, markSelectedSite, captureStatuses, renderCaptures, siteId } from './sites.js';
+import { renderSites, markSelectedSite, captureStatuses, renderCaptures, siteId, siteHolding, liveSites } from './sites.js';
+import { renderComponentLegend } from './components.js';
 import { status, progress, tokenDialog, overlayDialog, viewMessage, showLiveState } from './ui.js';
 import { debounce, serialized, formatCount, formatTime } from './util.js';
 
@@ -109,9 +110,20 @@ function siteDoc(id) {
 }
 
 function renderSiteList() {
-  renderSites($('sites-body'), state.sites, state.site, requestSite);
-  $('sites-empty').hidden = state.sites.length > 0 || !tokenStore.get();
+  const live = liveSites(state.sites);
+  renderSites($('sites-body'), live, state.site, requestSite);
+  $('sites-empty').hidden = live.length > 0 || !tokenStore.get();
   showSiteTitle();
+}
+
+/** The open site grew into another: that one opens in its place. */
+function followMergedSite() {
+  if (!state.site) return;
+  const holder = siteHolding(state.sites, state.site);
+  if (holder === state.site) return;
+  const from = siteDoc(state.site)?.attrs?.name || state.site;
+  requestSite(holder);
+  status.show(`site ${from} grew into site ${siteDoc(holder)?.attrs?.name || holder}`);
 }
 
 const refreshSites = serialized(async () => {
@@ -119,6 +131,7 @@ const refreshSites = serialized(async () => {
     state.sites = await api.sites();
     status.clear(LOAD_SITES);
     renderSiteList();
+    followMergedSite();
     if (state.site) renderCaptureList();
   } catch (err) {
     report(err, LOAD_SITES);
@@ -176,7 +189,7 @@ function openFromHash() {
   const match = /^#site=(.+)$/.exec(location.hash);
   if (!match) return;
   try {
-    openSite(decodeURIComponent(match[1]));
+    openSite(siteHolding(state.sites, decodeURIComponent(match[1])));
   } catch {
     status.error(`bad site in the address: ${match[1]}`);
   }
@@ -208,6 +221,8 @@ function openSite(id) {
   showModelVersion(null);
   showPointCount(0, '');
   $('model-details').textContent = '';
+  $('components').replaceChildren();
+  $('components').hidden = true;
   viewMessage('Loading the model...');
   markSelectedSite($('sites-body'), id);
   showSiteTitle();
@@ -250,7 +265,10 @@ function showModelDetails(doc) {
   if (stats.rejected) parts.push(`${stats.rejected} rejected`);
   parts.push(`dense ${attrs.dense_state || 'off'}`);
   parts.push(`updated ${formatTime(doc.updated)}`);
+  const components = (attrs.components || []).length;
+  if (components > 1) parts.push(`${components} components, apart until photos link them`);
   $('model-details').textContent = parts.join(' · ');
+  renderComponentLegend($('components'), attrs);
 }
 
 /**
@@ -328,6 +346,8 @@ function showNoModel() {
   showPointCount(0, '');
   showKindControls(null, null);
   $('model-details').textContent = '';
+  $('components').replaceChildren();
+  $('components').hidden = true;
   viewMessage('No model yet for this site.');
   renderCaptureList();
 }

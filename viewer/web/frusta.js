@@ -8,9 +8,10 @@
 
 import * as THREE from 'three';
 import { limiter } from './util.js';
+import { componentColours } from './components.js';
 
 const LINE_COLOR = 0xf0a040;
-const HIGHLIGHT_COLOR = 0x40d0ff;
+const HIGHLIGHT_COLOR = 0xffffff;
 
 /** The camera-to-world rotation (R^T) of an image, as a quaternion. */
 export function cameraRotation(image) {
@@ -145,7 +146,7 @@ export class FrustumSet {
     this.group = new THREE.Group();
     this.group.name = 'frusta';
     this.onChange = onChange;
-    this.lineMaterial = new THREE.LineBasicMaterial({ color: LINE_COLOR });
+    this.lineMaterials = new Map(); // tint -> material, one per component's tint
     this.highlightMaterial = new THREE.LineBasicMaterial({ color: HIGHLIGHT_COLOR });
     this.placeholder = new THREE.MeshBasicMaterial({
       color: 0x808080, transparent: true, opacity: 0.25, side: THREE.DoubleSide, depthWrite: false,
@@ -164,6 +165,7 @@ export class FrustumSet {
   update(model, depth, thumbnails) {
     this.clear();
     const generation = ++this.generation;
+    const colours = componentColours(model);
     for (const image of model.images || []) {
       const camera = intrinsicsOf(model, image);
       if (!camera || !Array.isArray(image.qvec) || !Array.isArray(image.tvec)) continue;
@@ -172,12 +174,15 @@ export class FrustumSet {
       frustum.name = image.id;
       frustum.matrixAutoUpdate = false;
       frustum.matrix.copy(cameraToWorld(image));
+      // Tinted by its component (models before components: one tint).
+      const tint = this.lineMaterial(colours.get(image.component ?? 0) ?? LINE_COLOR);
       const outline = new THREE.LineSegments(outlineGeometry(corners),
-        image.id === this.highlighted ? this.highlightMaterial : this.lineMaterial);
+        image.id === this.highlighted ? this.highlightMaterial : tint);
+      frustum.userData.component = image.component ?? 0;
       const picture = new THREE.Mesh(imageGeometry(corners), this.placeholder);
       frustum.add(outline, picture);
       this.group.add(frustum);
-      this.entries.set(image.id, { frustum, outline, picture });
+      this.entries.set(image.id, { frustum, outline, picture, tint });
 
       thumbnails?.get(image.id).then((texture) => {
         if (!texture || generation !== this.generation) return;
@@ -186,6 +191,16 @@ export class FrustumSet {
       });
     }
     this.onChange();
+  }
+
+  /** The outline material of one tint (kept for the set's lifetime). */
+  lineMaterial(colour) {
+    let material = this.lineMaterials.get(colour);
+    if (!material) {
+      material = new THREE.LineBasicMaterial({ color: colour });
+      this.lineMaterials.set(colour, material);
+    }
+    return material;
   }
 
   setVisible(visible) {
@@ -197,7 +212,7 @@ export class FrustumSet {
   highlight(captureId) {
     this.highlighted = captureId;
     for (const [id, entry] of this.entries) {
-      entry.outline.material = id === captureId ? this.highlightMaterial : this.lineMaterial;
+      entry.outline.material = id === captureId ? this.highlightMaterial : entry.tint;
     }
     this.onChange();
   }

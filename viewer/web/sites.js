@@ -8,6 +8,25 @@ export function siteId(doc) {
   return doc.path.replace(/^\/sites\//, '');
 }
 
+/**
+ * The site that holds `id`'s captures and model now: `id` itself, or the
+ * site it grew into (attrs.merged_into, followed through later merges).
+ */
+export function siteHolding(sites, id) {
+  let at = id;
+  for (let hops = 0; hops < 64; hops++) {
+    const next = sites.find((doc) => siteId(doc) === at)?.attrs?.merged_into;
+    if (!next || next === at) return at;
+    at = next;
+  }
+  return at;
+}
+
+/** The sites that hold captures: those merged into another are left out. */
+export function liveSites(sites) {
+  return sites.filter((doc) => !doc.attrs?.merged_into);
+}
+
 /** A capture's id from its document path "/captures/ID". */
 export function captureId(doc) {
   return doc.path.replace(/^\/captures\//, '');

@@ -42,6 +42,7 @@
 #include "arscout/documents/capture.h"
 #include "arscout/engine/service.h"
 #include "capture_document.h"
+#include "fair_turns.h"
 #include "site_directory.h"
 #include "site_job.h"
 #include "site_leases.h"
@@ -172,7 +173,8 @@ struct EngineWorker::Impl {
     if (capture.status == documents::kStatusWithdrawn) {
       auto site = directory.site_of(id);
       if (!site) return {};
-      return {{*site, Work{Work::Kind::kWithdraw, id, change.seq}}};
+      return {
+          {*site, Work{Work::Kind::kWithdraw, id, change.seq, capture.scout}}};
     }
     if (capture.status != documents::kStatusStored &&
         capture.status != documents::kStatusNeedsGps)
@@ -201,11 +203,12 @@ struct EngineWorker::Impl {
     }
     log("capture " + id + " -> site " + *site);
     std::vector<std::pair<std::string, Work>> work{
-        {*site, Work{Work::Kind::kAdd, id, change.seq}}};
+        {*site, Work{Work::Kind::kAdd, id, change.seq, capture.scout}}};
     // Sites whose footprints this fix reaches too grow into this one.
     if (fix) {
       for (const std::string& other : directory.meeting(*site, *fix))
-        work.push_back({*site, Work{Work::Kind::kMerge, other, change.seq}});
+        work.push_back(
+            {*site, Work{Work::Kind::kMerge, other, change.seq, ""}});
     }
     return work;
   }
@@ -274,11 +277,13 @@ struct EngineWorker::Impl {
       // Deterministic runs take one capture per increment: folding
       // whatever arrived meanwhile depends on timing, and so would the
       // dense phase's choice of views.
-      const auto take = options.reconstruction.deterministic
-                            ? std::min<std::ptrdiff_t>(1, q.pending.size())
-                            : static_cast<std::ptrdiff_t>(q.pending.size());
-      std::vector<Work> work(q.pending.begin(), q.pending.begin() + take);
-      q.pending.erase(q.pending.begin(), q.pending.begin() + take);
+      const std::vector<Work> work = service::take_in_turns(
+          q.pending, options.reconstruction.deterministic
+                         ? 1
+                         : static_cast<std::size_t>(
+                               std::max(1, options.increment_captures)));
+      const std::int64_t through =
+          work.empty() ? 0 : service::settled_through(work, q.pending);
       if (!q.job)
         q.job = std::make_shared<service::SiteJob>(site, store, options);
       const std::shared_ptr<service::SiteJob> held_job = q.job;
@@ -289,7 +294,7 @@ struct EngineWorker::Impl {
       bool ok = true;  // nothing to add: a refinement that gave way resumes
       if (!work.empty() || retry_dense) {
         lock.unlock();
-        ok = run_increment(site, job, work, lock);  // returns locked
+        ok = run_increment(site, job, work, through, lock);  // returns locked
       }
       if (ok && held.count(site) &&
           (q.pending.empty() || options.reconstruction.deterministic))
@@ -297,6 +302,8 @@ struct EngineWorker::Impl {
       q.running = false;
       if (!ok) {
         q.pending.insert(q.pending.begin(), work.begin(), work.end());
+        std::sort(q.pending.begin(), q.pending.end(),
+                  [](const Work& a, const Work& b) { return a.seq < b.seq; });
       }
       if (!ok || q.dense_retry) {
         // After a pause: the store may be briefly unavailable (a
@@ -429,12 +436,13 @@ struct EngineWorker::Impl {
   // checkpoint, then starts the dense phase (a further model version).
   // Returns false, with the lock held, when the sparse phase failed.
   bool run_increment(const std::string& site, service::SiteJob& job,
-                     const std::vector<Work>& work,
+                     const std::vector<Work>& work, std::int64_t through,
                      std::unique_lock<std::mutex>& lock) {
     bool dense_due = false;
     try {
       std::unique_lock publication(job.publication());
-      service::Increment increment = timed([&] { return job.run(work); });
+      service::Increment increment =
+          timed([&] { return job.run(work, through); });
       phases.sparse.observe(increment.seconds);
       lock.lock();
       std::multiset<std::int64_t> others = in_flight;
@@ -794,6 +802,7 @@ struct EngineWorker::Impl {
   void commit(const std::string& site, service::SiteJob& job,
               service::Increment& increment,
               std::optional<std::int64_t> checkpoint) {
+    directory.follow(site, increment.footprint, increment.settled);
     const auto info = directory.site(site);
     documents::Site doc =
         service::SiteDirectory::to_document(*info, directory.radius_m());

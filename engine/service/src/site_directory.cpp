@@ -19,6 +19,28 @@ std::string SiteDirectory::sanitise(const std::string& text) {
   return out.substr(0, 120);
 }
 
+Footprint registered_footprint(const Model& model) {
+  Footprint fp;
+  for (const ModelImage& image : model.images) {
+    if (!image.geodetic) continue;
+    fp.lat += image.geodetic->lat;
+    fp.lon += image.geodetic->lon;
+    fp.alt += image.geodetic->alt;
+    ++fp.cameras;
+  }
+  if (fp.cameras == 0) return fp;
+  fp.lat /= fp.cameras;
+  fp.lon /= fp.cameras;
+  fp.alt /= fp.cameras;
+  for (const ModelImage& image : model.images) {
+    if (!image.geodetic) continue;
+    fp.extent_m = std::max(
+        fp.extent_m, util::great_circle_m(fp.lat, fp.lon, image.geodetic->lat,
+                                          image.geodetic->lon));
+  }
+  return fp;
+}
+
 void SiteDirectory::load(const std::map<std::string, Json>& sites) {
   std::lock_guard lock(mutex_);
   for (const auto& [id, attrs] : sites) {
@@ -33,6 +55,8 @@ void SiteDirectory::load(const std::map<std::string, Json>& sites) {
     }
     site.fixes = stored.fixes;
     site.extent_m = stored.extent_m;
+    site.reach_m = stored.reach_m;
+    site.cameras = stored.cameras;
     site.captures = stored.captures;
     site.merged_into = stored.merged_into;
     for (const std::string& capture : site.captures)
@@ -63,7 +87,7 @@ std::optional<std::string> SiteDirectory::place(
       if (site.fixes == 0 || !site.merged_into.empty()) continue;
       const double d =
           util::great_circle_m(fix->lat, fix->lon, site.lat, site.lon) -
-          site.extent_m;
+          site.reach_m;
       if (d <= radius_m_ && d < best) {
         best = d;
         chosen = &site;
@@ -83,23 +107,45 @@ std::optional<std::string> SiteDirectory::place(
     chosen = &(sites_[site.id] = std::move(site));
   }
   if (fix) {
-    // The running mean of the fixes: the centre follows the captures.
-    const double n = chosen->fixes;
-    const double old_lat = chosen->lat, old_lon = chosen->lon;
-    chosen->lat = (chosen->lat * n + fix->lat) / (n + 1);
-    chosen->lon = (chosen->lon * n + fix->lon) / (n + 1);
-    chosen->alt = (chosen->alt * n + fix->alt.value_or(chosen->alt)) / (n + 1);
-    const double moved =
-        n > 0 ? util::great_circle_m(old_lat, old_lon, chosen->lat, chosen->lon)
-              : 0;
-    chosen->extent_m = std::max(
-        chosen->extent_m + moved,
-        util::great_circle_m(fix->lat, fix->lon, chosen->lat, chosen->lon));
+    if (chosen->fixes == 0) {  // it founds the site: its fix is the centre
+      chosen->lat = fix->lat;
+      chosen->lon = fix->lon;
+      chosen->alt = fix->alt.value_or(0);
+    }
     ++chosen->fixes;
+    chosen->unconfirmed[capture] = *fix;
+    widen(*chosen, *fix);
   }
   chosen->captures.push_back(capture);
   capture_site_[capture] = chosen->id;
   return chosen->id;
+}
+
+void SiteDirectory::widen(Site& site, const GeoFix& fix) const {
+  const double from_centre =
+      util::great_circle_m(fix.lat, fix.lon, site.lat, site.lon);
+  site.reach_m = std::max(
+      site.reach_m,
+      std::min(from_centre, site.extent_m + kUnconfirmedReach * radius_m_));
+}
+
+bool SiteDirectory::follow(const std::string& id, const Footprint& cameras,
+                           const std::vector<std::string>& settled) {
+  std::lock_guard lock(mutex_);
+  auto it = sites_.find(id);
+  if (it == sites_.end()) return false;
+  Site& site = it->second;
+  for (const std::string& capture : settled) site.unconfirmed.erase(capture);
+  if (cameras.cameras > 0) {
+    site.lat = cameras.lat;
+    site.lon = cameras.lon;
+    site.alt = cameras.alt;
+    site.extent_m = cameras.extent_m;
+    site.cameras = cameras.cameras;
+    site.reach_m = site.extent_m;
+    for (const auto& [capture, fix] : site.unconfirmed) widen(site, fix);
+  }
+  return true;
 }
 
 std::vector<std::string> SiteDirectory::meeting(const std::string& site,
@@ -110,13 +156,33 @@ std::vector<std::string> SiteDirectory::meeting(const std::string& site,
     if (id == site || other.fixes == 0 || !other.merged_into.empty()) continue;
     const double d =
         util::great_circle_m(fix.lat, fix.lon, other.lat, other.lon) -
-        other.extent_m;
+        other.reach_m;
     if (d <= radius_m_) near.push_back({d, id});
   }
   std::sort(near.begin(), near.end());
   std::vector<std::string> result;
   for (const auto& [d, id] : near) result.push_back(id);
   return result;
+}
+
+void SiteDirectory::join_footprints(Site& kept, const Site& gone) {
+  // Weighed by cameras (a site without any by its founding fix); each disc
+  // covered what it covered before.
+  const double n = std::max(kept.cameras, 1), m = std::max(gone.cameras, 1);
+  const double lat = (kept.lat * n + gone.lat * m) / (n + m);
+  const double lon = (kept.lon * n + gone.lon * m) / (n + m);
+  double extent = 0, reach = 0;
+  for (const Site* s : {static_cast<const Site*>(&kept), &gone}) {
+    const double shift = util::great_circle_m(lat, lon, s->lat, s->lon);
+    extent = std::max(extent, shift + s->extent_m);
+    reach = std::max(reach, shift + s->reach_m);
+  }
+  kept.alt = (kept.alt * n + gone.alt * m) / (n + m);
+  kept.lat = lat;
+  kept.lon = lon;
+  kept.extent_m = extent;
+  kept.reach_m = reach;
+  kept.cameras += gone.cameras;
 }
 
 bool SiteDirectory::merge(const std::string& from, const std::string& into) {
@@ -127,23 +193,18 @@ bool SiteDirectory::merge(const std::string& from, const std::string& into) {
     return false;
   Site& kept = a->second;
   Site& gone = b->second;
-  const double n = kept.fixes, m = gone.fixes;
-  if (n + m > 0) {
-    const double lat = (kept.lat * n + gone.lat * m) / (n + m);
-    const double lon = (kept.lon * n + gone.lon * m) / (n + m);
-    // Every fix of either lay within its extent of its centre.
-    double extent = 0;
-    for (const Site* s : {&kept, &gone}) {
-      if (s->fixes == 0) continue;
-      extent = std::max(
-          extent, util::great_circle_m(lat, lon, s->lat, s->lon) + s->extent_m);
-    }
-    kept.alt = (kept.alt * n + gone.alt * m) / (n + m);
-    kept.lat = lat;
-    kept.lon = lon;
-    kept.extent_m = extent;
-    kept.fixes += gone.fixes;
+  if (kept.fixes == 0) {  // a hint-only site: the other's footprint
+    kept.lat = gone.lat;
+    kept.lon = gone.lon;
+    kept.alt = gone.alt;
+    kept.extent_m = gone.extent_m;
+    kept.reach_m = gone.reach_m;
+    kept.cameras = gone.cameras;
+  } else if (gone.fixes > 0) {
+    join_footprints(kept, gone);
   }
+  kept.fixes += gone.fixes;
+  kept.unconfirmed.merge(gone.unconfirmed);
   for (const std::string& capture : gone.captures) {
     kept.captures.push_back(capture);
     capture_site_[capture] = into;
@@ -184,6 +245,8 @@ documents::Site SiteDirectory::to_document(const Site& site, double radius_m) {
   doc.radius_m = radius_m;
   doc.fixes = site.fixes;
   doc.extent_m = site.extent_m;
+  doc.reach_m = site.reach_m;
+  doc.cameras = site.cameras;
   doc.captures = site.captures;
   doc.merged_into = site.merged_into;
   // A merged site is found by its id only, not by place.

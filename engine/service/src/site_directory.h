@@ -1,9 +1,17 @@
 // Which site a capture belongs to: the nearest site whose footprint comes
 // within the radius of the capture's GPS fix, else a new site; captures
-// without a fix go by their scout's site hint. A site's footprint is a disc
-// around its centre, the mean of its captures' fixes, as wide as its
-// farthest capture ("extent"): a site within the radius of its centre
-// would split a long street walk into pieces, one every radius or so.
+// without a fix go by their scout's site hint.
+//
+// A site's footprint follows its registered cameras, not raw fixes: a disc
+// around their mean, as wide as the farthest ("extent"); before any camera
+// registers, the founding capture's fix. Fixes of captures placed but not
+// yet registered widen the disc ("reach") by at most kUnconfirmedReach
+// radii beyond the extent, and only until the engine has processed them
+// (follow()), so a walk uploaded faster than the engine keeps to one site
+// while a stream of fixes walking away (junk, or a hostile client) founds
+// new sites every few radii instead of dragging one kilometres away.
+// Placement therefore depends on how far the engine has got, for captures
+// near the edge of the reach.
 //
 // Site ids are derived from the capture that founds the site ("s-" and its
 // id) or from the hint ("h-" and the hint), so placing the same capture
@@ -26,21 +34,40 @@
 
 #include "arscout/documents/site.h"
 #include "arscout/engine/geo.h"
+#include "arscout/engine/reconstruction.h"
 
 namespace arscout::engine::service {
 
 using Json = nlohmann::json;
 
+// How far fixes of captures not yet registered may widen a footprint, in
+// site radii beyond its extent.
+inline constexpr double kUnconfirmedReach = 4;
+
+// Where a site's registered cameras are: their mean and the distance from
+// it to the farthest, metres; cameras == 0 when none has a position.
+struct Footprint {
+  double lat = 0, lon = 0, alt = 0;
+  double extent_m = 0;
+  int cameras = 0;
+};
+
+// The footprint of a model's registered cameras (those with a geodetic
+// position: the model is geo-registered).
+Footprint registered_footprint(const Model& model);
+
 struct Site {
   std::string id;
   std::string name;  // the hint it was founded by, or its id
   double lat = 0, lon = 0, alt = 0;
-  int fixes = 0;  // captures with GPS that moved the centre
-  // An upper bound of the distance from the centre to its farthest fix,
-  // metres (kept as the centre moves without storing every fix).
-  double extent_m = 0;
+  int fixes = 0;                      // captures placed by their fix
+  double extent_m = 0;                // the cameras' footprint (see above)
+  double reach_m = 0;                 // >= extent_m: with unconfirmed fixes
+  int cameras = 0;                    // registered cameras the centre follows
   std::vector<std::string> captures;  // in order of placement
   std::string merged_into;            // set once it grew into another
+  // Fixes of captures placed here that the engine has not processed yet.
+  std::map<std::string, GeoFix> unconfirmed;
 };
 
 class SiteDirectory {
@@ -61,6 +88,13 @@ class SiteDirectory {
   std::optional<std::string> place(const std::string& capture,
                                    const std::optional<GeoFix>& fix,
                                    const std::string& hint);
+
+  // The engine processed `settled` (registered or not) and the site's
+  // registered cameras make `cameras`: the centre and extent follow them
+  // (unless there are none), and the reach covers the fixes still
+  // unconfirmed. False for an unknown site.
+  bool follow(const std::string& site, const Footprint& cameras,
+              const std::vector<std::string>& settled);
 
   // The live sites other than `site` that the fix lies within the radius
   // of (they meet `site` there), nearest first.
@@ -86,6 +120,10 @@ class SiteDirectory {
 
  private:
   static std::string sanitise(const std::string& text);
+  // `kept`'s footprint becomes one disc over both.
+  static void join_footprints(Site& kept, const Site& gone);
+  // Widens the reach to cover `fix`, within its bound.
+  void widen(Site& site, const GeoFix& fix) const;
 
   double radius_m_;
   mutable std::mutex mutex_;

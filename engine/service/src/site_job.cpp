@@ -206,16 +206,18 @@ void SiteJob::add(const std::string& capture, IncrementReport* report) {
   s.total_s += t.total_s;
 }
 
-Increment SiteJob::run(const std::vector<Work>& work) {
+Increment SiteJob::run(const std::vector<Work>& work,
+                       std::int64_t settled_through) {
   const auto start = Clock::now();
   if (!loaded_) restore();
   pending_statuses_.clear();
   pending_depth_maps_.clear();
   pending_removed_maps_.clear();
   IncrementReport report;
-  pending_through_seq_ = through_seq_;
+  pending_through_seq_ = std::max(through_seq_, settled_through);
+  Increment increment;
   for (const Work& w : work) {
-    pending_through_seq_ = std::max(pending_through_seq_, w.seq);
+    increment.settled.push_back(w.capture);
     if (w.kind == Work::Kind::kAdd) {
       add(w.capture, &report);
     } else if (sparse_->remove_capture(w.capture)) {
@@ -233,7 +235,7 @@ Increment SiteJob::run(const std::vector<Work>& work) {
   report.total_s = seconds_since(start);
 
   const auto writes_start = Clock::now();
-  Increment increment;
+  increment.footprint = registered_footprint(model);
   std::vector<db::WriteOp> ops;
   const std::vector<CaptureState> captures = sparse_->captures();
   add_status_ops(captures, &ops);
@@ -361,6 +363,7 @@ Increment SiteJob::absorb(SiteJob& other) {
   report.dense_points = dense_points_;
   report.total_s = seconds_since(start);
   Increment increment;
+  increment.footprint = registered_footprint(model);
   const std::vector<CaptureState> captures = sparse_->captures();
   add_status_ops(captures, &increment.ops);
   increment.ops.push_back(model_op(model, captures, report));
@@ -413,6 +416,7 @@ Increment SiteJob::run_refine(const std::function<bool()>& stop) {
     for (const std::string& c : refined.registered) dense_added_.push_back(c);
   }
   const Model model = sparse_->model();
+  increment.footprint = registered_footprint(model);
   IncrementReport report;
   report.dense_points = dense_points_;
   report.total_s = refined.seconds;

@@ -25,6 +25,7 @@
 #include "arscout/engine/service.h"
 #include "dense_tiles.h"
 #include "model_document.h"
+#include "site_directory.h"
 
 namespace arscout::db {
 class Store;
@@ -39,6 +40,7 @@ struct Work {
   Kind kind = Kind::kAdd;
   std::string capture;
   std::int64_t seq = 0;  // of the change that asked for it
+  std::string scout;     // who sent the capture (fair turns between scouts)
 };
 
 // A dense phase out of the publication order: begin_dense() takes the
@@ -77,6 +79,11 @@ struct Increment {
   // they make due is the next call's.
   bool refine_again = false;
   double seconds = 0;  // how long it took to make, set by the worker
+  // Where the site's registered cameras are after it, and the captures it
+  // processed (registered or not): the site's footprint follows them
+  // (SiteDirectory::follow).
+  Footprint footprint;
+  std::vector<std::string> settled;
 };
 
 class SiteJob {
@@ -88,13 +95,17 @@ class SiteJob {
 
   // Applies `work` to the in-memory state and returns the writes that
   // publish it (without the site document and the checkpoint, which the
-  // worker adds). Throws db::StoreError when the store fails; the caller
+  // worker adds). `settled_through`: every change of this site at or below
+  // that seq is in `work` or was folded before (the worker may take work
+  // out of order, for fairness between scouts); the state records it
+  // (attrs.through_seq), and another worker settles its deferred work by
+  // it. Throws db::StoreError when the store fails; the caller
   // then calls reset() and retries later. The writes are fenced: the engine
   // state document is written on the condition that it is still the
   // version this job restored or last wrote, so a worker that lost the
   // site's lease while it ran cannot overwrite the new holder's work (its
   // batch fails with a conflict).
-  Increment run(const std::vector<Work>& work);
+  Increment run(const std::vector<Work>& work, std::int64_t settled_through);
   // True when the last run() changed the model and the dense cloud has yet
   // to follow (also after a restart that found it behind).
   bool dense_due() const { return dense_due_; }

@@ -5,6 +5,7 @@
 // (components.cpp), and a later photo that links two components merges
 // them (component_merge.cpp).
 #include <algorithm>
+#include <map>
 #include <set>
 
 #include "estimators/bundle_adjuster.h"
@@ -108,6 +109,49 @@ int IncrementalMapper::register_third(int component) {
     failed.insert(best);
   }
   return -1;
+}
+
+// Retires the small components that stopped growing (ReconstructionOptions::
+// retire_component_below, _after), never the largest: every component
+// costs each new photo a matching pass, and a stalled fragment is more
+// likely a wrong start than a place worth a part of its own. When a
+// component last grew is read from its newest photo's place in the site's
+// order, so that replaying a feed retires the same ones.
+void IncrementalMapper::retire_stalled_components() {
+  const size_t stalled_after =
+      static_cast<size_t>(std::max(1, options_.retire_component_after));
+  const std::map<int, int> sizes = scene_.component_sizes();
+  if (sizes.size() < 2) return;
+  int largest = sizes.begin()->first;
+  for (const auto& [component, size] : sizes)
+    if (size > sizes.at(largest)) largest = component;
+  std::map<int, size_t> newest;
+  for (size_t i = 0; i < scene_.images.size(); ++i) {
+    if (scene_.images[i].registered) newest[scene_.images[i].component] = i;
+  }
+  for (const auto& [component, size] : sizes) {
+    if (component == largest || size >= options_.retire_component_below ||
+        newest[component] + stalled_after >= scene_.images.size())
+      continue;
+    std::vector<int> members;
+    for (size_t i = 0; i < scene_.images.size(); ++i) {
+      const SceneImage& image = scene_.images[i];
+      if (image.registered && image.component == component)
+        members.push_back(static_cast<int>(i));
+    }
+    dissolve_component(component);
+    ++components_retired_;
+    // Together they start nothing again: a new photo must join them.
+    for (int a : members)
+      for (int b : members)
+        if (a < b) scene_.failed_component_pairs.insert({a, b});
+    for (int member : members) {
+      scene_.images[member].reason =
+          "its component of " + std::to_string(size) +
+          " photos stopped growing and was retired; it is retried when a "
+          "component grows near it";
+    }
+  }
 }
 
 // Unregisters a component's photos and removes its points.

@@ -72,6 +72,7 @@ std::vector<int> IncrementalMapper::update() {
     }
   }
   register_by_points(registered, options_.max_registrations_per_update, {});
+  retire_stalled_components();
   // Photos that no component reaches start one of their own (one a call,
   // so that an increment stays bounded), which may let more register.
   if (start_component(registered))

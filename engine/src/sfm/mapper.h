@@ -42,6 +42,8 @@ class IncrementalMapper {
   bool refinement_due() const;
   // Loops closed by this mapper's update() calls.
   int loops_closed() const { return loops_closed_; }
+  // Small components that stopped growing, retired by update() calls.
+  int components_retired() const { return components_retired_; }
   // Mean reprojection error over all observations, working pixels.
   double mean_reprojection_px() const;
   // Merges the components that registered photos link (sfm/
@@ -70,6 +72,7 @@ class IncrementalMapper {
   bool try_component_pair(int a, int b, std::vector<int>& registered);
   int register_third(int component);
   void dissolve_component(int component);
+  void retire_stalled_components();
   void merge_through(int index);
   bool merge_components(int a, int b, int via);
   std::map<int, Eigen::Vector3d> bridge_points(int via, const SceneImage& posed,
@@ -155,6 +158,7 @@ class IncrementalMapper {
   const ReconstructionOptions& options_;
   StageTimings& timings_;
   int loops_closed_ = 0;
+  int components_retired_ = 0;
   int components_merged_ = 0;
 };
 

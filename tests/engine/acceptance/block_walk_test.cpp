@@ -254,5 +254,59 @@ TEST(BlockWalk, AGapGivesTwoComponentsThenOneOrAWaitInOneChain) {
   if (!HasFailure()) std::filesystem::remove_all(work);
 }
 
+// A fragment that stops growing is retired: four photos of the far side
+// (25-28) come early and start a component of their own; the walk then
+// stays on the near side for longer than --retire-after, so the fragment
+// is retired and its photos wait; once the walk reaches them they register
+// into the one component (docs/engine.md, "Components").
+TEST(BlockWalk, AStalledFragmentIsRetiredAndItsPhotosJoinLater) {
+  const std::string work = testing::make_temp_dir("block-walk-retire");
+  std::cout << "block walk with a stalled fragment in " << work << std::endl;
+  const std::string rendered = work + "/rendered";
+  const std::string site = work + "/site";
+  run_cli({"render-site", "--scene", "block", "--views", "40", "--width", "640",
+           "--height", "480", "--seed", "11", "--out", rendered},
+          work + "/render.log");
+  if (HasFatalFailure()) return;
+  reorder_walk(rendered, site,
+               {{'a', {0, 9}},
+                {'b', {25, 28}},
+                {'c', {10, 19}},
+                {'d', {20, 24}},
+                {'e', {29, 39}}});
+  const std::string out = work + "/out";
+  run_cli({"reconstruct", "--images", site + "/images", "--gps-csv",
+           site + "/gps.csv", "--camera", site + "/images/K.txt", "--out", out,
+           "--retire-below", "5", "--retire-after", "8"},
+          out + ".log");
+  if (HasFatalFailure()) return;
+  const eval::ProgressLog log = eval::read_progress_log(out + ".log");
+  int first_component = -1, fragment = -1, retired = 0;
+  for (const eval::PhotoProgress& photo : log.photos) {
+    if (photo.name[0] == 'a' && first_component < 0 && photo.component >= 0)
+      first_component = photo.component;
+    if (photo.name[0] == 'b' && photo.component >= 0)
+      fragment = photo.component;
+    retired += photo.retired;
+  }
+  const eval::PoseComparison p = eval::compare_to_ground_truth(
+      eval::read_colmap_images_txt(out + "/sparse/images.txt"),
+      eval::read_strecha_ground_truth(site + "/gt_dense_cameras"));
+  std::ifstream summary_log(out + ".log");
+  const std::string text((std::istreambuf_iterator<char>(summary_log)),
+                         std::istreambuf_iterator<char>());
+  std::cout << "stalled fragment: component " << fragment << " (first "
+            << first_component << "), " << retired << " retired; " << p.matched
+            << "/40 registered, centre error median " << p.median_centre_error
+            << " m, max " << p.max_centre_error << " m" << std::endl;
+  EXPECT_GE(fragment, 0) << "the far side's photos started no component";
+  EXPECT_NE(fragment, first_component);
+  EXPECT_EQ(retired, 1);
+  EXPECT_EQ(p.matched, 40);
+  EXPECT_NE(text.find("registered 40 images in 1 component,"),
+            std::string::npos);
+  if (!HasFailure()) std::filesystem::remove_all(work);
+}
+
 }  // namespace
 }  // namespace arscout

@@ -71,6 +71,7 @@ void parse_head(const std::string& head, PhotoProgress& p) {
     if (word == "geo") p.geo = true;
     if (word == "component") words >> p.component;
     if (word == "merged") words >> p.merged;
+    if (word == "retired") words >> p.retired;
     if (word == "loop" && words >> word && word == "closed")
       p.loop_closed = true;
     if (!words) throw std::runtime_error("bad figures");

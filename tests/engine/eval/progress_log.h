@@ -43,6 +43,7 @@ struct PhotoProgress {
   bool loop_closed = false;
   int component = -1;  // "component N": the one it registered in
   int merged = 0;      // "merged N": components this increment merged
+  int retired = 0;     // "retired N": stalled components it retired
   // Stage name -> seconds ("decode", "undistort", ..., "ba", "total"); empty
   // for a line without stage times.
   std::map<std::string, double> stage_s;

@@ -20,9 +20,15 @@ struct GeoPoint {
 
 struct Site {
   std::string name;
-  double radius_m = 0;  // captures within it of the centre join the site
-  int fixes = 0;        // GPS fixes averaged into the centre
-  double extent_m = 0;  // the farthest fix from the centre
+  double radius_m = 0;  // captures within it of the footprint join the site
+  int fixes = 0;        // captures placed by their GPS fix
+  // The footprint: the centre and `extent_m` cover the registered cameras
+  // (`cameras` of them); before any, the founding capture's fix. `reach_m`
+  // (>= extent_m) also covers fixes of captures not yet registered, a
+  // bounded distance beyond (docs/service.md, "Placement").
+  double extent_m = 0;
+  double reach_m = 0;
+  int cameras = 0;
   std::vector<std::string> captures;
   std::optional<GeoPoint> centre;  // none before the first fix
   // Of the last model the engine committed.
@@ -35,7 +41,8 @@ struct Site {
   std::string merged_into;
 };
 
-// {"name", "radius", "fixes", "extent_m", "captures", "capture_count",
+// {"name", "radius", "fixes", "extent_m", "reach_m", "cameras", "captures",
+//  "capture_count",
 //  "gps": {"lat", "lon", "alt"} (with a centre), "registered",
 //  "model_version", "state", "engine", "merged_into" (when merged)}.
 nlohmann::json to_json(const Site& site);

@@ -95,6 +95,12 @@ struct ReconstructionOptions {
   // is in ENU (docs/engine.md, "Components"); false keeps one chain, and
   // such photos wait until it reaches them (COLMAP's multiple_models).
   bool multiple_models = true;
+  // A component with fewer photos than `retire_component_below` that has
+  // not grown while the site took `retire_component_after` photos is
+  // retired: its photos wait again, for whichever component grows to reach
+  // them (docs/engine.md, "Components"). Never the largest.
+  int retire_component_below = 5;
+  int retire_component_after = 50;
   int threads = 2;
   // Fixed seeds and single-threaded solvers: the same inputs give
   // bit-identical output, also across serialize/restore.
@@ -148,6 +154,9 @@ struct AddResult {
   // merges of two components this increment made.
   int component = -1;
   int components_merged = 0;
+  // Small components that stopped growing, retired by this increment
+  // (ReconstructionOptions::retire_component_below).
+  int components_retired = 0;
   StageTimings timings;
 };
 

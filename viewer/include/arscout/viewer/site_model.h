@@ -37,9 +37,12 @@ struct SiteModel {
   std::vector<std::string> dense_blobs;
 };
 
-// Throws db::StoreError kNotFound ("site S has no model yet") when there is
-// no model document, kInvalidArgument for a site id that is not a path
-// segment, kInternal when the document does not hold the model form.
+// The model of `site`, or of the site it grew into (its document says
+// `merged_into`; followed through later merges): then `SiteModel::site`
+// names that one. Throws db::StoreError kNotFound ("no site S") for a site
+// that was never placed, kNotFound ("site S has no model yet") when there
+// is no model document yet, kInvalidArgument for a site id that is not a
+// path segment, kInternal when the document does not hold the model form.
 SiteModel load_site_model(db::Store& store, const std::string& site);
 
 // The full model (keypoints and tracks included), restored from the

@@ -63,9 +63,13 @@ namespace arscout::engine {
 struct WorkerOptions {
   // Names the feed checkpoint (/checkpoints/{name}) and the writes' author.
   std::string name = "engine";
-  // A capture joins the nearest site whose centre is within this distance
-  // of its GPS fix, else founds a new site.
+  // A capture joins the nearest site whose footprint (its registered
+  // cameras) is within this distance of its GPS fix, else founds a new site.
   double site_radius_m = 50;
+  // Captures one increment of a site takes at most, in turns between the
+  // scouts that sent them (oldest first within each): one scout's burst
+  // delays another's photo by at most this many.
+  int increment_captures = 4;
   bool dense = true;
   ReconstructionOptions reconstruction;
   DenseOptions dense_options;
