@@ -51,10 +51,10 @@
 #include <Eigen/Geometry>
 
 #include "arscout/db/store.h"
+#include "arscout/documents/model.h"
 #include "arscout/engine/camera.h"
 #include "arscout/engine/image_size.h"
 #include "arscout/engine/service.h"
-#include "arscout/documents/model.h"
 #include "arscout/ingest/gps.h"
 #include "bench_support.h"
 #include "model_eval.h"
@@ -82,6 +82,10 @@ struct Options {
   bool toward = false;
   bool no_dense = false;
   bool per_capture = false;
+  // How long to wait, after the last photo, for the worker to go idle (the
+  // background refinement and the dense re-fusing it causes may run on).
+  double settle_s = 1800;
+  double site_radius_m = 50;
   double new_coverage = 0;  // DenseOptions::new_coverage_share
   int dense_long_side = arscout::engine::DenseOptions{}.long_side;
   // DenseOptions::sweep_budget and refuse_budget_sweeping (0 and -1: the
@@ -374,6 +378,21 @@ void print_accuracy(arscout::db::Store& store, const Options& o) {
         "median %.2f cm, max %.2f cm; rotation median %.3f deg\n",
         site.path.c_str(), c.matched, c.median_centre_error * 100,
         c.max_centre_error * 100, c.median_rotation_error_deg);
+    // The worst, and which component each is in: a bad merge shows as one
+    // component's cameras off together.
+    std::map<std::string, int> component;
+    for (const auto& image : model.images)
+      component[image.id + ".jpg"] = image.component.value_or(-1);
+    std::vector<arscout::eval::CameraError> worst = c.cameras;
+    std::sort(worst.begin(), worst.end(), [](const auto& a, const auto& b) {
+      return a.centre_error > b.centre_error;
+    });
+    worst.resize(std::min<size_t>(worst.size(), 8));
+    std::printf("  worst:");
+    for (const auto& e : worst)
+      std::printf(" %s %.1f cm (component %d);", e.name.c_str(),
+                  e.centre_error * 100, component[e.name]);
+    std::printf("\n");
   }
 }
 
@@ -429,6 +448,7 @@ void run(const Options& o) {
       [&](const arscout::db::Change& c) { on_model(*store, c, seen); });
   arscout::engine::WorkerOptions options;
   options.dense = !o.no_dense;
+  options.site_radius_m = o.site_radius_m;
   options.dense_options.new_coverage_share = o.new_coverage;
   options.dense_options.long_side = o.dense_long_side;
   options.dense_options.sweep_budget = o.sweep_budget;
@@ -447,7 +467,10 @@ void run(const Options& o) {
     std::fprintf(stderr, "stored %s (scout %d)\n", photo.id.c_str(),
                  photo.scout + 1);
   }
-  worker.wait_idle(std::chrono::minutes(30));
+  if (!worker.wait_idle(std::chrono::milliseconds(
+          static_cast<std::int64_t>(o.settle_s * 1000))))
+    std::fprintf(stderr, "still busy after --settle %.0f s: reporting now\n",
+                 o.settle_s);
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   models->stop();
   worker.stop();
@@ -476,6 +499,17 @@ int main(int argc, char** argv) {
                "with --split: every second scout walks its part backwards");
   app.add_flag("--no-dense", o.no_dense, "sparse only");
   app.add_flag("--per-capture", o.per_capture, "a row per capture");
+  app.add_option("--site-radius", o.site_radius_m,
+                 "as arscout serve's: a capture joins a site whose footprint "
+                 "is within this many metres")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--settle", o.settle_s,
+                 "seconds to wait after the last photo for the worker to go "
+                 "idle before reporting (the background refinement may run "
+                 "on)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   app.add_option("--dense-new-coverage", o.new_coverage,
                  "as arscout serve's (0: off)")
       ->check(CLI::Range(0.0, 1.0));

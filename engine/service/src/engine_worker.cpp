@@ -37,6 +37,7 @@
 #include <unistd.h>
 #endif
 
+#include "arscout/db/errors.h"
 #include "arscout/db/path.h"
 #include "arscout/db/store.h"
 #include "arscout/documents/capture.h"
@@ -64,6 +65,10 @@ void lower_thread_priority() {
 }
 }  // namespace
 
+// Times one capture's increment may fail in the engine before the capture
+// is rejected (after_engine_fault).
+constexpr int kEngineFailures = 2;
+
 struct EngineWorker::Impl {
   Impl(db::Store& s, WorkerOptions o)
       : store(s),
@@ -78,7 +83,11 @@ struct EngineWorker::Impl {
     std::deque<Work> deferred;   // while another worker holds the site
     bool dense_retry = false;    // a dense phase failed: run one again
     bool refine_wanted = false;  // a refinement waits for the dense lane
-    bool running = false;        // its sparse lane
+    // After an increment failed in the engine: captures one at a time, and
+    // how often each failed alone (after_engine_fault).
+    bool one_at_a_time = false;
+    std::map<std::string, int> engine_failures;
+    bool running = false;  // its sparse lane
     bool ready = false;
     bool dense_running = false;  // its dense lane
     bool dense_queued = false;
@@ -278,7 +287,7 @@ struct EngineWorker::Impl {
       // whatever arrived meanwhile depends on timing, and so would the
       // dense phase's choice of views.
       const std::vector<Work> work = service::take_in_turns(
-          q.pending, options.reconstruction.deterministic
+          q.pending, options.reconstruction.deterministic || q.one_at_a_time
                          ? 1
                          : static_cast<std::size_t>(
                                std::max(1, options.increment_captures)));
@@ -292,10 +301,13 @@ struct EngineWorker::Impl {
       changed.wait(lock, [&] { return stopping || !q.dense_turn; });
       run_merges(site, job, q, lock);
       bool ok = true;  // nothing to add: a refinement that gave way resumes
+      std::string engine_fault;
       if (!work.empty() || retry_dense) {
         lock.unlock();
-        ok = run_increment(site, job, work, through, lock);  // returns locked
+        ok = run_increment(site, job, work, through, lock,
+                           &engine_fault);  // returns locked
       }
+      if (ok && !work.empty()) q.one_at_a_time = false;
       if (ok && held.count(site) &&
           (q.pending.empty() || options.reconstruction.deterministic))
         run_refinement(site, job, q, lock);
@@ -304,6 +316,7 @@ struct EngineWorker::Impl {
         q.pending.insert(q.pending.begin(), work.begin(), work.end());
         std::sort(q.pending.begin(), q.pending.end(),
                   [](const Work& a, const Work& b) { return a.seq < b.seq; });
+        if (!engine_fault.empty()) after_engine_fault(q, work, engine_fault);
       }
       if (!ok || q.dense_retry) {
         // After a pause: the store may be briefly unavailable (a
@@ -435,9 +448,11 @@ struct EngineWorker::Impl {
   // Runs one increment of a site: the sparse phase, committed with the
   // checkpoint, then starts the dense phase (a further model version).
   // Returns false, with the lock held, when the sparse phase failed.
+  // `engine_fault` gets the error when the engine (not the store) failed.
   bool run_increment(const std::string& site, service::SiteJob& job,
                      const std::vector<Work>& work, std::int64_t through,
-                     std::unique_lock<std::mutex>& lock) {
+                     std::unique_lock<std::mutex>& lock,
+                     std::string* engine_fault) {
     bool dense_due = false;
     try {
       std::unique_lock publication(job.publication());
@@ -458,16 +473,54 @@ struct EngineWorker::Impl {
       saved_checkpoint = std::max(saved_checkpoint, checkpoint);
       stats.checkpoint = saved_checkpoint;
       stats.increments += increment.model_written ? 1 : 0;
-    } catch (const std::exception& e) {
+    } catch (const db::StoreError& e) {  // the store: retried as it is
       if (lock.owns_lock()) lock.unlock();
       reset(job);
       log("site " + site + ": increment failed, will retry: " + e.what());
       lock.lock();
       ++stats.failures;
       return false;
+    } catch (const std::exception& e) {  // the engine, on these photos
+      if (lock.owns_lock()) lock.unlock();
+      reset(job);
+      log("site " + site + ": increment failed in the engine: " + e.what());
+      lock.lock();
+      ++stats.failures;
+      *engine_fault = e.what();
+      return false;
     }
     if (dense_due) start_dense(site, job, lock);
     return true;
+  }
+
+  // An increment failed in the engine (not the store), which would fail
+  // the same way again: its captures are retried one at a time, and one
+  // that fails alone kEngineFailures times is rejected with the error, so
+  // that one photo never holds its site for good. Called with the lock.
+  void after_engine_fault(SiteQueue& q, const std::vector<Work>& work,
+                          const std::string& what) {
+    q.one_at_a_time = true;
+    if (work.size() != 1 ||
+        ++q.engine_failures[work.front().capture] < kEngineFailures)
+      return;
+    const Work& w = work.front();
+    try {
+      db::WriteOp op = db::WriteOp::patch(
+          "/captures/" + w.capture,
+          documents::status_patch(documents::kStatusRejected,
+                                  "the engine failed on this photo " +
+                                      std::to_string(kEngineFailures) +
+                                      " times: " + what));
+      op.author = options.name;
+      store.batch({op});
+    } catch (const std::exception& e) {
+      log("capture " + w.capture + ": rejecting it failed: " + e.what());
+      return;  // retried: the next failure tries again
+    }
+    log("capture " + w.capture + ": rejected, the engine failed on it");
+    q.engine_failures.erase(w.capture);
+    std::erase_if(q.pending, [&](const Work& p) { return p.seq == w.seq; });
+    in_flight.erase(in_flight.find(w.seq));
   }
 
   // Takes in the sites waiting to merge into `site` whose lanes are idle.

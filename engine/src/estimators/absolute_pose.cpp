@@ -59,11 +59,20 @@ std::optional<AbsolutePose> estimate_absolute_pose(
   // degrees off, in the mirror minimum of the planar pose ambiguity, where
   // the refinement below stays. SQPnP finds the global minimum for any
   // configuration; the pose explaining more correspondences is kept.
+  // OpenCV 4.6's SQPnP asserts (computeOmega: more than 6 null vectors) on
+  // degenerate inliers, e.g. many of them on one line: the RANSAC pose
+  // stands alone then. Uncaught, the assertion failed the whole increment,
+  // and its retry again, for good (a 400-photo walk stuck at photo 192).
   cv::Mat sq_rvec, sq_tvec;
-  if (cv::solvePnP(inlier_object, inlier_points, K, cv::noArray(), sq_rvec,
-                   sq_tvec, false, cv::SOLVEPNP_SQPNP)) {
-    cv::solvePnPRefineLM(inlier_object, inlier_points, K, cv::noArray(),
-                         sq_rvec, sq_tvec);
+  try {
+    if (cv::solvePnP(inlier_object, inlier_points, K, cv::noArray(), sq_rvec,
+                     sq_tvec, false, cv::SOLVEPNP_SQPNP)) {
+      cv::solvePnPRefineLM(inlier_object, inlier_points, K, cv::noArray(),
+                           sq_rvec, sq_tvec);
+    }
+  } catch (const cv::Exception&) {
+    sq_rvec.release();
+    sq_tvec.release();
   }
   cv::solvePnPRefineLM(inlier_object, inlier_points, K, cv::noArray(), rvec,
                        tvec);
