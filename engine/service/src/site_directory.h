@@ -89,11 +89,11 @@ class SiteDirectory {
                                    const std::optional<GeoFix>& fix,
                                    const std::string& hint);
 
-  // The engine processed `settled` (registered or not) and the site's
+  // The engine processed `settled` (registered or not) and site `id`'s
   // registered cameras make `cameras`: the centre and extent follow them
   // (unless there are none), and the reach covers the fixes still
   // unconfirmed. False for an unknown site.
-  bool follow(const std::string& site, const Footprint& cameras,
+  bool follow(const std::string& id, const Footprint& cameras,
               const std::vector<std::string>& settled);
 
   // The live sites other than `site` that the fix lies within the radius

@@ -37,13 +37,13 @@ struct SiteModel {
   std::vector<std::string> dense_blobs;
 };
 
-// The model of `site`, or of the site it grew into (its document says
-// `merged_into`; followed through later merges): then `SiteModel::site`
+// The model of site `requested`, or of the site it grew into (its document
+// says `merged_into`; followed through later merges): then `SiteModel::site`
 // names that one. Throws db::StoreError kNotFound ("no site S") for a site
 // that was never placed, kNotFound ("site S has no model yet") when there
 // is no model document yet, kInvalidArgument for a site id that is not a
 // path segment, kInternal when the document does not hold the model form.
-SiteModel load_site_model(db::Store& store, const std::string& site);
+SiteModel load_site_model(db::Store& store, const std::string& requested);
 
 // The full model (keypoints and tracks included), restored from the
 // engine state that was committed with `model`. Throws db::StoreError
