@@ -7,7 +7,7 @@
 //   service_bench [--scene DIR] [--scouts 1] [--interval 2] [--views N]
 //                 [--split] [--toward] [--db URL] [--no-dense]
 //                 [--per-capture] [--dense-new-coverage S]
-//                 [--dense-long-side PX]
+//                 [--dense-long-side PX] [--site-radius M] [--settle S]
 //
 // DIR holds images/*.jpg, images/K.txt and gps.csv: a Strecha scene
 // (fountain-P11 by default) or a rendered block walk (`arscout render-site
@@ -22,7 +22,10 @@
 // half of a loop walk (--views half the rendered views) start at its two
 // ends, half the block apart, and walk toward each other. The report then
 // adds, per scout, the share registered and its latency, and when the
-// sites' components merged.
+// sites' components merged. A scene with gt_dense_cameras/ (a rendered
+// one) also gets each site's camera accuracy after a similarity fit, with
+// its worst cameras. --settle bounds the wait for the worker to go idle
+// after the last photo (a background refinement may run on for minutes).
 //
 // The worker runs in this process on the store (as `arscout serve
 // --with-engine` does); captures are written as the API writes them. Times
