@@ -473,20 +473,16 @@ struct EngineWorker::Impl {
       saved_checkpoint = std::max(saved_checkpoint, checkpoint);
       stats.checkpoint = saved_checkpoint;
       stats.increments += increment.model_written ? 1 : 0;
-    } catch (const db::StoreError& e) {  // the store: retried as it is
+    } catch (const std::exception& e) {
+      // The store's failures pass; the engine's would repeat on these photos.
+      const bool in_store = dynamic_cast<const db::StoreError*>(&e) != nullptr;
       if (lock.owns_lock()) lock.unlock();
       reset(job);
-      log("site " + site + ": increment failed, will retry: " + e.what());
+      log("site " + site + ": increment failed" +
+          (in_store ? ", will retry: " : " in the engine: ") + e.what());
       lock.lock();
       ++stats.failures;
-      return false;
-    } catch (const std::exception& e) {  // the engine, on these photos
-      if (lock.owns_lock()) lock.unlock();
-      reset(job);
-      log("site " + site + ": increment failed in the engine: " + e.what());
-      lock.lock();
-      ++stats.failures;
-      *engine_fault = e.what();
+      if (!in_store) *engine_fault = e.what();
       return false;
     }
     if (dense_due) start_dense(site, job, lock);

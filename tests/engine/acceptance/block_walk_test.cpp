@@ -21,6 +21,7 @@
 
 #include <gtest/gtest.h>
 
+#include "arscout/util/file.h"
 #include "model_eval.h"
 #include "progress_log.h"
 #include "run_cli.h"
@@ -138,6 +139,19 @@ void reorder_walk(
   }
 }
 
+// The 40-photo loop round a block (640 x 480, seed 11) rendered into
+// WORK/rendered and fed reordered as WORK/site (reorder_walk).
+void render_reordered_loop(
+    const std::string& work,
+    const std::vector<std::pair<char, std::pair<int, int>>>& groups) {
+  const std::string rendered = work + "/rendered";
+  run_cli({"render-site", "--scene", "block", "--views", "40", "--width", "640",
+           "--height", "480", "--seed", "11", "--out", rendered},
+          work + "/render.log");
+  if (::testing::Test::HasFatalFailure()) return;
+  reorder_walk(rendered, work + "/site", groups);
+}
+
 // The walk fed with a gap: the far side of the block (photos 16-25) comes
 // before the way there (8-15).
 //
@@ -155,15 +169,10 @@ void reorder_walk(
 TEST(BlockWalk, AGapGivesTwoComponentsThenOneOrAWaitInOneChain) {
   const std::string work = testing::make_temp_dir("block-walk-gap");
   std::cout << "block walk with a gap in " << work << std::endl;
-  const std::string rendered = work + "/rendered";
   const std::string site = work + "/site";
-  run_cli({"render-site", "--scene", "block", "--views", "40", "--width", "640",
-           "--height", "480", "--seed", "11", "--out", rendered},
-          work + "/render.log");
+  render_reordered_loop(
+      work, {{'a', {0, 7}}, {'b', {16, 25}}, {'c', {8, 15}}, {'d', {26, 39}}});
   if (HasFatalFailure()) return;
-  reorder_walk(
-      rendered, site,
-      {{'a', {0, 7}}, {'b', {16, 25}}, {'c', {8, 15}}, {'d', {26, 39}}});
   constexpr int kLimit = 3;
   eval::PoseComparison poses[2];
   for (const bool chain : {true, false}) {
@@ -205,9 +214,7 @@ TEST(BlockWalk, AGapGivesTwoComponentsThenOneOrAWaitInOneChain) {
     p = eval::compare_to_ground_truth(
         eval::read_colmap_images_txt(out + "/sparse/images.txt"),
         eval::read_strecha_ground_truth(site + "/gt_dense_cameras"));
-    std::ifstream summary_log(log_path);
-    const std::string text((std::istreambuf_iterator<char>(summary_log)),
-                           std::istreambuf_iterator<char>());
+    const std::string text = util::read_file(log_path);
     std::cout << "block walk with a gap, "
               << (chain ? "one chain" : "components") << ": at most " << most
               << " registered by one increment, " << log.waiting_registered
@@ -262,18 +269,13 @@ TEST(BlockWalk, AGapGivesTwoComponentsThenOneOrAWaitInOneChain) {
 TEST(BlockWalk, AStalledFragmentIsRetiredAndItsPhotosJoinLater) {
   const std::string work = testing::make_temp_dir("block-walk-retire");
   std::cout << "block walk with a stalled fragment in " << work << std::endl;
-  const std::string rendered = work + "/rendered";
   const std::string site = work + "/site";
-  run_cli({"render-site", "--scene", "block", "--views", "40", "--width", "640",
-           "--height", "480", "--seed", "11", "--out", rendered},
-          work + "/render.log");
+  render_reordered_loop(work, {{'a', {0, 9}},
+                               {'b', {25, 28}},
+                               {'c', {10, 19}},
+                               {'d', {20, 24}},
+                               {'e', {29, 39}}});
   if (HasFatalFailure()) return;
-  reorder_walk(rendered, site,
-               {{'a', {0, 9}},
-                {'b', {25, 28}},
-                {'c', {10, 19}},
-                {'d', {20, 24}},
-                {'e', {29, 39}}});
   const std::string out = work + "/out";
   run_cli({"reconstruct", "--images", site + "/images", "--gps-csv",
            site + "/gps.csv", "--camera", site + "/images/K.txt", "--out", out,
@@ -292,9 +294,7 @@ TEST(BlockWalk, AStalledFragmentIsRetiredAndItsPhotosJoinLater) {
   const eval::PoseComparison p = eval::compare_to_ground_truth(
       eval::read_colmap_images_txt(out + "/sparse/images.txt"),
       eval::read_strecha_ground_truth(site + "/gt_dense_cameras"));
-  std::ifstream summary_log(out + ".log");
-  const std::string text((std::istreambuf_iterator<char>(summary_log)),
-                         std::istreambuf_iterator<char>());
+  const std::string text = util::read_file(out + ".log");
   std::cout << "stalled fragment: component " << fragment << " (first "
             << first_component << "), " << retired << " retired; " << p.matched
             << "/40 registered, centre error median " << p.median_centre_error
