@@ -3,7 +3,8 @@
 // --views photos round a synthetic city block with exact poses and noisy GPS
 // (reused when WORK/seedS/site already holds that rendering), and
 // `arscout reconstruct` runs on it as a child process (its log in
-// WORK/seedS/reconstruct.log). Per seed, and the median over the seeds:
+// WORK/seedS/reconstruct.log, each camera's error in camera_errors.csv).
+// Per seed, and the median over the seeds:
 //
 //   - registered photos, of --views;
 //   - the median and max camera-centre error after a 7-DoF similarity fit
@@ -222,6 +223,17 @@ void measure_increments(const Options& o, const fs::path& dir, Row& row) {
   row.refine_s = log.refine_seconds();
 }
 
+// Each camera's error after the similarity fit, by name, for finding where
+// along the walk a model goes wrong.
+void write_camera_errors(const ev::PoseComparison& poses,
+                         const fs::path& path) {
+  std::ofstream out(path);
+  out << "name,centre_m,rotation_deg,along_axis_m,across_axis_m\n";
+  for (const auto& c : poses.cameras)
+    out << c.name << "," << c.centre_error << "," << c.rotation_error_deg << ","
+        << c.along_axis_error << "," << c.across_axis_error << "\n";
+}
+
 // A finished run's outputs against the truth.
 void measure_accuracy(const Options& o, const fs::path& dir, Row& row) {
   const std::string site = (dir / "site").string();
@@ -235,6 +247,7 @@ void measure_accuracy(const Options& o, const fs::path& dir, Row& row) {
   if (registered < 3)  // the similarity fit needs three cameras
     throw std::runtime_error(std::to_string(registered) + " registered");
   const auto poses = ev::compare_to_ground_truth(estimated, truth);
+  write_camera_errors(poses, dir / "camera_errors.csv");
   row.centre_median_m = poses.median_centre_error;
   row.centre_max_m = poses.max_centre_error;
   row.geo_median_m = ev::median_geo_distance(
@@ -390,8 +403,9 @@ void add_options(CLI::App& app, Options& o) {
       ->delimiter(',');
   app.add_option("--width", o.width, "photo width, px");
   app.add_option("--height", o.height, "photo height, px");
-  app.add_option("--work", o.work,
-                 "work folder: WORK/seedS/{site,out,reconstruct.log}");
+  app.add_option(
+      "--work", o.work,
+      "work folder: WORK/seedS/{site,out,reconstruct.log,camera_errors.csv}");
   app.add_option("--arscout", o.arscout, "the arscout executable");
   app.add_option("--reconstruct-args", o.reconstruct_args,
                  "extra arguments for arscout reconstruct, space-separated");

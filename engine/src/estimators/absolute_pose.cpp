@@ -1,5 +1,10 @@
 #include "estimators/estimators.h"
 
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
@@ -99,6 +104,50 @@ std::optional<AbsolutePose> estimate_absolute_pose(
                 [&](int i) { return (pose.q * world[i] + pose.t).z() <= 0; });
   if (static_cast<int>(pose.inliers.size()) < min_inliers) return std::nullopt;
   return pose;
+}
+
+}  // namespace arscout::engine
+
+namespace arscout::engine {
+
+// Gauss-Newton information of the reprojection errors with respect to a
+// rotation increment and a translation increment in the camera frame
+// (Xc' = (I + [w]x) Xc + dt); its inverse is the pose's covariance.
+PoseUncertainty pose_uncertainty(const Eigen::Quaterniond& q,
+                                 const Eigen::Vector3d& t,
+                                 const std::vector<Eigen::Vector3d>& world,
+                                 double image_sigma) {
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  for (const Eigen::Vector3d& x : world) {
+    const Eigen::Vector3d c = q * x + t;
+    if (c.z() <= 1e-9) continue;
+    Eigen::Matrix<double, 2, 3> projection;
+    projection << 1 / c.z(), 0, -c.x() / (c.z() * c.z()), 0, 1 / c.z(),
+        -c.y() / (c.z() * c.z());
+    Eigen::Matrix<double, 3, 6> motion;
+    motion.leftCols<3>() << 0, c.z(), -c.y(), -c.z(), 0, c.x(), c.y(), -c.x(),
+        0;
+    motion.rightCols<3>().setIdentity();
+    const Eigen::Matrix<double, 2, 6> jacobian = projection * motion;
+    information += jacobian.transpose() * jacobian;
+  }
+  PoseUncertainty result;
+  const Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(information);
+  if (!lu.isInvertible()) return result;  // infinite: unconstrained
+  const Eigen::Matrix<double, 6, 6> covariance =
+      lu.inverse() * image_sigma * image_sigma;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rotation(
+      covariance.topLeftCorner<3, 3>());
+  // To first order the centre C = -R^T t moves by -R^T dt alone (the
+  // rotation's share cancels), so the translation block, rotated, is the
+  // centre's covariance, with the same eigenvalues.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> translation(
+      covariance.bottomRightCorner<3, 3>());
+  result.rotation_sigma_rad =
+      std::sqrt(std::max(0.0, rotation.eigenvalues().maxCoeff()));
+  result.translation_sigma =
+      std::sqrt(std::max(0.0, translation.eigenvalues().maxCoeff()));
+  return result;
 }
 
 }  // namespace arscout::engine

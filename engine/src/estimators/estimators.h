@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -35,6 +36,22 @@ std::optional<AbsolutePose> estimate_absolute_pose(
     const std::vector<Eigen::Vector3d>& world,
     const std::vector<Eigen::Vector2d>& image, double threshold,
     int min_inliers);
+
+// How well a set of 2D-3D correspondences pins a pose down: the standard
+// deviations (largest over the axes) of the rotation, radians, and of the
+// translation, world units, from the reprojection errors' Gauss-Newton
+// information at the pose, each marginal (the other free), for image
+// noise `image_sigma` in normalized units. Points on one small patch leave
+// a rotation trading against a translation: a large rotation sigma. Both
+// are infinite when the correspondences do not constrain the pose at all.
+struct PoseUncertainty {
+  double rotation_sigma_rad = std::numeric_limits<double>::infinity();
+  double translation_sigma = std::numeric_limits<double>::infinity();
+};
+PoseUncertainty pose_uncertainty(const Eigen::Quaterniond& q,
+                                 const Eigen::Vector3d& t,
+                                 const std::vector<Eigen::Vector3d>& world,
+                                 double image_sigma);
 
 // --- Triangulation ----------------------------------------------------------
 // Linear (DLT) triangulation from two or more views, each a world-to-camera

@@ -102,6 +102,7 @@ class IncrementalMapper {
   void extend_model(int index);
   bool catch_up(const std::function<bool()>& stop, RefineResult& result);
   bool register_image(int index, int component);
+  bool pose_loose(int index) const;
   bool register_from_pair(int index, int component);
   void second_opinion(int index);
   struct PairPose {
