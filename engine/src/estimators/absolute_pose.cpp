@@ -106,10 +106,6 @@ std::optional<AbsolutePose> estimate_absolute_pose(
   return pose;
 }
 
-}  // namespace arscout::engine
-
-namespace arscout::engine {
-
 // Gauss-Newton information of the reprojection errors with respect to a
 // rotation increment and a translation increment in the camera frame
 // (Xc' = (I + [w]x) Xc + dt); its inverse is the pose's covariance.

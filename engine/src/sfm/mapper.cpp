@@ -397,7 +397,6 @@ bool IncrementalMapper::register_image(int index, int component) {
   image.status = CaptureStatus::kRegistered;
   image.reason.clear();
   image.pose_inliers = static_cast<int>(pose->inliers.size());
-
   for (int i : pose->inliers) {
     const auto& [keypoint, point] = corr[i];
     if (image.point_of[keypoint] < 0 &&
@@ -426,6 +425,14 @@ bool IncrementalMapper::pose_loose(int index) const {
   return u.rotation_sigma_rad * focal > options_.max_reprojection_px;
 }
 
+// Few agreeing matches of many mean no hypothesis holds: a pose from a pair
+// must explain at least 3 and a third of the 2D-3D matches.
+bool IncrementalMapper::pair_pose_holds(const PairPose& pose,
+                                        size_t correspondences) {
+  return pose.agreeing.size() >= 3 &&
+         3 * pose.agreeing.size() >= correspondences;
+}
+
 // When too few 2D-3D matches agree on an absolute pose (a wide step along a
 // chain of photos shares few points with the model), the relative pose to
 // the registered neighbour it matches best gives the orientation and the
@@ -435,10 +442,7 @@ bool IncrementalMapper::register_from_pair(int index, int component) {
   StageClock clock(timings_.pose_s);
   const auto corr = correspondences(index, component);
   const auto pose = pair_pose(index, corr, component);
-  // Few agreeing matches of many mean no hypothesis holds.
-  if (!pose || pose->agreeing.size() < 3 ||
-      3 * pose->agreeing.size() < corr.size())
-    return false;
+  if (!pose || !pair_pose_holds(*pose, corr.size())) return false;
   set_pose(index, pose->q, pose->centre, pose->agreeing, component);
   return true;
 }
@@ -457,9 +461,9 @@ void IncrementalMapper::second_opinion(int index) {
   const auto corr = correspondences(index, component);
   const auto pose = pair_pose(index, corr, component);
   if (!pose) return;
-  const size_t agreeing = pose->agreeing.size();
-  const bool better = loose ? agreeing >= 3 && 3 * agreeing >= corr.size()
-                            : static_cast<int>(agreeing) > image.pose_inliers;
+  const bool better =
+      loose ? pair_pose_holds(*pose, corr.size())
+            : static_cast<int>(pose->agreeing.size()) > image.pose_inliers;
   if (!better) return;
   for (size_t k = 0; k < image.point_of.size(); ++k) {
     const int64_t point = image.point_of[k];

@@ -113,6 +113,7 @@ class IncrementalMapper {
   std::optional<PairPose> pair_pose(
       int index, const std::vector<std::pair<int, int64_t>>& corr,
       int component) const;
+  static bool pair_pose_holds(const PairPose& pose, size_t correspondences);
   void set_pose(int index, const Eigen::Quaterniond& q,
                 const Eigen::Vector3d& centre,
                 const std::vector<std::pair<int, int64_t>>& agreeing,
