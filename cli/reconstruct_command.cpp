@@ -207,9 +207,16 @@ void print_refine(const engine::RefineResult& r) {
 
 // The global adjustment in the gap before the next photo, as the service
 // runs it while it waits: at most `budget_s` (it gives way after the
-// iteration that passes it), continued after the next photo.
-void refine_between_photos(engine::Reconstruction& site, double budget_s) {
+// iteration that passes it), continued after the next photo. A
+// deterministic run lets each round finish instead, as the service's
+// deterministic replays do: a clock must not decide the model.
+void refine_between_photos(engine::Reconstruction& site, double budget_s,
+                           bool deterministic) {
   if (budget_s <= 0 || !site.refinement_due()) return;
+  if (deterministic) {
+    print_refine(site.refine());
+    return;
+  }
   const auto start = std::chrono::steady_clock::now();
   print_refine(site.refine([&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() -
@@ -300,7 +307,7 @@ int run_reconstruct(const ReconstructArgs& a) {
     try {
       const engine::AddResult result = site.add_capture(input);
       print_progress(n, static_cast<int>(paths.size()), result);
-      refine_between_photos(site, a.refine_budget_s);
+      refine_between_photos(site, a.refine_budget_s, a.options.deterministic);
       if (dense && site.registered_count() > 0)
         print_dense_progress(dense->update(site.model(), images));
     } catch (const std::invalid_argument& e) {

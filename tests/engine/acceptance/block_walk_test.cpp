@@ -186,7 +186,8 @@ TEST(BlockWalk, AGapGivesTwoComponentsThenOneOrAWaitInOneChain) {
                                   "--camera",
                                   site + "/images/K.txt",
                                   "--out",
-                                  out};
+                                  out,
+                                  "--deterministic"};
     if (chain) {
       args.insert(args.end(), {"--single-model", "--max-registrations",
                                std::to_string(kLimit)});
@@ -254,8 +255,9 @@ TEST(BlockWalk, AGapGivesTwoComponentsThenOneOrAWaitInOneChain) {
       EXPECT_EQ(log.waiting_registered, 0);
     }
   }
-  // Not bit for bit: the refinement between photos has a time budget and
-  // Ceres sums on two threads, so two runs differ by a centimetre or two.
+  // Deterministic runs: a wall-clock refinement budget made the components
+  // run's accuracy depend on the machine's load (5 cm once on CI, 1.3 cm
+  // here), so that neither run's figure depends on how busy CI is.
   EXPECT_LE(poses[1].median_centre_error, poses[0].median_centre_error + 0.03);
   EXPECT_LE(poses[1].max_centre_error, poses[0].max_centre_error + 0.06);
   if (!HasFailure()) std::filesystem::remove_all(work);
