@@ -2,9 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <optional>
 #include <set>
+#include <unordered_map>
 #include <vector>
+
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
 
 #include "estimators/estimators.h"
 
@@ -19,6 +24,7 @@ using Correspondences = std::vector<std::pair<int, int64_t>>;
 struct SplitMatches {
   Correspondences old_points, recent_points;
   int newest_old = -1;
+  std::vector<int> old_images;
 };
 
 SplitMatches split_matches(const Scene& scene, int image, int min_age) {
@@ -29,7 +35,10 @@ SplitMatches split_matches(const Scene& scene, int image, int min_age) {
     const SceneImage& partner = scene.images[other];
     if (!partner.registered || partner.component != component) continue;
     const bool old = image - other > min_age;
-    if (old) split.newest_old = std::max(split.newest_old, other);
+    if (old) {
+      split.newest_old = std::max(split.newest_old, other);
+      split.old_images.push_back(other);
+    }
     Correspondences& out = old ? split.old_points : split.recent_points;
     std::set<int>& seen = old ? seen_old : seen_recent;
     for (const auto& [mine, theirs] : oriented_matches(image, other, *pair)) {
@@ -88,25 +97,19 @@ struct Correction {
   }
 };
 
-// Moves each registered image of `last`'s component after `first` by its
-// share of the correction (rising linearly to 1 at `last`), and each point
-// by the mean share of the images observing it.
-void spread(Scene& scene, const Correction& correction, int first, int last) {
-  const int component = scene.images[last].component;
-  auto weight = [&](int k) {
-    if (k <= first || scene.images[k].component != component) return 0.0;
-    if (k >= last) return 1.0;
-    return static_cast<double>(k - first) / (last - first);
-  };
+// Moves each registered image by its share of the correction, and each
+// point by the mean share of the images observing it.
+void spread(Scene& scene, const Correction& correction,
+            const std::vector<double>& shares) {
   for (auto& [id, point] : scene.points) {
     double sum = 0;
-    for (const Observation& obs : point.track) sum += weight(obs.image);
+    for (const Observation& obs : point.track) sum += shares[obs.image];
     const double w = point.track.empty() ? 0 : sum / point.track.size();
     if (w > 0) point.xyz = correction.apply(point.xyz, w);
   }
   for (size_t k = 0; k < scene.images.size(); ++k) {
     SceneImage& image = scene.images[k];
-    const double w = weight(static_cast<int>(k));
+    const double w = shares[k];
     if (!image.registered || w == 0) continue;
     const Eigen::Vector3d centre = correction.apply(image.centre(), w);
     image.q = (image.q * correction.turn(w).conjugate()).normalized();
@@ -123,7 +126,97 @@ bool plausible(const Scene& scene, const SceneImage& image,
   return (centre - image.gps_enu).head<2>().norm() <= limit;
 }
 
+// How many points each pair of registered images of `component` both
+// observe, keyed by (lower index, higher index).
+using Links = std::unordered_map<uint64_t, int>;
+
+uint64_t link_key(int a, int b) {
+  return (static_cast<uint64_t>(a) << 32) | static_cast<uint32_t>(b);
+}
+
+Links covisibility(const Scene& scene, int component) {
+  Links links;
+  std::vector<int> seen;
+  for (const auto& [id, point] : scene.points) {
+    seen.clear();
+    for (const Observation& obs : point.track) {
+      const SceneImage& view = scene.images[obs.image];
+      if (view.registered && view.component == component)
+        seen.push_back(obs.image);
+    }
+    std::sort(seen.begin(), seen.end());
+    seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
+    for (size_t i = 0; i < seen.size(); ++i)
+      for (size_t j = i + 1; j < seen.size(); ++j)
+        ++links[link_key(seen[i], seen[j])];
+  }
+  return links;
+}
+
+// The graph Laplacian's equations for the free images (the rows of
+// `free_row`, -1 where pinned) with the pinned ones' shares moved to the
+// right-hand side; a whisker of stiffness to 0 keeps images without links
+// (their share is then 0) from making it singular.
+struct HarmonicSystem {
+  Eigen::SparseMatrix<double> laplacian;
+  Eigen::VectorXd rhs;
+};
+
+HarmonicSystem harmonic_system(const Links& links,
+                               const std::vector<int>& free_row,
+                               const std::vector<double>& pinned, int rows) {
+  std::vector<Eigen::Triplet<double>> entries;
+  Eigen::VectorXd diagonal = Eigen::VectorXd::Zero(rows);
+  HarmonicSystem system{Eigen::SparseMatrix<double>(rows, rows),
+                        Eigen::VectorXd::Zero(rows)};
+  for (const auto& [key, count] : links) {
+    const int ends[2] = {static_cast<int>(key >> 32),
+                         static_cast<int>(key & 0xffffffffu)};
+    for (int side = 0; side < 2; ++side) {
+      const int row = free_row[ends[side]], other = ends[1 - side];
+      if (row < 0) continue;
+      diagonal[row] += count;
+      if (free_row[other] >= 0)
+        entries.emplace_back(row, free_row[other], -count);
+      else
+        system.rhs[row] += count * pinned[other];
+    }
+  }
+  for (int row = 0; row < rows; ++row)
+    entries.emplace_back(row, row, diagonal[row] * (1 + 1e-9) + 1e-12);
+  system.laplacian.setFromTriplets(entries.begin(), entries.end());
+  return system;
+}
+
 }  // namespace
+
+std::vector<double> loop_shares(const Scene& scene, const std::vector<int>& old,
+                                int image) {
+  const int n = static_cast<int>(scene.images.size());
+  std::vector<double> shares(n, 0.0);
+  shares[image] = 1;
+  std::vector<int> free_row(n, -1), free_images;
+  std::vector<bool> pinned(n, false);
+  pinned[image] = true;
+  for (int k : old) pinned[k] = true;
+  const int component = scene.images[image].component;
+  for (int k = 0; k < n; ++k) {
+    const SceneImage& view = scene.images[k];
+    if (!view.registered || view.component != component || pinned[k]) continue;
+    free_row[k] = static_cast<int>(free_images.size());
+    free_images.push_back(k);
+  }
+  if (free_images.empty()) return shares;
+  const HarmonicSystem system =
+      harmonic_system(covisibility(scene, component), free_row, shares,
+                      static_cast<int>(free_images.size()));
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(system.laplacian);
+  const Eigen::VectorXd solved = solver.solve(system.rhs);
+  if (solver.info() != Eigen::Success) return shares;
+  for (size_t row = 0; row < free_images.size(); ++row)
+    shares[free_images[row]] = std::clamp(solved[row], 0.0, 1.0);
+  return shares;
+}
 
 LoopClosure close_loop(Scene& scene, int image,
                        const ReconstructionOptions& options) {
@@ -153,7 +246,7 @@ LoopClosure close_loop(Scene& scene, int image,
   result.correction_deg =
       correction.rotation.angularDistance(Eigen::Quaterniond::Identity()) *
       180 / M_PI;
-  spread(scene, correction, split.newest_old, image);
+  spread(scene, correction, loop_shares(scene, split.old_images, image));
   result.closed = true;
   return result;
 }

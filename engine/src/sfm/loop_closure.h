@@ -5,13 +5,14 @@
 // never merged with the old ones and the model holds the place twice.
 //
 // close_loop measures the drift at the new image (its pose from the recent
-// points against its pose from the old ones), spreads the correction over
-// the images registered since the old ones (linearly in order of addition,
-// as a pose graph over a chain would) and moves their points with them, so
-// that the two sets of tracks agree to within the merge threshold; the
-// caller then merges them and the next global adjustment removes what the
-// linear spread left.
+// points against its pose from the old ones), spreads the correction along
+// the chain of images that links the old ones to the new one (loop_shares)
+// and moves their points with them, so that the two sets of tracks agree to
+// within the merge threshold; the caller then merges them and the next
+// global adjustment removes what the spread left.
 #pragma once
+
+#include <vector>
 
 #include "arscout/engine/reconstruction.h"
 #include "sfm/scene.h"
@@ -33,5 +34,17 @@ struct LoopClosure {
 // already explains them (within `options.max_reprojection_px`).
 LoopClosure close_loop(Scene& scene, int image,
                        const ReconstructionOptions& options);
+
+// The share of a loop's correction each image takes (indexed like
+// scene.images): 0 for the `old` images, 1 for `image`, and in between the
+// harmonic interpolation over the covisibility graph of `image`'s component
+// (images linked by the points they share, each link as stiff as its point
+// count), the translation part of a pose graph with one correction to
+// spread. Along one walk that is linear in walking order; with several
+// scouts, whose photos interleave in order of addition, it still follows
+// the chain through space that the points make. Images the graph does not
+// link to `image` take 0.
+std::vector<double> loop_shares(const Scene& scene, const std::vector<int>& old,
+                                int image);
 
 }  // namespace arscout::engine
