@@ -92,6 +92,9 @@ struct EngineWorker::Impl {
     bool dense_running = false;  // its dense lane
     bool dense_queued = false;
     bool dense_turn = false;  // the dense lane waits for publication()
+    // The lane's last phase swept no view and left none waiting: it only
+    // re-fuses maps whose cameras moved until an increment comes.
+    bool dense_refusing_only = false;
     // Sites that grew into this one, to take in once their lanes are idle
     // (Work::kMerge), and the site this one is to be taken into: it starts
     // no new phase meanwhile.
@@ -473,6 +476,7 @@ struct EngineWorker::Impl {
       saved_checkpoint = std::max(saved_checkpoint, checkpoint);
       stats.checkpoint = saved_checkpoint;
       stats.increments += increment.model_written ? 1 : 0;
+      sites[site].dense_refusing_only = false;  // its views are to sweep
     } catch (const std::exception& e) {
       // The store's failures pass; the engine's would repeat on these photos.
       const bool in_store = dynamic_cast<const db::StoreError*>(&e) != nullptr;
@@ -603,6 +607,7 @@ struct EngineWorker::Impl {
       qb.merges.clear();
       qb.job.reset();
       ++stats.sites_merged;
+      q.dense_refusing_only = false;
       if (job.dense_due()) start_dense(site, job, lock);
     } else {
       make_ready(other, qb);
@@ -702,6 +707,7 @@ struct EngineWorker::Impl {
         dense_failed(site, *job, lock, e);
       }
       q.dense_running = q.dense_turn = false;
+      q.dense_refusing_only = end.refusing_only;
       wake_merge(q);
       if (end.dense_due) start_dense(site, *job, lock);
       // A refinement that gave way to this lane resumes, unless work came.
@@ -716,6 +722,7 @@ struct EngineWorker::Impl {
   struct DenseLaneEnd {
     bool dense_due = false;
     bool refinement_due = false;
+    bool refusing_only = false;  // it swept nothing and nothing waits
   };
 
   // One dense phase of the site, its sweeping beside the sparse lane.
@@ -747,7 +754,9 @@ struct EngineWorker::Impl {
     if (!dense.ops.empty()) commit(site, job, dense, std::nullopt);
     std::lock_guard guard(mutex);
     stats.increments += dense.model_written ? 1 : 0;
-    return {job.dense_due(), job.refinement_due()};
+    const bool refusing_only =
+        task->update.new_depth_maps.empty() && task->update.deferred_views == 0;
+    return {job.dense_due(), job.refinement_due(), refusing_only};
   }
 
   // The site's global refinement while it has no work waiting: it gives
@@ -819,12 +828,18 @@ struct EngineWorker::Impl {
   // publish). The refinement then waits: the new photos' cloud comes before
   // the old photos' last millimetres, and every refined pose would only
   // add maps to re-fuse. It resumes when the lane ends (refine_wanted).
+  // Not for a lane that only re-fuses moved maps: after a long walk that
+  // is minutes of phases (8 maps each), each moving nothing the refinement
+  // would not move again, and the model stayed unrefined meanwhile (two
+  // scouts on seed 31's block: one round in 420 s; bench/RESULTS.md,
+  // "Issue 35, fourth stop"). That lane waits for the round instead.
   bool dense_busy(const SiteQueue& q) {
     std::lock_guard guard(mutex);
     return dense_busy_locked(q);
   }
   static bool dense_busy_locked(const SiteQueue& q) {
-    return q.dense_turn || q.dense_running || q.dense_queued;
+    return (q.dense_turn || q.dense_running || q.dense_queued) &&
+           !q.dense_refusing_only;
   }
 
   // Calls make() and appends its time to the increment's summary.
