@@ -154,9 +154,9 @@ Links covisibility(const Scene& scene, int component) {
 }
 
 // The graph Laplacian's equations for the free images (the rows of
-// `free_row`, -1 where pinned) with the pinned ones' shares moved to the
-// right-hand side; a whisker of stiffness to 0 keeps images without links
-// (their share is then 0) from making it singular.
+// `free_row`, -1 where pinned) with the pinned ones' shares
+// (`pinned_shares`) moved to the right-hand side; a whisker of stiffness to 0
+// keeps images without links (their share is then 0) from making it singular.
 struct HarmonicSystem {
   Eigen::SparseMatrix<double> laplacian;
   Eigen::VectorXd rhs;
@@ -164,7 +164,8 @@ struct HarmonicSystem {
 
 HarmonicSystem harmonic_system(const Links& links,
                                const std::vector<int>& free_row,
-                               const std::vector<double>& pinned, int rows) {
+                               const std::vector<double>& pinned_shares,
+                               int rows) {
   std::vector<Eigen::Triplet<double>> entries;
   Eigen::VectorXd diagonal = Eigen::VectorXd::Zero(rows);
   HarmonicSystem system{Eigen::SparseMatrix<double>(rows, rows),
@@ -179,7 +180,7 @@ HarmonicSystem harmonic_system(const Links& links,
       if (free_row[other] >= 0)
         entries.emplace_back(row, free_row[other], -count);
       else
-        system.rhs[row] += count * pinned[other];
+        system.rhs[row] += count * pinned_shares[other];
     }
   }
   for (int row = 0; row < rows; ++row)
