@@ -4,6 +4,7 @@
 // refined away.
 #include "estimators/bundle_adjuster.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <random>
@@ -92,6 +93,59 @@ ShapeError shape_error(const Scene& scene, const synthetic::Truth& truth) {
         synthetic::rotation_error_deg(R, truth.poses[i].q.toRotationMatrix()));
   }
   return error;
+}
+
+// The hand-written derivatives of the reprojection residual against central
+// differences, at poses whose quaternion is not of unit length (the
+// residual normalizes it), with distortion, and for every block.
+TEST(BundleAdjusterTest, ReprojectionDerivativesMatchFiniteDifferences) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const Eigen::Vector2d observed(300, 200);
+  const double aspect = 1.02;
+  for (int trial = 0; trial < 20; ++trial) {
+    std::vector<std::vector<double>> blocks = {
+        {u(rng), u(rng), u(rng), 1.5 + u(rng)},
+        {u(rng), u(rng), 4 + u(rng)},
+        {3 * u(rng), 3 * u(rng), 2 * u(rng)},
+        {800 + 50 * u(rng), 0, 512 + u(rng), 384 + u(rng), 0.1 * u(rng),
+         0.05 * u(rng)}};
+    const int sizes[4] = {4, 3, 3, 6};
+    auto residual = [&](Eigen::Vector2d* r, double** jacobians) {
+      evaluate_reprojection(blocks[0].data(), blocks[1].data(),
+                            blocks[2].data(), blocks[3].data(), observed,
+                            aspect, r->data(), jacobians);
+    };
+    std::vector<std::vector<double>> analytic(4);
+    double* jacobians[4];
+    for (int b = 0; b < 4; ++b) {
+      analytic[b].assign(2 * sizes[b], 0);
+      jacobians[b] = analytic[b].data();
+    }
+    Eigen::Vector2d r;
+    residual(&r, jacobians);
+    for (int b = 0; b < 4; ++b) {
+      for (int c = 0; c < sizes[b]; ++c) {
+        const double h = 1e-6 * std::max(1.0, std::abs(blocks[b][c]));
+        Eigen::Vector2d plus, minus;
+        blocks[b][c] += h;
+        residual(&plus, nullptr);
+        blocks[b][c] -= 2 * h;
+        residual(&minus, nullptr);
+        blocks[b][c] += h;
+        const Eigen::Vector2d numeric = (plus - minus) / (2 * h);
+        for (int row = 0; row < 2; ++row) {
+          const double tolerance = 1e-5 * std::max(1.0, std::abs(numeric[row]));
+          EXPECT_NEAR(analytic[b][row * sizes[b] + c], numeric[row], tolerance)
+              << "trial " << trial << " block " << b << " column " << c
+              << " row " << row;
+        }
+      }
+    }
+    // A null block is left alone, the others still filled.
+    double* some[4] = {nullptr, jacobians[1], nullptr, nullptr};
+    residual(&r, some);
+  }
 }
 
 TEST(BundleAdjusterTest, GlobalAdjustmentRecoversPerturbedModel) {

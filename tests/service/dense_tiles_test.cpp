@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <set>
+#include <string>
 
 #include "arscout/db/document.h"
 #include "arscout/engine/service.h"
@@ -88,6 +90,50 @@ TEST(DenseTiles, OnlyChangedTilesAreStoredAgainInAnyOrder) {
   EXPECT_NE(third.at("0_0").blob, again.at("0_0").blob);
   EXPECT_EQ(third.at("5_-1").points, 1u);
   EXPECT_EQ(third.at("1_1").blob, again.at("1_1").blob);
+}
+
+// A cloud spread far (stray points, a component placed by its fixes alone)
+// must not list more tiles than the model document can hold: the edge
+// doubles until there are at most kMaxDenseTiles, every point still in
+// exactly one tile of the coarser grid, and the same cloud again stores
+// nothing new.
+TEST(DenseTiles, AFarSpreadCloudGetsCoarserTilesNotMoreOfThem) {
+  auto points = random_cloud(20000, 20);        // 16 tiles of 10 m ...
+  const auto stray = random_cloud(3000, 5000);  // ... and ~3000 more
+  points.insert(points.end(), stray.begin(), stray.end());
+  FakeBlobs blobs;
+  const DenseTiles tiles = store_dense_tiles(points, 10, {}, blobs.putter());
+  ASSERT_LE(tiles.size(), kMaxDenseTiles);
+  ASSERT_GT(tiles.size(), kMaxDenseTiles / 4);  // one doubling too few
+  std::size_t total = 0;
+  for (const auto& [name, tile] : tiles) {
+    const auto content = decode_ply(blobs.stored.at(tile.blob));
+    ASSERT_EQ(content.size(), tile.points) << name;
+    total += content.size();
+  }
+  EXPECT_EQ(total, points.size());
+  // The coarser edge is 10 m times the smallest power of two that gives
+  // at most kMaxDenseTiles columns: every point of a tile lies in its
+  // column at that edge.
+  auto column = [](const ColoredPoint& p, double edge) {
+    return std::to_string(static_cast<long long>(std::floor(p.x / edge))) +
+           "_" + std::to_string(static_cast<long long>(std::floor(p.y / edge)));
+  };
+  double edge = 10;
+  for (;; edge *= 2) {
+    std::set<std::string> columns;
+    for (const ColoredPoint& p : points) columns.insert(column(p, edge));
+    if (columns.size() <= kMaxDenseTiles) break;
+  }
+  EXPECT_GT(edge, 10);
+  for (const auto& [name, tile] : tiles) {
+    for (const ColoredPoint& p : decode_ply(blobs.stored.at(tile.blob)))
+      ASSERT_EQ(column(p, edge), name);
+  }
+  const std::size_t stored = blobs.stored.size();
+  const DenseTiles again = store_dense_tiles(points, 10, tiles, blobs.putter());
+  EXPECT_EQ(blobs.stored.size(), stored);
+  EXPECT_EQ(again.size(), tiles.size());
 }
 
 TEST(DenseTiles, TheModelAttributeRoundTripsAndNamesTheBlobs) {

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <set>
 #include <unordered_map>
 #include <utility>
 
@@ -57,6 +58,61 @@ std::uint64_t point_hash(const ColoredPoint& p) {
   return z ^ (z >> 31);
 }
 
+// The points' tiles: each point's index into `keys`, the distinct tiles.
+struct TileAssignment {
+  std::vector<TileKey> keys;
+  std::vector<std::uint32_t> tile_of;
+};
+
+TileAssignment assign_tiles(const std::vector<ColoredPoint>& points,
+                            double size) {
+  TileAssignment a;
+  std::unordered_map<TileKey, std::uint32_t, TileKeyHash> index;
+  a.tile_of.resize(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const TileKey key = tile_key(points[i], size);
+    auto [it, added] =
+        index.emplace(key, static_cast<std::uint32_t>(a.keys.size()));
+    if (added) a.keys.push_back(key);
+    a.tile_of[i] = it->second;
+  }
+  return a;
+}
+
+// Tiles `halvings` times coarser (each 2^halvings tiles on a side): an
+// index divided by 2^k, rounded down, is the index at a 2^k times larger
+// edge (>> on a negative integer rounds down too).
+TileAssignment coarsen(const TileAssignment& fine, int halvings) {
+  TileAssignment a;
+  std::unordered_map<TileKey, std::uint32_t, TileKeyHash> index;
+  std::vector<std::uint32_t> coarse_of(fine.keys.size());
+  for (std::size_t t = 0; t < fine.keys.size(); ++t) {
+    const TileKey key{fine.keys[t].first >> halvings,
+                      fine.keys[t].second >> halvings};
+    auto [it, added] =
+        index.emplace(key, static_cast<std::uint32_t>(a.keys.size()));
+    if (added) a.keys.push_back(key);
+    coarse_of[t] = it->second;
+  }
+  a.tile_of.resize(fine.tile_of.size());
+  for (std::size_t i = 0; i < fine.tile_of.size(); ++i)
+    a.tile_of[i] = coarse_of[fine.tile_of[i]];
+  return a;
+}
+
+// How many times the edge must double for `keys` to fall into at most
+// kMaxDenseTiles tiles.
+int halvings_for(const std::vector<TileKey>& keys) {
+  for (int halvings = 0;; ++halvings) {
+    std::set<TileKey> coarse;
+    for (const TileKey& key : keys) {
+      coarse.insert({key.first >> halvings, key.second >> halvings});
+      if (coarse.size() > kMaxDenseTiles) break;
+    }
+    if (coarse.size() <= kMaxDenseTiles) return halvings;
+  }
+}
+
 }  // namespace
 
 double dense_tile_size(double voxel) { return 512 * voxel; }
@@ -65,23 +121,20 @@ DenseTiles store_dense_tiles(
     const std::vector<ColoredPoint>& points, double size,
     const DenseTiles& published,
     const std::function<std::string(const std::string& bytes)>& put_blob) {
-  // One pass for each point's tile and the tiles' hashes; the points are
-  // gathered only for the tiles that changed.
-  std::unordered_map<TileKey, std::size_t, TileKeyHash> index;
-  std::vector<DenseTile> found;
+  // One pass for each point's tile, coarser while there are too many; then
+  // the tiles' hashes; the points are gathered only for the tiles that
+  // changed.
+  TileAssignment assignment = assign_tiles(points, size);
+  if (assignment.keys.size() > kMaxDenseTiles)
+    assignment = coarsen(assignment, halvings_for(assignment.keys));
+  const std::vector<std::uint32_t>& tile_of = assignment.tile_of;
+  std::vector<DenseTile> found(assignment.keys.size());
   std::vector<std::string> names;
-  std::vector<std::uint32_t> tile_of(points.size());
+  for (const TileKey& key : assignment.keys) names.push_back(tile_name(key));
   for (std::size_t i = 0; i < points.size(); ++i) {
-    const TileKey key = tile_key(points[i], size);
-    auto [it, added] = index.emplace(key, found.size());
-    if (added) {
-      found.emplace_back();
-      names.push_back(tile_name(key));
-    }
-    DenseTile& tile = found[it->second];
+    DenseTile& tile = found[tile_of[i]];
     tile.hash += point_hash(points[i]);
     ++tile.points;
-    tile_of[i] = static_cast<std::uint32_t>(it->second);
   }
   std::vector<std::vector<ColoredPoint>> changed(found.size());
   std::vector<bool> is_changed(found.size(), false);

@@ -30,9 +30,16 @@ using DenseTiles = std::map<std::string, DenseTile>;
 // at the block walk's 1.7 cm), so a tile's PLY stays a few megabytes.
 double dense_tile_size(double voxel);
 
-// Splits `points` into tiles of edge `size` and stores (put_blob) the PLY of
-// each tile whose points differ from its entry in `published`; the others
-// keep their blob. Returns every non-empty tile.
+// The most tiles a cloud is split into: each is an entry of the model
+// document's `dense_tiles`, and the document must stay within the store's
+// attribute limit (1 MiB) however far a cloud spreads (stray points, a
+// component placed by its fixes alone).
+constexpr std::size_t kMaxDenseTiles = 1024;
+
+// Splits `points` into tiles of edge `size` (doubled until there are at
+// most kMaxDenseTiles) and stores (put_blob) the PLY of each tile whose
+// points differ from its entry in `published`; the others keep their blob.
+// Returns every non-empty tile.
 DenseTiles store_dense_tiles(
     const std::vector<ColoredPoint>& points, double size,
     const DenseTiles& published,

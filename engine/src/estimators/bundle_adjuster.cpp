@@ -12,38 +12,107 @@
 namespace arscout::engine {
 namespace {
 
-// Residual in working pixels. Intrinsics block: fx, fy, cx, cy, k1, k2; the
-// aspect fy/fx stays as given, so fy follows fx.
-struct ReprojectionCost {
+// d(R(q / |q|) X) / dq for q in Eigen's storage order (x, y, z, w). With
+// q = (w, v), M(q) X = (w^2 - v.v) X + 2 (v.X) v + 2 w (v x X) equals
+// |q|^2 R(q / |q|) X for every q, which gives the derivative of the
+// normalized rotation (as ceres::QuaternionRotatePoint applies it).
+Eigen::Matrix<double, 3, 4> rotation_derivative(const double* q,
+                                                const Eigen::Vector3d& x) {
+  const Eigen::Vector3d v(q[0], q[1], q[2]);
+  const double w = q[3];
+  const double norm2 = v.squaredNorm() + w * w;
+  const Eigen::Vector3d m =
+      (w * w - v.squaredNorm()) * x + 2 * v.dot(x) * v + 2 * w * v.cross(x);
+  Eigen::Matrix3d x_cross;
+  x_cross << 0, -x.z(), x.y(), x.z(), 0, -x.x(), -x.y(), x.x(), 0;
+  Eigen::Matrix<double, 3, 4> dm;
+  dm.leftCols<3>() = -2 * x * v.transpose() +
+                     2 * v.dot(x) * Eigen::Matrix3d::Identity() +
+                     2 * v * x.transpose() - 2 * w * x_cross;
+  dm.col(3) = 2 * w * x + 2 * v.cross(x);
+  const Eigen::Vector4d q_vector(q[0], q[1], q[2], q[3]);
+  return dm / norm2 - (2 / (norm2 * norm2)) * m * q_vector.transpose();
+}
+
+using RowMajor23 = Eigen::Matrix<double, 2, 3, Eigen::RowMajor>;
+
+// The derivatives of the residual (below) from d(residual)/d(camera-frame
+// point), into Ceres' row-major blocks; a null block is not wanted (held).
+void reprojection_jacobians(const double* q, const double* point,
+                            const RowMajor23& dr_dp, double** jacobians) {
+  const Eigen::Map<const Eigen::Vector3d> x(point);
+  using RowMajor24 = Eigen::Matrix<double, 2, 4, Eigen::RowMajor>;
+  if (jacobians[0]) {
+    Eigen::Map<RowMajor24> dq(jacobians[0]);
+    dq = dr_dp * rotation_derivative(q, x);
+  }
+  if (jacobians[1]) {
+    Eigen::Map<RowMajor23> dt(jacobians[1]);
+    dt = dr_dp;
+  }
+  if (jacobians[2]) {
+    const Eigen::Quaterniond rotation(q[3], q[0], q[1], q[2]);
+    Eigen::Map<RowMajor23> dx(jacobians[2]);
+    dx = dr_dp * rotation.normalized().toRotationMatrix();
+  }
+}
+
+}  // namespace
+
+// The residual in working pixels: the point through the pose (q in Eigen's
+// storage order x, y, z, w; normalized as applied) and the intrinsics k =
+// fx, fy, cx, cy, k1, k2, where fy follows fx by `aspect`, minus the
+// keypoint. Derivatives by hand: automatic differentiation carried all 16
+// unknowns through every residual even when the pose or the camera is held,
+// and was a third of an adjustment's time.
+bool evaluate_reprojection(const double* q, const double* t,
+                           const double* point, const double* k,
+                           const Eigen::Vector2d& observed, double aspect,
+                           double* residual, double** jacobians) {
+  const double q_wxyz[4] = {q[3], q[0], q[1], q[2]};
+  double p[3];
+  ceres::QuaternionRotatePoint(q_wxyz, point, p);
+  for (int i = 0; i < 3; ++i) p[i] += t[i];
+  const double xn = p[0] / p[2], yn = p[1] / p[2];
+  const double r2 = xn * xn + yn * yn;
+  const double d = 1 + k[4] * r2 + k[5] * r2 * r2;
+  const double fx = k[0], fy = k[0] * aspect;
+  residual[0] = fx * d * xn + k[2] - observed.x();
+  residual[1] = fy * d * yn + k[3] - observed.y();
+  if (!jacobians) return true;
+  const double g = 2 * (k[4] + 2 * k[5] * r2);  // d(d)/d(r2), doubled
+  Eigen::Matrix2d dr_dn;
+  dr_dn << fx * (d + g * xn * xn), fx * g * xn * yn, fy * g * xn * yn,
+      fy * (d + g * yn * yn);
+  Eigen::Matrix<double, 2, 3> dn_dp;
+  dn_dp << 1 / p[2], 0, -xn / p[2], 0, 1 / p[2], -yn / p[2];
+  reprojection_jacobians(q, point, dr_dn * dn_dp, jacobians);
+  if (jacobians[3]) {
+    Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> dk(jacobians[3]);
+    dk << d * xn, 0, 1, 0, fx * xn * r2, fx * xn * r2 * r2,  //
+        aspect * d * yn, 0, 0, 1, fy * yn * r2, fy * yn * r2 * r2;
+  }
+  return true;
+}
+
+namespace {
+
+// One observation's residual for the solver (evaluate_reprojection).
+class ReprojectionCost final : public ceres::SizedCostFunction<2, 4, 3, 3, 6> {
+ public:
   ReprojectionCost(const Eigen::Vector2d& observed, double aspect)
-      : x(observed.x()), y(observed.y()), aspect(aspect) {}
+      : observed_(observed), aspect_(aspect) {}
 
-  template <typename T>
-  bool operator()(const T* q, const T* t, const T* point, const T* k,
-                  T* residual) const {
-    // Eigen quaternion storage is x, y, z, w; Ceres wants w first.
-    const T q_wxyz[4] = {q[3], q[0], q[1], q[2]};
-    T p[3];
-    ceres::QuaternionRotatePoint(q_wxyz, point, p);
-    p[0] += t[0];
-    p[1] += t[1];
-    p[2] += t[2];
-    const T xn = p[0] / p[2];
-    const T yn = p[1] / p[2];
-    const T r2 = xn * xn + yn * yn;
-    const T d = T(1) + k[4] * r2 + k[5] * r2 * r2;
-    residual[0] = k[0] * d * xn + k[2] - T(x);
-    residual[1] = k[0] * T(aspect) * d * yn + k[3] - T(y);
-    return true;
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    return evaluate_reprojection(parameters[0], parameters[1], parameters[2],
+                                 parameters[3], observed_, aspect_, residuals,
+                                 jacobians);
   }
 
-  static ceres::CostFunction* create(const Eigen::Vector2d& observed,
-                                     double aspect) {
-    return new ceres::AutoDiffCostFunction<ReprojectionCost, 2, 4, 3, 3, 6>(
-        new ReprojectionCost(observed, aspect));
-  }
-
-  double x, y, aspect;
+ private:
+  Eigen::Vector2d observed_;
+  double aspect_;
 };
 
 // The camera centre -R^T t against its ENU fix, in units of the fix's
@@ -222,8 +291,7 @@ class ProblemBuilder {
           (projected - image.keypoints[obs.keypoint]).norm());
     aspects_.emplace(image.camera, aspect_of(camera));
     problem_.AddResidualBlock(
-        ReprojectionCost::create(image.keypoints[obs.keypoint],
-                                 aspect_of(camera)),
+        new ReprojectionCost(image.keypoints[obs.keypoint], aspect_of(camera)),
         loss_.get(), image.q.coeffs().data(), image.t.data(), point.xyz.data(),
         camera.params.data());
     add_image(obs.image);

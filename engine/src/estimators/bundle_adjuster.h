@@ -75,6 +75,19 @@ struct BundleReport {
   double loss_scale_px = 1;  // the Cauchy scale used, pixels
 };
 
+// One observation's reprojection residual in working pixels, as the
+// adjustment minimizes it: `point` through the pose (q in Eigen's storage
+// order x, y, z, w, normalized as applied; t) and the intrinsics k = fx, fy,
+// cx, cy, k1, k2 (fy follows fx by `aspect`, k[1] is not read), minus
+// `observed`. With `jacobians`, each non-null entry receives the row-major
+// derivative with respect to q (2 x 4), t (2 x 3), point (2 x 3) or k
+// (2 x 6), as ceres::CostFunction::Evaluate fills them. False never (the
+// signature is Ceres'); a point at depth 0 gives non-finite values.
+bool evaluate_reprojection(const double* q, const double* t,
+                           const double* point, const double* k,
+                           const Eigen::Vector2d& observed, double aspect,
+                           double* residual, double** jacobians);
+
 // Adjusts the poses of `free_images` and every point they observe; other
 // registered images observing those points are held constant. With
 // `global`, all registered images and points are free (free_images is
