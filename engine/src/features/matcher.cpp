@@ -37,8 +37,10 @@ std::vector<Level> quantize(const cv::Mat& m) {
     Level* out = levels.data() + static_cast<size_t>(r) * kDim;
     for (int k = 0; k < kDim; ++k) {
       // Rounds half up, as std::lround does for these non-negative values
-      // (NaN counts as 0), at a fraction of its cost.
+      // (NaN counts as 0), at a fraction of its cost: lround was a library
+      // call per value, and a photo's screens quantize millions of them.
       const float v = row[k] > 0 ? std::min(row[k], kMaxLevel / kLevels) : 0;
+      // NOLINTNEXTLINE(bugprone-incorrect-roundings): v >= 0 here.
       out[k] = static_cast<Level>(v * kLevels + 0.5f);
     }
   }
