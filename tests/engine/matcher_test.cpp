@@ -5,8 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
-#include <limits>
 #include <numeric>
 #include <random>
 #include <stdexcept>
@@ -174,49 +172,39 @@ TEST(MatcherTest, RowCountsNotMultipleOfBlock) {
   EXPECT_EQ(match_descriptors(a, b, kRatio, 4), expected);
 }
 
-// A value as the matcher compares it: in steps of 1/2048, clamped to
-// [0, 1] (as a number of steps).
-int level(float v) {
-  return static_cast<int>(std::clamp(std::lround(v * 2048.0f), 0L, 2048L));
-}
-
-// The rule written out plainly (exact squared distances of the quantized
-// rows, each pair alone), against the blocked and vectorized scans, on rows
-// whose counts leave tails everywhere and with exact ties in both
-// directions.
+// The rule written out plainly (dot products in double, each pair alone),
+// against the blocked and vectorized scans, on rows whose counts leave
+// tails everywhere and with exact ties in both directions.
 std::vector<std::pair<int, int>> plain_matches(const cv::Mat& a,
                                                const cv::Mat& b, double ratio) {
-  auto distance2 = [&](int i, int j) {
-    int64_t sum = 0;
-    for (int k = 0; k < kDim; ++k) {
-      const int d = level(a.at<float>(i, k)) - level(b.at<float>(j, k));
-      sum += d * d;
-    }
+  auto dot = [&](int i, int j) {
+    double sum = 0;
+    for (int k = 0; k < kDim; ++k)
+      sum += double{a.at<float>(i, k)} * b.at<float>(j, k);
     return sum;
   };
-  constexpr int64_t kFar = std::numeric_limits<int64_t>::max();
   std::vector<int> best_row(b.rows, -1);
-  std::vector<int64_t> best_distance2(b.rows, kFar);
+  std::vector<double> best_dot(b.rows, -2);
   std::vector<std::pair<int, int>> matches;
   for (int i = 0; i < a.rows; ++i)
     for (int j = 0; j < b.rows; ++j)
-      if (distance2(i, j) < best_distance2[j])
-        best_distance2[j] = distance2(i, j), best_row[j] = i;
+      if (dot(i, j) > best_dot[j]) best_dot[j] = dot(i, j), best_row[j] = i;
   for (int i = 0; i < a.rows; ++i) {
-    int64_t first = kFar, second = kFar;
+    double first = -2, second = -2;
     int index = -1;
     for (int j = 0; j < b.rows; ++j) {
-      const int64_t d = distance2(i, j);
-      if (d < first) {
+      const double d = dot(i, j);
+      if (d > first) {
         second = first, first = d, index = j;
-      } else if (d < second) {
+      } else if (d > second) {
         second = d;
       }
     }
+    auto distance = [](double d) {
+      return std::sqrt(std::max(0.0, 2 - 2 * d));
+    };
     if (index < 0 || best_row[index] != i) continue;
-    if (b.rows > 1 &&
-        std::sqrt(double(first)) >= ratio * std::sqrt(double(second)))
-      continue;
+    if (b.rows > 1 && distance(first) >= ratio * distance(second)) continue;
     matches.emplace_back(i, index);
   }
   return matches;

@@ -9,14 +9,10 @@
 
 namespace arscout::engine {
 
-// `a` and `b` hold non-negative unit rows (CV_32F, 128 columns), as
-// RootSIFT descriptors are. Returns (row of a, row of b) for every a-row
-// whose nearest b-row is closer than `ratio` times the second nearest and
-// whose nearest a-row is that same a-row. Distances come from the rows
-// quantized to steps of 1/2048 (each value rounded, clamped to [0, 1]):
-// exact integer dot products, half the memory of floats to stream. The
-// result does not depend on `threads` or the CPU (ties go to the lower
-// index).
+// `a` and `b` hold unit rows (CV_32F, 128 columns). Returns (row of a, row
+// of b) for every a-row whose nearest b-row is closer than `ratio` times the
+// second nearest and whose nearest a-row is that same a-row. The result does
+// not depend on `threads` (ties go to the lower index).
 std::vector<std::pair<int, int>> match_descriptors(const cv::Mat& a,
                                                    const cv::Mat& b,
                                                    double ratio, int threads);
