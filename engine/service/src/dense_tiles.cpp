@@ -64,18 +64,29 @@ struct TileAssignment {
   std::vector<std::uint32_t> tile_of;
 };
 
+// Numbers distinct keys in order of first appearance, into `keys`.
+class KeyNumbering {
+ public:
+  explicit KeyNumbering(std::vector<TileKey>& keys) : keys_(keys) {}
+  std::uint32_t operator()(const TileKey& key) {
+    auto [it, added] =
+        index_.emplace(key, static_cast<std::uint32_t>(keys_.size()));
+    if (added) keys_.push_back(key);
+    return it->second;
+  }
+
+ private:
+  std::vector<TileKey>& keys_;
+  std::unordered_map<TileKey, std::uint32_t, TileKeyHash> index_;
+};
+
 TileAssignment assign_tiles(const std::vector<ColoredPoint>& points,
                             double size) {
   TileAssignment a;
-  std::unordered_map<TileKey, std::uint32_t, TileKeyHash> index;
+  KeyNumbering number(a.keys);
   a.tile_of.resize(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const TileKey key = tile_key(points[i], size);
-    auto [it, added] =
-        index.emplace(key, static_cast<std::uint32_t>(a.keys.size()));
-    if (added) a.keys.push_back(key);
-    a.tile_of[i] = it->second;
-  }
+  for (std::size_t i = 0; i < points.size(); ++i)
+    a.tile_of[i] = number(tile_key(points[i], size));
   return a;
 }
 
@@ -84,16 +95,11 @@ TileAssignment assign_tiles(const std::vector<ColoredPoint>& points,
 // edge (>> on a negative integer rounds down too).
 TileAssignment coarsen(const TileAssignment& fine, int halvings) {
   TileAssignment a;
-  std::unordered_map<TileKey, std::uint32_t, TileKeyHash> index;
-  std::vector<std::uint32_t> coarse_of(fine.keys.size());
-  for (std::size_t t = 0; t < fine.keys.size(); ++t) {
-    const TileKey key{fine.keys[t].first >> halvings,
-                      fine.keys[t].second >> halvings};
-    auto [it, added] =
-        index.emplace(key, static_cast<std::uint32_t>(a.keys.size()));
-    if (added) a.keys.push_back(key);
-    coarse_of[t] = it->second;
-  }
+  KeyNumbering number(a.keys);
+  std::vector<std::uint32_t> coarse_of;
+  for (const TileKey& key : fine.keys)
+    coarse_of.push_back(
+        number({key.first >> halvings, key.second >> halvings}));
   a.tile_of.resize(fine.tile_of.size());
   for (std::size_t i = 0; i < fine.tile_of.size(); ++i)
     a.tile_of[i] = coarse_of[fine.tile_of[i]];
