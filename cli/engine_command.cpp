@@ -38,6 +38,16 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
          "seconds a site lease lasts unrenewed: when a worker dies, others "
          "take its sites over after this (renewed every third; default 15)")
       ->check(CLI::Range(0.3, 3600.0));
+  cmd->add_option_function<double>(
+         "--state-interval",
+         [o](double seconds) {
+           o->state_interval = std::chrono::milliseconds(
+               static_cast<std::int64_t>(seconds * 1000));
+         },
+         "seconds a site's engine state may stay unsaved while photos keep "
+         "coming (also saved after a quiet second; a crash redoes what was "
+         "unsaved; 0: at every increment; default 30)")
+      ->check(CLI::Range(0.0, 3600.0));
   cmd->add_flag("!--no-dense", o->dense, "sparse models only");
   cmd->add_option("--dense-long-side", o->dense_options.long_side,
                   "dense working resolution, long side in px")

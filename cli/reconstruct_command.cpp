@@ -131,14 +131,15 @@ class InputSource {
   std::map<std::string, ingest::GpsFix> csv_;
 };
 
-void print_progress(int n, int total, const engine::AddResult& r) {
+void print_progress(int n, int total, const engine::AddResult& r,
+                    double model_error_px) {
   const auto& t = r.timings;
   std::cout << std::fixed << std::setprecision(2) << "[" << n << "/" << total
             << "] " << r.id << "  " << engine::to_string(r.status);
   if (!r.reason.empty()) std::cout << " (" << r.reason << ")";
   std::cout << "  features " << r.features << "  pairs " << r.matched_pairs
             << "  inliers " << r.pose_inliers << "  reproj "
-            << std::setprecision(3) << r.mean_reprojection_px << " px"
+            << std::setprecision(3) << model_error_px << " px"
             << std::setprecision(2) << (r.geo_registered ? "  geo" : "")
             << (r.loops_closed ? "  loop closed" : "");
   if (r.component >= 0) std::cout << "  component " << r.component;
@@ -306,7 +307,8 @@ int run_reconstruct(const ReconstructArgs& a) {
     engine::CaptureInput input = source.load(path);
     try {
       const engine::AddResult result = site.add_capture(input);
-      print_progress(n, static_cast<int>(paths.size()), result);
+      print_progress(n, static_cast<int>(paths.size()), result,
+                     site.mean_reprojection_px());
       refine_between_photos(site, a.refine_budget_s, a.options.deterministic);
       if (dense && site.registered_count() > 0)
         print_dense_progress(dense->update(site.model(), images));

@@ -31,6 +31,11 @@ constexpr int kScreenMaxImages = 60;
 // Spatial partners that match fewer sampled descriptors than this are not
 // matched in full (pairs that verify match several times more).
 constexpr int kSpatialScreen = 4;
+// Every other partner (the scout's recent photos, the baseline bands, the
+// photos sharing points) must match at least this many: on seed 31's block
+// walk, of 115 partners below it none verified, and they were a third of
+// the full matches (docs/engine.md, "Matching").
+constexpr int kPartnerScreen = 2;
 // Old captures near a new one screened for a loop.
 constexpr int kLoopScreen = 8;
 // When two sites' scenes join: the photos of the other nearest this one's,
@@ -99,6 +104,7 @@ struct Reconstruction::Impl {
       const std::set<int>& chosen) const;
   std::vector<Candidate> neighbours(int index) const;
   std::vector<int> covisible_with(const std::set<int>& images) const;
+  int overlap(int index, int other) const;
   std::pair<int, int> best_rotation(int index, int other) const;
   std::vector<Candidate> visual_screen(int index,
                                        const std::set<int>& skip) const;
@@ -276,16 +282,22 @@ std::vector<Candidate> Reconstruction::Impl::neighbours(int index) const {
     chosen.insert(i);
     ++recent;
   }
+  std::map<int, int> scores;  // of the screen, by partner
+  const auto score = [&](int other) {
+    auto [at, added] = scores.try_emplace(other, 0);
+    if (added) at->second = overlap(index, other);
+    return at->second;
+  };
   if (image.gps) {
     const std::set<int> recent_ones = chosen;
-    chosen = spatial_neighbours(index, std::move(chosen));
+    const std::set<int> spatial = spatial_neighbours(index, chosen);
+    chosen = recent_ones;
     // Nearby by a noisy fix is not overlapping: a photo of the other side
     // of the street costs a full match and gives nothing.
-    std::erase_if(chosen, [&](int other) {
-      return !recent_ones.count(other) &&
-             overlap_score(image.descriptors, scene.images[other].descriptors,
-                           options.ratio, kScreenSamples) < kSpatialScreen;
-    });
+    for (int other : spatial) {
+      if (!recent_ones.count(other) && score(other) >= kSpatialScreen)
+        chosen.insert(other);
+    }
   }
   for (int other : covisible_with(chosen)) chosen.insert(other);
   // A photo with a fix is matched upright against its neighbours; one
@@ -293,13 +305,22 @@ std::vector<Candidate> Reconstruction::Impl::neighbours(int index) const {
   // quarter turns.
   std::vector<Candidate> result;
   if (image.gps) {
-    for (int other : chosen) result.push_back({other, 0});
+    for (int other : chosen) {
+      if (score(other) >= kPartnerScreen) result.push_back({other, 0});
+    }
     return result;
   }
   for (int other : chosen)
     result.push_back({other, best_rotation(index, other).first});
   for (const Candidate& c : visual_screen(index, chosen)) result.push_back(c);
   return result;
+}
+
+// How many sampled descriptors of `index` match `other` upright.
+int Reconstruction::Impl::overlap(int index, int other) const {
+  return overlap_score(scene.images[index].descriptors,
+                       scene.images[other].descriptors, options.ratio,
+                       kScreenSamples);
 }
 
 // Registered images that share the most points with `images`.
@@ -519,7 +540,6 @@ AddResult Reconstruction::add_capture(const CaptureInput& capture) {
     scene.images[index].reason = result.reason;
   }
   result.pose_inliers = added.registered ? added.pose_inliers : 0;
-  result.mean_reprojection_px = mapper.mean_reprojection_px();
   result.geo_registered = scene.geo_registered;
   result.loops_closed = mapper.loops_closed();
   result.components_merged = mapper.components_merged();
@@ -644,5 +664,9 @@ Reconstruction Reconstruction::restore(
 }
 
 Model Reconstruction::model() const { return build_model(impl_->scene); }
+
+double Reconstruction::mean_reprojection_px() const {
+  return engine::mean_reprojection_px(impl_->scene);
+}
 
 }  // namespace arscout::engine

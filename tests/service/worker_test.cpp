@@ -343,6 +343,81 @@ TEST(EngineWorker,
   EXPECT_EQ(after->attrs.at("statistics").value("registered", 0), 7);
 }
 
+// The seq of the last change under /captures.
+std::int64_t last_capture_change(db::Store& store) {
+  std::int64_t last = 0;
+  for (auto page = store.changes(0, "/captures/*", 1000); !page.empty();
+       page = store.changes(last, "/captures/*", 1000))
+    last = page.back().seq;
+  return last;
+}
+
+// While photos keep coming, increments leave the engine state unsaved
+// (WorkerOptions::state_interval) and their captures in flight: the
+// checkpoint stays below them. A worker stopped then (here as soon as the
+// last photo shows registered, before a quiet second could save the
+// state) loses nothing: the next one redoes the unsaved work from the last
+// saved state, saves it once the site is quiet, and the checkpoint passes
+// every capture.
+TEST(EngineWorker, UnsavedStateKeepsTheCheckpointBackAndARestartRedoesIt) {
+  auto store = db::Store::open(testing::fresh_sqlite_url());
+  const std::string dir = render_street(*store, 8);
+  engine::WorkerOptions options;
+  options.dense = false;
+  options.state_interval = std::chrono::hours(1);
+  std::mutex lines_mutex;
+  std::vector<std::string> lines;
+  options.progress = [&](const std::string& line) {
+    std::lock_guard lock(lines_mutex);
+    lines.push_back(line);
+  };
+  const auto registered = [&]() {
+    for (const db::Document& site : store->list_children("/sites"))
+      if (auto model = store->get(site.path + "/model"))
+        return model->attrs.at("statistics").value("registered", 0);
+    return 0;
+  };
+  {
+    engine::EngineWorker worker(*store, options);
+    worker.start();
+    upload_street(*store, dir);
+    const auto deadline =
+        std::chrono::steady_clock::now() + std::chrono::minutes(5);
+    while (registered() < 8 && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    ASSERT_EQ(registered(), 8);
+    EXPECT_LT(store->load_checkpoint("engine"), last_capture_change(*store));
+    worker.stop();
+  }
+  {
+    std::lock_guard lock(lines_mutex);
+    EXPECT_TRUE(std::any_of(lines.begin(), lines.end(), [](const auto& l) {
+      return l.find("(the state unsaved)") != std::string::npos;
+    }));
+    lines.clear();
+  }
+  engine::EngineWorker again(*store, options);
+  again.start();
+  ASSERT_TRUE(again.wait_idle(std::chrono::minutes(5)));
+  again.stop();
+  std::lock_guard lock(lines_mutex);
+  const auto said = [&](const std::string& what) {
+    return std::any_of(lines.begin(), lines.end(), [&](const auto& l) {
+      return l.find(what) != std::string::npos;
+    });
+  };
+  EXPECT_TRUE(said(": +")) << "nothing redone";
+  EXPECT_TRUE(said("engine state saved"));
+  EXPECT_EQ(registered(), 8);
+  EXPECT_EQ(store->load_checkpoint("engine"), last_capture_change(*store));
+  const auto sites = store->list_children("/sites");
+  ASSERT_EQ(sites.size(), 1u);
+  const auto restored = engine::load_site_reconstruction(
+      *store, sites[0].path.substr(std::string("/sites/").size()));
+  ASSERT_TRUE(restored);
+  EXPECT_EQ(restored->model().images.size(), 8u);
+}
+
 // The model's cameras as the evaluator's poses, by photo name: the
 // capture id less its scout ("alice-0007" is 0007.jpg).
 std::map<std::string, eval::Pose> model_poses(const Json& model) {

@@ -80,7 +80,10 @@ struct EngineWorker::Impl {
     // Shared by the lanes: a lane keeps it alive while it runs.
     std::shared_ptr<service::SiteJob> job;
     std::deque<Work> pending;
-    std::deque<Work> deferred;   // while another worker holds the site
+    std::deque<Work> deferred;  // while another worker holds the site
+    // Committed in a model version, but the engine state that holds them
+    // is not saved yet (SiteJob::run's save_state): still in flight.
+    std::vector<Work> unsaved;
     bool dense_retry = false;    // a dense phase failed: run one again
     bool refine_wanted = false;  // a refinement waits for the dense lane
     // After an increment failed in the engine: captures one at a time, and
@@ -105,7 +108,8 @@ struct EngineWorker::Impl {
   db::Store& store;
   const WorkerOptions options;
   service::SiteDirectory directory;
-  service::SiteLeases leases;  // used by the heartbeat thread only
+  // Used by the heartbeat thread, but for settled_through (a plain read).
+  service::SiteLeases leases;
 
   mutable std::mutex mutex;
   std::condition_variable changed;
@@ -190,7 +194,7 @@ struct EngineWorker::Impl {
     }
     if (capture.status != documents::kStatusStored &&
         capture.status != documents::kStatusNeedsGps)
-      return {};
+      return unsaved_work(change, id, capture);
     // The engine patches `site` in the batch that commits the capture into
     // its site's state: a capture carrying it (a photo still waiting for
     // neighbours, as another worker published it) needs nothing more.
@@ -223,6 +227,20 @@ struct EngineWorker::Impl {
             {*site, Work{Work::Kind::kMerge, other, change.seq, ""}});
     }
     return work;
+  }
+
+  // A capture an earlier run committed into a model (its status says
+  // where it went) while the site's engine state was left unsaved
+  // (WorkerOptions::state_interval): the saved state has not folded this
+  // change in, so it is added again; else nothing. A capture the state
+  // holds after all is skipped by the increment.
+  std::vector<std::pair<std::string, Work>> unsaved_work(
+      const db::Change& change, const std::string& id,
+      const documents::Capture& capture) {
+    if (capture.status == documents::kStatusRejected) return {};
+    const auto site = directory.site_of(id);
+    if (!site || change.seq <= leases.settled_through(*site)) return {};
+    return {{*site, Work{Work::Kind::kAdd, id, change.seq, capture.scout}}};
   }
 
   // Site `work.capture` grew into `site`: both held here and neither
@@ -270,6 +288,7 @@ struct EngineWorker::Impl {
                        [&] { return stopping || !ready.empty(); });
       if (stopping) return;
       if (ready.empty()) {
+        save_idle_states(lock);
         save_idle_checkpoint(lock);
         continue;
       }
@@ -307,7 +326,7 @@ struct EngineWorker::Impl {
       std::string engine_fault;
       if (!work.empty() || retry_dense) {
         lock.unlock();
-        ok = run_increment(site, job, work, through, lock,
+        ok = run_increment(site, job, q, work, through, lock,
                            &engine_fault);  // returns locked
       }
       if (ok && !work.empty()) q.one_at_a_time = false;
@@ -349,7 +368,9 @@ struct EngineWorker::Impl {
   // Moves a site's queued work aside: another worker holds the site.
   static void defer(SiteQueue& q) {
     q.deferred.insert(q.deferred.end(), q.pending.begin(), q.pending.end());
+    q.deferred.insert(q.deferred.end(), q.unsaved.begin(), q.unsaved.end());
     q.pending.clear();
+    q.unsaved.clear();
     std::sort(q.deferred.begin(), q.deferred.end(),
               [](const Work& a, const Work& b) { return a.seq < b.seq; });
   }
@@ -453,18 +474,22 @@ struct EngineWorker::Impl {
   // Returns false, with the lock held, when the sparse phase failed.
   // `engine_fault` gets the error when the engine (not the store) failed.
   bool run_increment(const std::string& site, service::SiteJob& job,
-                     const std::vector<Work>& work, std::int64_t through,
-                     std::unique_lock<std::mutex>& lock,
+                     SiteQueue& q, const std::vector<Work>& work,
+                     std::int64_t through, std::unique_lock<std::mutex>& lock,
                      std::string* engine_fault) {
     bool dense_due = false;
     try {
       std::unique_lock publication(job.publication());
+      const bool save_state = state_save_due(job);
       service::Increment increment =
-          timed([&] { return job.run(work, through); });
+          timed([&] { return job.run(work, through, save_state); });
       phases.sparse.observe(increment.seconds);
       lock.lock();
       std::multiset<std::int64_t> others = in_flight;
-      for (const Work& w : work) others.erase(others.find(w.seq));
+      if (increment.state_written) {
+        for (const Work& w : work) others.erase(others.find(w.seq));
+        for (const Work& w : q.unsaved) others.erase(others.find(w.seq));
+      }
       const std::int64_t checkpoint =
           others.empty() ? last_placed : *others.begin() - 1;
       lock.unlock();
@@ -472,7 +497,8 @@ struct EngineWorker::Impl {
       dense_due = job.dense_due();
       publication.unlock();
       lock.lock();
-      for (const Work& w : work) in_flight.erase(in_flight.find(w.seq));
+      q.unsaved.insert(q.unsaved.end(), work.begin(), work.end());
+      if (increment.state_written) release_unsaved(q);
       saved_checkpoint = std::max(saved_checkpoint, checkpoint);
       stats.checkpoint = saved_checkpoint;
       stats.increments += increment.model_written ? 1 : 0;
@@ -485,6 +511,7 @@ struct EngineWorker::Impl {
       log("site " + site + ": increment failed" +
           (in_store ? ", will retry: " : " in the engine: ") + e.what());
       lock.lock();
+      requeue_unsaved(q);
       ++stats.failures;
       if (!in_store) *engine_fault = e.what();
       return false;
@@ -590,9 +617,17 @@ struct EngineWorker::Impl {
     lock.lock();
     qb.running = false;
     qb.merging_into.clear();
+    SiteQueue& q = sites[site];
+    if (merged) {
+      // Both states are saved as one now.
+      release_unsaved(q);
+      release_unsaved(qb);
+    } else {
+      requeue_unsaved(q);
+      requeue_unsaved(qb);
+    }
     if (merged) {
       // Its queued captures are this site's now.
-      SiteQueue& q = sites[site];
       q.pending.insert(q.pending.end(), qb.pending.begin(), qb.pending.end());
       q.pending.insert(q.pending.end(), qb.deferred.begin(), qb.deferred.end());
       std::sort(q.pending.begin(), q.pending.end(),
@@ -676,6 +711,7 @@ struct EngineWorker::Impl {
     reset(job);
     log("site " + site + ": dense phase failed, will catch up: " + e.what());
     lock.lock();
+    requeue_unsaved(sites[site]);
     sites[site].dense_retry = true;
     ++stats.failures;
   }
@@ -778,6 +814,7 @@ struct EngineWorker::Impl {
       }
       service::Increment refined;
       int written = 0;
+      bool state_saved = false;
       // Registered waiting captures make the adjustment due: a
       // deterministic run does it at once (the order must not depend on
       // arrivals), the others after new work and the views' cloud.
@@ -792,9 +829,11 @@ struct EngineWorker::Impl {
         phases.refine.observe(refined.seconds);
         if (!refined.ops.empty()) commit(site, job, refined, std::nullopt);
         written += refined.model_written ? 1 : 0;
+        state_saved = state_saved || refined.state_written;
       } while (refined.refine_again && !give_way);
       dense_due = job.dense_due();
       lock.lock();
+      if (state_saved) release_unsaved(q);
       stats.increments += written;
       // A round that used up its iterations goes on in the next call (the
       // core bounds the rounds on one model), as does the adjustment that
@@ -808,6 +847,7 @@ struct EngineWorker::Impl {
       reset(job);
       log("site " + site + ": refinement failed, will retry: " + e.what());
       lock.lock();
+      requeue_unsaved(q);
       return;
     }
     // The refined poses move the depth maps: the cloud follows them, unless
@@ -859,6 +899,80 @@ struct EngineWorker::Impl {
     increment.summary +=
         ", ready in " +
         std::to_string(static_cast<int>(increment.seconds * 1000)) + " ms";
+  }
+
+  // Whether the next increment of `job` writes the engine state: always in
+  // deterministic runs, else once its unsaved work is options.state_interval
+  // old (and when the site goes quiet, save_idle_states).
+  bool state_save_due(const service::SiteJob& job) const {
+    if (options.reconstruction.deterministic ||
+        options.state_interval.count() <= 0)
+      return true;
+    return job.seconds_state_unsaved() * 1000 >=
+           static_cast<double>(options.state_interval.count());
+  }
+
+  // A saved state holds q's unsaved work: it is done. Called with the lock.
+  void release_unsaved(SiteQueue& q) {
+    for (const Work& w : q.unsaved) in_flight.erase(in_flight.find(w.seq));
+    q.unsaved.clear();
+  }
+
+  // The job lost its in-memory state: its unsaved work runs again (the
+  // restored state skips nothing of it). Called with the lock.
+  void requeue_unsaved(SiteQueue& q) {
+    if (q.unsaved.empty()) return;
+    q.pending.insert(q.pending.end(), q.unsaved.begin(), q.unsaved.end());
+    q.unsaved.clear();
+    std::sort(q.pending.begin(), q.pending.end(),
+              [](const Work& a, const Work& b) { return a.seq < b.seq; });
+  }
+
+  // Saves the engine state of every quiet site with unsaved work (no
+  // phase running or due), so that the checkpoint can pass it. Called and
+  // returns with the lock held.
+  void save_idle_states(std::unique_lock<std::mutex>& lock) {
+    for (auto& [site, q] : sites) {
+      if (q.unsaved.empty() || q.running || q.ready || !q.pending.empty() ||
+          q.dense_turn || !q.job || !held.count(site))
+        continue;
+      save_state(site, q, lock);
+      return;  // the lock was let go: the next quiet second does the rest
+    }
+  }
+
+  void save_state(const std::string& site, SiteQueue& q,
+                  std::unique_lock<std::mutex>& lock) {
+    q.running = true;
+    const std::shared_ptr<service::SiteJob> job = q.job;
+    lock.unlock();
+    bool saved = false;
+    try {
+      std::lock_guard publication(job->publication());
+      service::Increment increment = timed([&] { return job->save_state(); });
+      if (!increment.ops.empty()) {
+        lock.lock();
+        std::multiset<std::int64_t> others = in_flight;
+        for (const Work& w : q.unsaved) others.erase(others.find(w.seq));
+        const std::int64_t checkpoint =
+            others.empty() ? last_placed : *others.begin() - 1;
+        lock.unlock();
+        commit(site, *job, increment, checkpoint);
+        saved = true;
+        lock.lock();
+        saved_checkpoint = std::max(saved_checkpoint, checkpoint);
+        stats.checkpoint = saved_checkpoint;
+        lock.unlock();
+      }
+    } catch (const std::exception& e) {
+      if (lock.owns_lock()) lock.unlock();
+      log("site " + site + ": engine state not saved, will retry: " + e.what());
+    }
+    lock.lock();
+    if (saved) release_unsaved(q);
+    q.running = false;
+    make_ready(site, q);
+    changed.notify_all();
   }
 
   // Commits an increment's writes with the site document (and the
@@ -1017,8 +1131,13 @@ WorkerStats EngineWorker::stats() const {
   std::lock_guard lock(impl_->mutex);
   WorkerStats s = impl_->stats;
   s.sites = static_cast<std::int64_t>(impl_->sites.size());
-  // Every placed change is in flight until its increment commits.
-  s.captures_waiting = static_cast<std::int64_t>(impl_->in_flight.size());
+  // Every placed change is in flight until its increment commits (and
+  // after, until the engine state that holds it is saved).
+  std::int64_t unsaved = 0;
+  for (const auto& [id, q] : impl_->sites)
+    unsaved += static_cast<std::int64_t>(q.unsaved.size());
+  s.captures_waiting =
+      static_cast<std::int64_t>(impl_->in_flight.size()) - unsaved;
   return s;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <iomanip>
 #include <optional>
@@ -53,8 +54,20 @@ int SiteJob::registered() const {
   return sparse_ ? sparse_->registered_count() : 0;
 }
 
+void SiteJob::clear_pending() {
+  pending_statuses_.clear();
+  pending_depth_maps_.clear();
+  pending_removed_maps_.clear();
+  pending_engine_written_ = pending_state_written_ = pending_unsaved_ = false;
+}
+
+double SiteJob::seconds_state_unsaved() const {
+  return state_unsaved() ? seconds_since(unsaved_since_) : 0;
+}
+
 void SiteJob::reset() {
   loaded_ = false;
+  state_unsaved_ = false;
   dense_in_flight_ = false;
   dense_finishing_ = false;
   sparse_.reset();
@@ -206,13 +219,24 @@ void SiteJob::add(const std::string& capture, IncrementReport* report) {
   s.total_s += t.total_s;
 }
 
+namespace {
+// Where an increment's time went, for the progress log: the stages that
+// grow with the site (matching, the adjustments) and the rest.
+std::string stage_split(const StageTimings& t) {
+  const auto ms = [](double s) {
+    return std::to_string(std::lround(s * 1000));
+  };
+  const double rest = t.total_s - t.matching_s - t.bundle_adjustment_s;
+  return ": matching " + ms(t.matching_s) + ", adjustment " +
+         ms(t.bundle_adjustment_s) + ", the rest " + ms(rest);
+}
+}  // namespace
+
 Increment SiteJob::run(const std::vector<Work>& work,
-                       std::int64_t settled_through) {
+                       std::int64_t settled_through, bool save_state) {
   const auto start = Clock::now();
   if (!loaded_) restore();
-  pending_statuses_.clear();
-  pending_depth_maps_.clear();
-  pending_removed_maps_.clear();
+  clear_pending();
   IncrementReport report;
   pending_through_seq_ = std::max(through_seq_, settled_through);
   Increment increment;
@@ -245,7 +269,10 @@ Increment SiteJob::run(const std::vector<Work>& work,
     ops.push_back(model_op(model, captures, report));
     increment.model_written = true;
   }
-  const size_t state_bytes = add_state_ops(model, report.added, &ops);
+  const size_t state_bytes =
+      save_state ? add_state_ops(model, report.added, &ops) : 0;
+  increment.state_written = save_state;
+  pending_unsaved_ = !save_state;
   const double writes_s = seconds_since(writes_start);
 
   pending_model_version_ = model_version_ + (publish_model ? 1 : 0);
@@ -258,10 +285,14 @@ Increment SiteJob::run(const std::vector<Work>& work,
           << model.points.size() << " points";
   if (publish_model) summary << ", model v" << pending_model_version_;
   if (dense_due_) summary << ", dense to follow";
-  summary << " (" << static_cast<int>(report.total_s * 1000)
-          << " ms; its writes, with a state of " << std::fixed
-          << std::setprecision(1) << state_bytes / 1e6 << " MB, in "
-          << static_cast<int>(writes_s * 1000) << " ms)";
+  summary << " (" << static_cast<int>(report.total_s * 1000) << " ms"
+          << stage_split(report.sparse) << "; its writes";
+  if (save_state)
+    summary << ", with a state of " << std::fixed << std::setprecision(1)
+            << state_bytes / 1e6 << " MB,";
+  else
+    summary << " (the state unsaved)";
+  summary << " in " << static_cast<int>(writes_s * 1000) << " ms)";
   increment.summary = summary.str();
   increment.ops = std::move(ops);
   return increment;
@@ -334,16 +365,34 @@ size_t SiteJob::add_state_ops(const Model& model,
     refs[state_part_name(i)] = store_.put_blob(parts[i]);
   state.blobs = std::move(refs);
   ops->push_back(std::move(state));
+  pending_engine_written_ = pending_state_written_ = true;
   return bytes.size();
+}
+
+Increment SiteJob::save_state() {
+  Increment increment;
+  if (!state_unsaved()) return increment;
+  clear_pending();
+  pending_through_seq_ = through_seq_;
+  const auto start = Clock::now();
+  const Model model = sparse_->model();
+  increment.footprint = registered_footprint(model);
+  const size_t bytes = add_state_ops(model, {}, &increment.ops);
+  increment.state_written = true;
+  pending_model_version_ = model_version_;
+  std::ostringstream summary;
+  summary << "site " << id_ << ": engine state saved (" << std::fixed
+          << std::setprecision(1) << bytes / 1e6 << " MB, "
+          << static_cast<int>(seconds_since(start) * 1000) << " ms)";
+  increment.summary = summary.str();
+  return increment;
 }
 
 Increment SiteJob::absorb(SiteJob& other) {
   const auto start = Clock::now();
   if (!loaded_) restore();
   if (!other.loaded_) other.restore();
-  pending_statuses_.clear();
-  pending_depth_maps_.clear();
-  pending_removed_maps_.clear();
+  clear_pending();
   pending_through_seq_ = std::max(through_seq_, other.through_seq_);
   IncrementReport report;
   for (const CaptureState& c : other.sparse_->captures())
@@ -402,9 +451,7 @@ bool SiteJob::refinement_due() const {
 Increment SiteJob::run_refine(const std::function<bool()>& stop) {
   Increment increment;
   if (!refinement_due()) return increment;
-  pending_statuses_.clear();
-  pending_depth_maps_.clear();
-  pending_removed_maps_.clear();
+  clear_pending();
   pending_through_seq_ = through_seq_;
   const RefineResult refined = sparse_->refine(stop);
   if (!refined.ran) return increment;
@@ -499,9 +546,7 @@ void SiteJob::compute_dense(DenseTask& task) {
 Increment SiteJob::finish_dense(DenseTask& task) {
   Increment increment;
   if (!loaded_ || task.generation != generation_) return increment;
-  pending_statuses_.clear();
-  pending_depth_maps_.clear();
-  pending_removed_maps_.clear();
+  clear_pending();
   pending_through_seq_ = through_seq_;
   std::vector<db::WriteOp> ops;
   for (const auto& [map, sha] : task.map_blobs) {
@@ -539,9 +584,14 @@ Increment SiteJob::finish_dense(DenseTask& task) {
     increment.model_written = true;
   }
   // Fenced like the sparse phase: a patch on the version this job wrote.
-  ops.push_back(db::WriteOp::patch(site_path(id_, "engine"),
-                                   documents::dense_due_patch(dense_due_),
-                                   engine_version_));
+  // A site whose state was never saved yet has no document to patch: its
+  // first state write records the cloud's state (EngineState::dense_due).
+  if (engine_version_ > 0) {
+    ops.push_back(db::WriteOp::patch(site_path(id_, "engine"),
+                                     documents::dense_due_patch(dense_due_),
+                                     engine_version_));
+    pending_engine_written_ = true;
+  }
   pending_model_version_ = model_version_ + (publish_model ? 1 : 0);
   increment.summary = dense_summary(task, publish_model);
   increment.ops = std::move(ops);
@@ -632,7 +682,14 @@ void SiteJob::committed() {
   pending_removed_features_.clear();
   model_version_ = pending_model_version_;
   through_seq_ = pending_through_seq_;
-  ++engine_version_;
+  if (pending_engine_written_) ++engine_version_;
+  if (pending_state_written_) {
+    state_unsaved_ = false;
+  } else if (pending_unsaved_ && !state_unsaved_) {
+    state_unsaved_ = true;
+    unsaved_since_ = Clock::now();
+  }
+  pending_engine_written_ = pending_state_written_ = pending_unsaved_ = false;
   pending_statuses_.clear();
   pending_depth_maps_.clear();
 }

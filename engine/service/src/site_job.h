@@ -11,6 +11,7 @@
 // fenced engine-state writes then follow one order.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -84,6 +85,9 @@ struct Increment {
   // (SiteDirectory::follow).
   Footprint footprint;
   std::vector<std::string> settled;
+  // Whether its writes hold the engine state (all of the job's work so
+  // far); a run() that leaves it out leaves the state unsaved.
+  bool state_written = false;
 };
 
 class SiteJob {
@@ -105,7 +109,21 @@ class SiteJob {
   // version this job restored or last wrote, so a worker that lost the
   // site's lease while it ran cannot overwrite the new holder's work (its
   // batch fails with a conflict).
-  Increment run(const std::vector<Work>& work, std::int64_t settled_through);
+  //
+  // With `save_state` false the writes leave the engine state out (its
+  // serialization grows with the site, ~90 KB a photo, and sits on the
+  // latency path): the model and statuses are published, and the state
+  // stays unsaved until a later call writes it (Increment::state_written).
+  // Work whose state is unsaved must stay in flight for the worker: a
+  // restart restores the last saved state and redoes it.
+  Increment run(const std::vector<Work>& work, std::int64_t settled_through,
+                bool save_state = true);
+  // The writes of the engine state alone, for work run() left unsaved;
+  // none when nothing is unsaved.
+  Increment save_state();
+  // Work was committed since the state was last written, and for how long.
+  bool state_unsaved() const { return loaded_ && state_unsaved_; }
+  double seconds_state_unsaved() const;
   // True when the last run() changed the model and the dense cloud has yet
   // to follow (also after a restart that found it behind).
   bool dense_due() const { return dense_due_; }
@@ -156,6 +174,8 @@ class SiteJob {
 
  private:
   void restore();
+  // Forgets the writes of a call whose batch was not committed.
+  void clear_pending();
   DenseOptions lane_dense_options() const;
   // Patches of the captures whose status changed since last published.
   void add_status_ops(const std::vector<CaptureState>& captures,
@@ -202,6 +222,13 @@ class SiteJob {
   std::int64_t model_version_ = 0;
   std::int64_t pending_model_version_ = 0;
   std::int64_t engine_version_ = 0;  // of /sites/{id}/engine, 0: none yet
+  // Whether the pending writes touch the engine document (its version
+  // then moves) and hold the state; whether committed work is unsaved.
+  bool pending_engine_written_ = false;
+  bool pending_state_written_ = false;
+  bool pending_unsaved_ = false;  // a run() that left the state out
+  bool state_unsaved_ = false;
+  std::chrono::steady_clock::time_point unsaved_since_;
   // The highest change seq folded into the state (attrs.through_seq).
   std::int64_t through_seq_ = 0;
   std::int64_t pending_through_seq_ = 0;

@@ -1062,20 +1062,4 @@ void IncrementalMapper::repair_after_removal() {
   adjust_global();
 }
 
-double IncrementalMapper::mean_reprojection_px() const {
-  double sum = 0;
-  size_t count = 0;
-  for (const auto& [id, point] : scene_.points) {
-    for (const Observation& obs : point.track) {
-      const SceneImage& image = scene_.images[obs.image];
-      Eigen::Vector2d projected;
-      if (!project(scene_.cameras[image.camera], image, point.xyz, &projected))
-        continue;
-      sum += (projected - image.keypoints[obs.keypoint]).norm();
-      ++count;
-    }
-  }
-  return count ? sum / count : 0;
-}
-
 }  // namespace arscout::engine

@@ -45,7 +45,6 @@ class IncrementalMapper {
   // Small components that stopped growing, retired by update() calls.
   int components_retired() const { return components_retired_; }
   // Mean reprojection error over all observations, working pixels.
-  double mean_reprojection_px() const;
   // Merges the components that registered photos link (sfm/
   // component_merge.cpp); returns the merges made.
   int sweep_merges(const std::function<bool()>& stop);

@@ -101,6 +101,22 @@ bool project(const SceneCamera& camera, const SceneImage& image,
   return true;
 }
 
+double mean_reprojection_px(const Scene& scene) {
+  double sum = 0;
+  size_t count = 0;
+  for (const auto& [id, point] : scene.points) {
+    for (const Observation& obs : point.track) {
+      const SceneImage& image = scene.images[obs.image];
+      Eigen::Vector2d projected;
+      if (!project(scene.cameras[image.camera], image, point.xyz, &projected))
+        continue;
+      sum += (projected - image.keypoints[obs.keypoint]).norm();
+      ++count;
+    }
+  }
+  return count ? sum / count : 0;
+}
+
 Eigen::Vector2d normalize(const SceneCamera& camera,
                           const Eigen::Vector2d& px) {
   const auto& k = camera.params;

@@ -164,6 +164,10 @@ std::vector<std::pair<int, int>> oriented_matches(int image, int other,
 bool project(const SceneCamera& camera, const SceneImage& image,
              const Eigen::Vector3d& world, Eigen::Vector2d* pixel);
 
+// The mean distance in working pixels between every observation and its
+// point's projection, over the whole scene.
+double mean_reprojection_px(const Scene& scene);
+
 // Undistorted working pixel -> normalized camera ray (z = 1), removing the
 // residual radial term by fixed-point iteration.
 Eigen::Vector2d normalize(const SceneCamera& camera, const Eigen::Vector2d& px);

@@ -140,9 +140,8 @@ struct AddResult {
   CaptureStatus status = CaptureStatus::kPending;
   std::string reason;  // why not registered (empty when registered)
   int features = 0;
-  int matched_pairs = 0;            // verified pairs with other captures
-  int pose_inliers = 0;             // 2D-3D inliers of its absolute pose
-  double mean_reprojection_px = 0;  // over the whole model, working pixels
+  int matched_pairs = 0;  // verified pairs with other captures
+  int pose_inliers = 0;   // 2D-3D inliers of its absolute pose
   // Other captures that became registered in this increment (e.g. the
   // first two when the model is initialised).
   std::vector<std::string> also_registered;
@@ -290,6 +289,9 @@ class Reconstruction {
   bool refinement_due() const;
 
   Model model() const;
+  // The mean reprojection error over the whole model, working pixels (a
+  // pass over every observation: for progress lines, not per increment).
+  double mean_reprojection_px() const;
   std::vector<CaptureState> captures() const;
   int registered_count() const;
 

@@ -81,6 +81,13 @@ struct WorkerOptions {
   // every third of this; a worker that stops renewing (it died) loses its
   // sites to the others once this has passed. Names must differ.
   std::chrono::milliseconds lease_ttl{15000};
+  // How long a site's committed work may stay out of its saved engine
+  // state while photos keep coming (docs/service.md, "Crashes and
+  // restarts"): the state, ~90 KB a registered photo, is written at most
+  // this often then, and whenever the site is quiet for a second. A crash
+  // redoes what was unsaved. 0: at every increment (and always in
+  // deterministic runs).
+  std::chrono::milliseconds state_interval{30000};
   // Told one line per increment and per placed capture; empty: silent.
   std::function<void(const std::string&)> progress;
 };
