@@ -72,14 +72,6 @@ std::map<std::string, std::array<double, 3>> centres(db::Store& store) {
   return out;
 }
 
-std::int64_t last_capture_change(db::Store& store) {
-  std::int64_t last = 0;
-  for (auto page = store.changes(0, "/captures/*", 1000); !page.empty();
-       page = store.changes(last, "/captures/*", 1000))
-    last = page.back().seq;
-  return last;
-}
-
 TEST(EngineKill, ThreeKillsLoseNothingAndChangeNothing) {
   std::string dir;
   ARSCOUT_SHARED_DATA_OR_SKIP(dir, "strecha/fountain-P11");
@@ -126,7 +118,7 @@ TEST(EngineKill, ThreeKillsLoseNothingAndChangeNothing) {
     const int status = engine->kill_now();
     std::cout << "kill " << kill << ": " << testing::describe_status(status)
               << ", checkpoint " << store->load_checkpoint("engine") << " of "
-              << last_capture_change(*store) << std::endl;
+              << testing::last_capture_change(*store) << std::endl;
     engine = std::make_unique<testing::ToolProcess>(ARSCOUT_CLI, args,
                                                     work + "/engine.log");
   }
@@ -136,8 +128,8 @@ TEST(EngineKill, ThreeKillsLoseNothingAndChangeNothing) {
   for (auto deadline = std::chrono::steady_clock::now() + 10min;
        steady < 4 && std::chrono::steady_clock::now() < deadline;) {
     std::this_thread::sleep_for(500ms);
-    const bool caught_up =
-        store->load_checkpoint("engine") >= last_capture_change(*store);
+    const bool caught_up = store->load_checkpoint("engine") >=
+                           testing::last_capture_change(*store);
     steady = caught_up ? steady + 1 : 0;
   }
   engine->signal(SIGTERM);

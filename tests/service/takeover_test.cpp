@@ -52,14 +52,6 @@ void upload(db::Store& store, const std::string& scout, const fs::path& photo,
   store.batch({op});
 }
 
-std::int64_t last_capture_change(db::Store& store) {
-  std::int64_t last = 0;
-  for (auto page = store.changes(0, "/captures/*", 1000); !page.empty();
-       page = store.changes(last, "/captures/*", 1000))
-    last = page.back().seq;
-  return last;
-}
-
 // The site a scout's first capture went to, once the engine placed it.
 std::string site_of(db::Store& store, const std::string& scout) {
   for (const db::Document& site : store.list_children("/sites"))
@@ -172,7 +164,7 @@ TEST(EngineTakeover, TwoWorkersSplitTheSitesAndOneFinishesTheOthers) {
       lund_worker == "engine-a" ? "engine-b" : "engine-a";
   alice.join();
   bob.join();
-  const std::int64_t last = last_capture_change(*store);
+  const std::int64_t last = testing::last_capture_change(*store);
   ASSERT_LT(through_at_kill, last) << "lund was finished before the kill";
   const bool finished = wait_until(
       [&] { return store->load_checkpoint(survivor) >= last; }, 600s);

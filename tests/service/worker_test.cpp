@@ -343,15 +343,6 @@ TEST(EngineWorker,
   EXPECT_EQ(after->attrs.at("statistics").value("registered", 0), 7);
 }
 
-// The seq of the last change under /captures.
-std::int64_t last_capture_change(db::Store& store) {
-  std::int64_t last = 0;
-  for (auto page = store.changes(0, "/captures/*", 1000); !page.empty();
-       page = store.changes(last, "/captures/*", 1000))
-    last = page.back().seq;
-  return last;
-}
-
 // While photos keep coming, increments leave the engine state unsaved
 // (WorkerOptions::state_interval) and their captures in flight: the
 // checkpoint stays below them. A worker stopped then (here as soon as the
@@ -386,7 +377,8 @@ TEST(EngineWorker, UnsavedStateKeepsTheCheckpointBackAndARestartRedoesIt) {
     while (registered() < 8 && std::chrono::steady_clock::now() < deadline)
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     ASSERT_EQ(registered(), 8);
-    EXPECT_LT(store->load_checkpoint("engine"), last_capture_change(*store));
+    EXPECT_LT(store->load_checkpoint("engine"),
+              testing::last_capture_change(*store));
     worker.stop();
   }
   {
@@ -409,7 +401,8 @@ TEST(EngineWorker, UnsavedStateKeepsTheCheckpointBackAndARestartRedoesIt) {
   EXPECT_TRUE(said(": +")) << "nothing redone";
   EXPECT_TRUE(said("engine state saved"));
   EXPECT_EQ(registered(), 8);
-  EXPECT_EQ(store->load_checkpoint("engine"), last_capture_change(*store));
+  EXPECT_EQ(store->load_checkpoint("engine"),
+            testing::last_capture_change(*store));
   const auto sites = store->list_children("/sites");
   ASSERT_EQ(sites.size(), 1u);
   const auto restored = engine::load_site_reconstruction(

@@ -418,6 +418,7 @@ Increment SiteJob::absorb(SiteJob& other) {
   increment.ops.push_back(model_op(model, captures, report));
   increment.model_written = true;
   add_state_ops(model, report.added, &increment.ops);
+  increment.state_written = true;
   other.add_departure_ops(&increment.ops);
   pending_model_version_ = model_version_ + 1;
   std::ostringstream summary;
@@ -471,6 +472,7 @@ Increment SiteJob::run_refine(const std::function<bool()>& stop) {
   add_status_ops(captures, &increment.ops);
   increment.ops.push_back(model_op(model, captures, report));
   add_state_ops(model, {}, &increment.ops);
+  increment.state_written = true;
   increment.model_written = true;
   increment.refine_again =
       (!refined.registered.empty() || refined.components_merged > 0) &&
