@@ -33,15 +33,6 @@ struct SummaryArgs {
   std::string engine = "engine";
 };
 
-// The seq of the last change below /captures.
-std::int64_t last_capture_change(db::Store& store) {
-  std::int64_t last = 0;
-  for (auto page = store.changes(0, "/captures/*", 1000); !page.empty();
-       page = store.changes(last, "/captures/*", 1000))
-    last = page.back().seq;
-  return last;
-}
-
 // Sites whose latest model still waits for its dense phase.
 int sites_awaiting_dense(db::Store& store) {
   int behind = 0;
@@ -67,7 +58,7 @@ bool wait_for_engine(db::Store& store, const SummaryArgs& a) {
   int caught_up = 0;
   double next_report = 10;
   while (elapsed() < a.wait_s) {
-    const std::int64_t target = last_capture_change(store);
+    const std::int64_t target = store.last_change("/captures/*");
     const std::int64_t at = store.load_checkpoint(a.engine);
     const int dense_behind = sites_awaiting_dense(store);
     caught_up = at >= target && dense_behind == 0 ? caught_up + 1 : 0;

@@ -176,6 +176,14 @@ WriteResult Store::save_checkpoint(const std::string& name, std::int64_t seq) {
   return put("/checkpoints/" + name, "checkpoint", Json{{"seq", seq}});
 }
 
+std::int64_t Store::last_change(std::string_view pattern) {
+  std::int64_t last = 0;
+  for (auto page = changes(0, pattern); !page.empty();
+       page = changes(last, pattern))
+    last = page.back().seq;
+  return last;
+}
+
 std::int64_t Store::load_checkpoint(const std::string& name) {
   auto doc = get("/checkpoints/" + name);
   if (!doc) return 0;

@@ -100,9 +100,14 @@ TEST(EngineKill, ThreeKillsLoseNothingAndChangeNothing) {
   const std::string url = "sqlite:" + work + "/store.db";
   auto store = db::Store::open(url);
   put_camera(*store, scene.camera);
-  // At info the log says what the engine did (its progress lines).
-  const std::vector<std::string> args = {"--log-level", "info", "engine",
-                                         "--db", url};
+  // At info the log says what the engine did (its progress lines). The
+  // state is saved at every increment, so that a restart redoes one
+  // increment, as the uninterrupted run made it: with unsaved state a
+  // restart redoes more photos in other batches, and the model may differ
+  // by more than the 1 mm asked here (that redo is tested in
+  // EngineWorker.UnsavedStateKeepsTheCheckpointBackAndARestartRedoesIt).
+  const std::vector<std::string> args = {
+      "--log-level", "info", "engine", "--db", url, "--state-interval", "0"};
   auto engine = std::make_unique<testing::ToolProcess>(ARSCOUT_CLI, args,
                                                        work + "/engine.log");
   std::thread scout([&] {
@@ -118,7 +123,7 @@ TEST(EngineKill, ThreeKillsLoseNothingAndChangeNothing) {
     const int status = engine->kill_now();
     std::cout << "kill " << kill << ": " << testing::describe_status(status)
               << ", checkpoint " << store->load_checkpoint("engine") << " of "
-              << testing::last_capture_change(*store) << std::endl;
+              << store->last_change("/captures/*") << std::endl;
     engine = std::make_unique<testing::ToolProcess>(ARSCOUT_CLI, args,
                                                     work + "/engine.log");
   }
@@ -128,8 +133,8 @@ TEST(EngineKill, ThreeKillsLoseNothingAndChangeNothing) {
   for (auto deadline = std::chrono::steady_clock::now() + 10min;
        steady < 4 && std::chrono::steady_clock::now() < deadline;) {
     std::this_thread::sleep_for(500ms);
-    const bool caught_up = store->load_checkpoint("engine") >=
-                           testing::last_capture_change(*store);
+    const bool caught_up =
+        store->load_checkpoint("engine") >= store->last_change("/captures/*");
     steady = caught_up ? steady + 1 : 0;
   }
   engine->signal(SIGTERM);

@@ -164,7 +164,7 @@ TEST(EngineTakeover, TwoWorkersSplitTheSitesAndOneFinishesTheOthers) {
       lund_worker == "engine-a" ? "engine-b" : "engine-a";
   alice.join();
   bob.join();
-  const std::int64_t last = testing::last_capture_change(*store);
+  const std::int64_t last = store->last_change("/captures/*");
   ASSERT_LT(through_at_kill, last) << "lund was finished before the kill";
   const bool finished = wait_until(
       [&] { return store->load_checkpoint(survivor) >= last; }, 600s);

@@ -1,7 +1,5 @@
 #include "test_stores.h"
 
-#include "arscout/db/store.h"
-
 #include <libpq-fe.h>
 #include <unistd.h>
 
@@ -139,14 +137,6 @@ std::optional<std::string> shared_data(const std::string& sub) {
 std::string helper_path(const std::string& name) {
   std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe");
   return (self.parent_path() / name).string();
-}
-
-std::int64_t last_capture_change(db::Store& store) {
-  std::int64_t last = 0;
-  for (auto page = store.changes(0, "/captures/*", 1000); !page.empty();
-       page = store.changes(last, "/captures/*", 1000))
-    last = page.back().seq;
-  return last;
 }
 
 }  // namespace arscout::testing

@@ -8,15 +8,10 @@
 // message, except under CI=true, where that is a failure.
 #pragma once
 
-#include <cstdint>
 #include <optional>
 #include <string>
 
 #include <gtest/gtest.h>
-
-namespace arscout::db {
-class Store;
-}
 
 namespace arscout::testing {
 
@@ -40,9 +35,6 @@ std::string helper_path(const std::string& name);
 // The real image data, ../shared/data beside the source tree (or
 // $ARSCOUT_SHARED_DATA); nullopt when the folder `sub` is not there.
 std::optional<std::string> shared_data(const std::string& sub);
-
-// The seq of the last change below /captures (0 when none).
-std::int64_t last_capture_change(db::Store& store);
 
 }  // namespace arscout::testing
 

@@ -591,7 +591,7 @@ struct EngineWorker::Impl {
       qb.job = std::make_shared<service::SiteJob>(other, store, options);
     const std::shared_ptr<service::SiteJob> other_job = qb.job;
     lock.unlock();
-    bool merged = false;
+    bool merged = false, jobs_reset = false;
     try {
       std::scoped_lock both(job.publication(), other_job->publication());
       service::Increment increment =
@@ -611,6 +611,7 @@ struct EngineWorker::Impl {
     } catch (const std::exception& e) {
       reset(job);
       reset(*other_job);
+      jobs_reset = true;
       reload_sites({site, other});
       log("site " + other + " into " + site + ": merge failed: " + e.what());
     }
@@ -618,15 +619,14 @@ struct EngineWorker::Impl {
     qb.running = false;
     qb.merging_into.clear();
     SiteQueue& q = sites[site];
-    if (merged) {
-      // Both states are saved as one now.
-      release_unsaved(q);
-      release_unsaved(qb);
-    } else {
+    if (jobs_reset) {
       requeue_unsaved(q);
       requeue_unsaved(qb);
     }
     if (merged) {
+      // Both states are saved as one now.
+      release_unsaved(q);
+      release_unsaved(qb);
       // Its queued captures are this site's now.
       q.pending.insert(q.pending.end(), qb.pending.begin(), qb.pending.end());
       q.pending.insert(q.pending.end(), qb.deferred.begin(), qb.deferred.end());

@@ -160,6 +160,8 @@ class Store {
                                       std::string_view pattern = "/**",
                                       std::size_t limit = 1000) = 0;
   virtual std::int64_t last_seq() = 0;
+  // The seq of the last change whose path matches the pattern (0: none).
+  std::int64_t last_change(std::string_view pattern);
   // Delivers every change with seq > since matching pattern to callback, in
   // order, on a thread of the subscription's own, at least once: first the
   // backlog, then new commits as they are woken (in-process notification or
