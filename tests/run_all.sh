@@ -26,7 +26,11 @@ case "$which" in all | default | san) ;; *)
   ;;
 esac
 
+# Each half prints its minutes: CI stops at 90, the target is 60 in all.
+minutes_since() { echo "$(((SECONDS - $1 + 30) / 60))"; }
+
 if [ "$which" != san ]; then
+  started=$SECONDS
   echo "== default build: build/"
   # RelWithDebInfo named, not defaulted: the README's main job may have
   # configured build/ for Release first. The CLI file by file, not as a
@@ -37,9 +41,11 @@ if [ "$which" != san ]; then
   # Formatting and clang-tidy on the production code (tests/lint.sh).
   tests/lint.sh build
   ctest --test-dir build --output-on-failure -j2 -LE long
+  echo "== default half: $(minutes_since "$started") minutes"
 fi
 
 if [ "$which" != default ]; then
+  started=$SECONDS
   echo "== AddressSanitizer + UndefinedBehaviorSanitizer build: build-san/"
   cmake -S . -B build-san -G Ninja -DCMAKE_CXX_COMPILER=clang++ \
     -DARSCOUT_SANITIZE=ON -DARSCOUT_FUZZ=ON
@@ -51,4 +57,5 @@ if [ "$which" != default ]; then
   UBSAN_OPTIONS=print_stacktrace=1 \
     ctest --test-dir build-san --output-on-failure -j2 \
     -LE 'long|engine-data|engine-synthetic|browser'
+  echo "== sanitizer half: $(minutes_since "$started") minutes"
 fi

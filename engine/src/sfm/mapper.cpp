@@ -34,6 +34,14 @@ constexpr int kGlobalTrack = 25;
 // refinement, off the latency path, keeps going where an inline adjustment
 // would stop (400-photo walk: 4.8 -> 2.9 cm; docs/engine.md).
 constexpr double kRefineTolerance = 1e-10;
+// The adjustments on the latency path stop once an iteration gains less than
+// this share of the cost. A local adjustment took 99 % of its gain in its
+// first four iterations and always ran all fifteen; an inline global one
+// gains a few parts in 10^4 in all, most of it creeping along soft modes
+// that the refinement, off the latency path, follows to the end. 3e-4 for
+// the local one cost the site-merge test 0.5 cm; 1e-4 did not.
+constexpr double kLocalTolerance = 1e-4;
+constexpr double kInlineGlobalTolerance = 1e-5;
 constexpr int kRefineRounds = 6;
 // The global refinement's Cauchy scale, in keypoint deviations.
 constexpr double kRefineLossSigmas = 1.5;
@@ -830,6 +838,7 @@ void IncrementalMapper::adjust_local(int index) {
   }
   free.push_back(index);
   BundleOptions ba = bundle_options(15);
+  ba.function_tolerance = kLocalTolerance;
   ba.max_fixed_images = options_.local_ba_fixed;
   ba.max_track_observations = options_.local_ba_track;
   // Aligning to the priors moves every camera: cheap, but O(model), so only
@@ -841,7 +850,8 @@ void IncrementalMapper::adjust_local(int index) {
 
 void IncrementalMapper::adjust_global() {
   StageClock clock(timings_.bundle_adjustment_s);
-  const BundleOptions ba = bundle_options(kGlobalIterations);
+  BundleOptions ba = bundle_options(kGlobalIterations);
+  ba.function_tolerance = kInlineGlobalTolerance;
   align_to_priors(ba);
   adjust_bundle(scene_, {}, true, ba);
   std::vector<int> all;
@@ -941,29 +951,26 @@ void IncrementalMapper::level(Similarity& sim,
   sim.t = fix * (sim.t - centroid) + centroid;
 }
 
-// Moves a component into the site's ENU frame with a robust similarity
-// from camera centres to GPS positions, whenever the two disagree by more
-// than the adjustment itself would fix (the first time, and while few fixes
-// make the early fit uncertain). `placed`: the component is in ENU already.
-// True when it is in ENU afterwards.
+// Moves a component into the site's ENU frame whenever its cameras and
+// their fixes disagree by more than the adjustment itself would fix.
+// `placed`: the component is in ENU already. The first time (and whenever
+// the priors' fit below is out of reach), a robust similarity from camera
+// centres to GPS positions, levelled by the cameras, places it. Once
+// placed, the test is the adjustment's own fit to the priors
+// (align_to_priors): the levelling by the cameras' mean up axis tilts a
+// model by its cameras' mean pitch where the upright prior does not, and the
+// two fits disagreed by about 5 degrees at every photo of an early walk,
+// each time at the price of a global adjustment (docs/engine.md). True when
+// it is in ENU afterwards.
 bool IncrementalMapper::geo_register(int component, bool placed) {
   if (!scene_.enu_origin) return placed;
-  std::vector<Eigen::Vector3d> centres, fixes;
-  double accuracy = 0;
-  for (const SceneImage& image : scene_.images) {
-    if (!image.registered || !image.gps || image.component != component)
-      continue;
-    centres.push_back(image.centre());
-    fixes.push_back(image.gps_enu);
-    accuracy += std::hypot(image.gps->h_acc * std::sqrt(2.0), image.gps->v_acc);
-  }
-  if (centres.size() < 3) return placed;
-  accuracy /= centres.size();
-  std::vector<int> inliers;
-  auto sim = estimate_similarity(centres, fixes, std::max(3 * accuracy, 5.0),
-                                 scene_.images.size(), &inliers);
+  std::optional<Similarity> sim;
+  if (placed) sim = fit_to_priors(bundle_options(0), component);
+  // A fit the priors cannot follow (it would halve or double the scale: a
+  // first placement by three noisy fixes can be that far off) places the
+  // component again from scratch.
+  if (!sim) sim = first_placement(component);
   if (!sim) return placed;
-  if (options_.upright_sigma_deg > 0) level(*sim, fixes, inliers, component);
   const double angle = Eigen::AngleAxisd(sim->R).angle() * 180 / M_PI;
   const bool far = !placed || angle > 2 ||
                    std::abs(std::log(sim->scale)) > 0.02 || sim->t.norm() > 1.0;
@@ -976,6 +983,29 @@ bool IncrementalMapper::geo_register(int component, bool placed) {
     scene_.registered_at_last_global_ba = 0;  // refine() is due
   }
   return true;
+}
+
+// The robust similarity from a component's camera centres to their fixes,
+// levelled by the cameras (the GPS heights are too noisy to fix the tilt).
+std::optional<Similarity> IncrementalMapper::first_placement(
+    int component) const {
+  std::vector<Eigen::Vector3d> centres, fixes;
+  double accuracy = 0;
+  for (const SceneImage& image : scene_.images) {
+    if (!image.registered || !image.gps || image.component != component)
+      continue;
+    centres.push_back(image.centre());
+    fixes.push_back(image.gps_enu);
+    accuracy += std::hypot(image.gps->h_acc * std::sqrt(2.0), image.gps->v_acc);
+  }
+  if (centres.size() < 3) return std::nullopt;
+  accuracy /= centres.size();
+  std::vector<int> inliers;
+  auto sim = estimate_similarity(centres, fixes, std::max(3 * accuracy, 5.0),
+                                 scene_.images.size(), &inliers);
+  if (sim && options_.upright_sigma_deg > 0)
+    level(*sim, fixes, inliers, component);
+  return sim;
 }
 
 void IncrementalMapper::transform_model(const Similarity& sim, int component) {
@@ -1008,15 +1038,22 @@ BundleOptions IncrementalMapper::bundle_options(int max_iterations) const {
 void IncrementalMapper::align_to_priors(const BundleOptions& ba) {
   if (!scene_.geo_registered) return;
   for (const auto& [component, size] : scene_.component_sizes()) {
-    auto sim = fit_model_to_priors(scene_, ba, component);
-    // Once in ENU the scale is known to a few percent; fixes that would
-    // halve or double it cannot tell (their noise exceeds the model's
-    // extent, as on the first steps of a walk), and following them would
-    // collapse it.
-    if (sim && sim->scale > 0.5 && sim->scale < 2 && sim->R.allFinite() &&
-        sim->t.allFinite())
+    if (auto sim = fit_to_priors(ba, component)) {
       transform_model(*sim, component);
+    }
   }
+}
+
+// Once in ENU the scale is known to a few percent; fixes that would halve or
+// double it cannot tell (their noise exceeds the model's extent, as on the
+// first steps of a walk), and following them would collapse it.
+std::optional<Similarity> IncrementalMapper::fit_to_priors(
+    const BundleOptions& ba, int component) const {
+  auto sim = fit_model_to_priors(scene_, ba, component);
+  if (sim && sim->scale > 0.5 && sim->scale < 2 && sim->R.allFinite() &&
+      sim->t.allFinite())
+    return sim;
+  return std::nullopt;
 }
 
 void IncrementalMapper::reset_model() {

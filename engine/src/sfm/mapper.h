@@ -145,6 +145,9 @@ class IncrementalMapper {
   bool global_inline() const;
   void filter_points(const std::vector<int>& images);
   bool geo_register(int component, bool placed);
+  std::optional<Similarity> first_placement(int component) const;
+  std::optional<Similarity> fit_to_priors(const BundleOptions& ba,
+                                          int component) const;
   void transform_model(const Similarity& sim, int component);
   BundleOptions bundle_options(int max_iterations) const;
   void align_to_priors(const BundleOptions& ba);
