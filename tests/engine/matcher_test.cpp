@@ -172,12 +172,16 @@ TEST(MatcherTest, RowCountsNotMultipleOfBlock) {
   EXPECT_EQ(match_descriptors(a, b, kRatio, 4), expected);
 }
 
-// The rule written out plainly (dot products in double, each pair alone),
-// against the blocked and vectorized scans, on rows whose counts leave
-// tails everywhere and with exact ties in both directions.
+// The rule written out plainly (each pair alone, with the header's
+// quantized_dot for non-negative rows, else the exact dot product in
+// double), against the blocked and vectorized scans, on rows whose counts
+// leave tails everywhere and with exact ties in both directions.
 std::vector<std::pair<int, int>> plain_matches(const cv::Mat& a,
-                                               const cv::Mat& b, double ratio) {
+                                               const cv::Mat& b, double ratio,
+                                               bool quantized = true) {
   auto dot = [&](int i, int j) {
+    if (quantized)
+      return double{quantized_dot(a.ptr<float>(i), b.ptr<float>(j))};
     double sum = 0;
     for (int k = 0; k < kDim; ++k)
       sum += double{a.at<float>(i, k)} * b.at<float>(j, k);
@@ -223,6 +227,38 @@ TEST(MatcherTest, AgreesWithThePlainRule) {
               plain_matches(part, data.a, kRatio))
         << rows << " rows in a";
   }
+}
+
+// The 12-bit rows stay within 2e-4 of the exact dot product on RootSIFT-like
+// rows.
+TEST(MatcherTest, QuantizedDotIsCloseToTheExactOne) {
+  const MatchData data = make_match_data(9);
+  double worst = 0;
+  for (int i = 0; i < 50; ++i) {
+    for (int j = 0; j < data.b.rows; j += 7) {
+      double exact = 0;
+      for (int k = 0; k < kDim; ++k)
+        exact += double{data.a.at<float>(i, k)} * data.b.at<float>(j, k);
+      const double coded =
+          quantized_dot(data.a.ptr<float>(i), data.b.ptr<float>(j));
+      worst = std::max(worst, std::abs(coded - exact));
+    }
+  }
+  EXPECT_LT(worst, 2e-4);
+  EXPECT_GT(worst, 0.0);  // it is an approximation: the rows are not 12-bit
+  std::vector<float> negative(kDim, 0.1f);
+  negative[3] = -0.1f;
+  EXPECT_THROW(quantized_dot(negative.data(), data.b.ptr<float>(0)),
+               std::invalid_argument);
+}
+
+// Rows with a negative component are matched by the exact dot product.
+TEST(MatcherTest, RowsWithNegativeComponentsAreMatchedExactly) {
+  MatchData data = make_match_data(10);
+  for (int r = 0; r < data.a.rows; r += 2) data.a.at<float>(r, 0) *= -1;
+  for (int r = 0; r < data.b.rows; r += 2) data.b.at<float>(r, 0) *= -1;
+  EXPECT_EQ(match_descriptors(data.a, data.b, kRatio, 2),
+            plain_matches(data.a, data.b, kRatio, /*quantized=*/false));
 }
 
 TEST(MatcherTest, EmptyInputsGiveNoMatches) {
