@@ -417,6 +417,65 @@ std::string SqlStore::put_blob(std::istream& in) {
   return blob.sha256;
 }
 
+// Bytes in hand need no staging: a blob and its chunks are written under
+// its hash in the transaction that records it, so no reader ever sees part
+// of one, and no byte is written twice (staging wrote every chunk again
+// when it renamed it). Transactions are kept to about kInHandTransaction
+// bytes, so that other writers wait no longer than that takes; a larger
+// blob is staged a chunk at a time, as a stream is.
+std::vector<std::string> SqlStore::put_blobs(
+    const std::vector<std::string_view>& blobs) {
+  constexpr std::size_t kInHandTransaction = 8 * kBlobChunkBytes;
+  std::vector<std::string> shas;
+  std::vector<size_t> missing;
+  shas.reserve(blobs.size());
+  for (size_t i = 0; i < blobs.size(); ++i) {
+    shas.push_back(util::sha256_hex(blobs[i]));
+    if (blob_info(shas.back())) continue;
+    if (blobs[i].size() <= kInHandTransaction) {
+      missing.push_back(i);
+      continue;
+    }
+    // A large one is staged a chunk per transaction, as a stream is.
+    ViewBuffer buffer(blobs[i]);
+    std::istream in(&buffer);
+    put_blob(in);
+  }
+  size_t next = 0;
+  while (next < missing.size()) {
+    size_t end = next, bytes = 0;
+    while (end < missing.size() && (end == next || bytes < kInHandTransaction))
+      bytes += blobs[missing[end++]].size();
+    with_write([&](SqlSession& s) {
+      for (size_t i = next; i < end; ++i)
+        insert_blob(s, shas[missing[i]], blobs[missing[i]]);
+    });
+    next = end;
+  }
+  return shas;
+}
+
+// One whole blob under its hash, in the caller's transaction; nothing when
+// it is stored already.
+void SqlStore::insert_blob(SqlSession& s, const std::string& sha256,
+                           std::string_view bytes) {
+  const bool inserted =
+      s.execute(make_sql(
+          dialect_,
+          "INSERT INTO blobs (sha256, size, chunk_bytes, created_us) "
+          "VALUES (?, ?, ?, ?) ON CONFLICT (sha256) DO NOTHING",
+          {sha256, static_cast<std::int64_t>(bytes.size()),
+           static_cast<std::int64_t>(kBlobChunkBytes), now_us()})) == 1;
+  if (!inserted) return;
+  std::int64_t index = 0;
+  for (size_t at = 0; at < bytes.size(); at += kBlobChunkBytes, ++index) {
+    s.execute(make_sql(
+        dialect_,
+        "INSERT INTO blob_chunks (blob_key, idx, data) VALUES (?, ?, ?)",
+        {sha256, index, SqlBytes{bytes.substr(at, kBlobChunkBytes)}}));
+  }
+}
+
 std::optional<BlobInfo> SqlStore::blob_info(std::string_view sha256) {
   require_valid_hash(sha256);
   std::optional<BlobInfo> info;

@@ -28,6 +28,8 @@ class SqlStore : public Store {
 
   std::string put_blob(std::istream& in) override;
   using Store::put_blob;
+  std::vector<std::string> put_blobs(
+      const std::vector<std::string_view>& blobs) override;
   std::optional<BlobInfo> blob_info(std::string_view sha256) override;
   void read_blob(std::string_view sha256, std::ostream& out,
                  std::int64_t offset, std::int64_t length) override;
@@ -74,6 +76,8 @@ class SqlStore : public Store {
   ChangeSignal signal_;
 
  private:
+  void insert_blob(SqlSession& s, const std::string& sha256,
+                   std::string_view bytes);
   // One caller's batch waiting for, or taking part in, a group commit.
   struct PendingBatch {
     const std::vector<WriteOp>* ops;

@@ -12,18 +12,10 @@
 #include "arscout/db/path.h"
 #include "arscout/util/sha256.h"
 #include "backends.h"
+#include "store_core.h"
 
 namespace arscout::db {
 namespace {
-
-// Reads a string_view as a stream without copying it.
-class ViewBuffer : public std::streambuf {
- public:
-  explicit ViewBuffer(std::string_view bytes) {
-    char* p = const_cast<char*>(bytes.data());
-    setg(p, p, p + bytes.size());
-  }
-};
 
 class ThreadSubscription : public Subscription {
  public:
@@ -149,11 +141,21 @@ WriteResult Store::remove(const std::string& path,
 // document that refers to it is written, that write fails with
 // kUnknownBlob and is retried.
 std::string Store::put_blob(std::string_view bytes) {
-  std::string sha = util::sha256_hex(bytes);
-  if (blob_info(sha)) return sha;
-  ViewBuffer buffer(bytes);
-  std::istream in(&buffer);
-  return put_blob(in);
+  return put_blobs({bytes}).front();
+}
+
+std::vector<std::string> Store::put_blobs(
+    const std::vector<std::string_view>& blobs) {
+  std::vector<std::string> shas;
+  shas.reserve(blobs.size());
+  for (std::string_view bytes : blobs) {
+    shas.push_back(util::sha256_hex(bytes));
+    if (blob_info(shas.back())) continue;
+    internal::ViewBuffer buffer(bytes);
+    std::istream in(&buffer);
+    put_blob(in);
+  }
+  return shas;
 }
 
 std::string Store::get_blob(std::string_view sha256) {

@@ -8,6 +8,7 @@
 #include <functional>
 #include <istream>
 #include <optional>
+#include <streambuf>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -93,6 +94,15 @@ void write_blob_range(
     const BlobInfo& info, std::int64_t offset, std::int64_t length,
     const std::function<std::string(std::int64_t)>& read_chunk,
     std::ostream& out);
+
+// Reads a string_view as a stream without copying it.
+class ViewBuffer : public std::streambuf {
+ public:
+  explicit ViewBuffer(std::string_view bytes) {
+    char* p = const_cast<char*>(bytes.data());
+    setg(p, p, p + bytes.size());
+  }
+};
 
 // A fresh random identifier for a partial upload.
 std::string new_upload_id();

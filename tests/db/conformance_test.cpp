@@ -10,6 +10,7 @@
 #include <libpq-fe.h>
 
 #include "arscout/db/store.h"
+#include "arscout/util/sha256.h"
 #include "test_stores.h"
 
 namespace arscout::db {
@@ -406,6 +407,35 @@ TEST_P(StoreConformance, BlobsAreContentAddressedAndStoredOnce) {
   expect_rejected([&] { store_->read_blob(h1, out, 2, 5); },
                   ErrorCode::kInvalidArgument, "past the end");
   EXPECT_THROW(store_->blob_info("xyz"), StoreError);
+}
+
+// Bytes in hand, several at once (the engine state's parts): the same
+// hashes as one at a time, chunk boundaries and empty blobs included, a
+// blob already stored and one repeated in the batch kept once, and one
+// over a transaction's share (8 MiB) staged as a stream.
+TEST_P(StoreConformance, BlobsPutTogetherReadBackAsPutAlone) {
+  const std::string chunk_and_a_bit((1 << 20) + 7, 'c');
+  std::string large(9 << 20, '\0');
+  for (size_t i = 0; i < large.size(); ++i)
+    large[i] = static_cast<char>((i * 2654435761u) >> 13);
+  const std::string before = store_->put_blob("stored before");
+  const std::vector<std::string_view> blobs = {
+      "one", "", chunk_and_a_bit, "stored before", "one", large};
+  const std::vector<std::string> shas = store_->put_blobs(blobs);
+  ASSERT_EQ(shas.size(), blobs.size());
+  EXPECT_EQ(shas[3], before);
+  EXPECT_EQ(shas[0], shas[4]);
+  for (size_t i = 0; i < blobs.size(); ++i) {
+    EXPECT_EQ(shas[i], util::sha256_hex(blobs[i])) << i;
+    EXPECT_EQ(store_->get_blob(shas[i]), blobs[i]) << i;
+    EXPECT_EQ(store_->blob_info(shas[i])->size,
+              static_cast<std::int64_t>(blobs[i].size()));
+  }
+  EXPECT_EQ(store_->stats().blobs, 5);
+  std::ostringstream slice;
+  store_->read_blob(shas[2], slice, (1 << 20) - 2, 6);
+  EXPECT_EQ(slice.str(), "cccccc");
+  EXPECT_TRUE(store_->put_blobs({}).empty());
 }
 
 TEST_P(StoreConformance, LargeBlobStreamsAndReadsRanges) {

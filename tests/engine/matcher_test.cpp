@@ -5,9 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <numeric>
 #include <random>
 #include <stdexcept>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -250,6 +252,22 @@ TEST(MatcherTest, QuantizedDotIsCloseToTheExactOne) {
   negative[3] = -0.1f;
   EXPECT_THROW(quantized_dot(negative.data(), data.b.ptr<float>(0)),
                std::invalid_argument);
+}
+
+// ARSCOUT_CPU_DISABLE rules kernels out, so that CTest can run this suite
+// once per kernel on a machine with the newest one (tests/engine/CMakeLists:
+// the "avx2." and "portable." copies).
+TEST(MatcherTest, KernelFollowsCpuDisable) {
+  const char* env = std::getenv("ARSCOUT_CPU_DISABLE");
+  const std::string disabled = env ? env : "";
+  const std::string kernel = matcher_kernel();
+  RecordProperty("kernel", kernel);
+  EXPECT_TRUE(kernel == "avx512vnni" || kernel == "avx2" ||
+              kernel == "portable")
+      << kernel;
+  if (disabled.find("avx512vnni") != std::string::npos)
+    EXPECT_NE(kernel, "avx512vnni");
+  if (disabled.find("avx2") != std::string::npos) EXPECT_EQ(kernel, "portable");
 }
 
 // Rows with a negative component are matched by the exact dot product.

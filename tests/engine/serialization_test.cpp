@@ -337,11 +337,12 @@ TEST(SerializationTest, FeaturesKeptApartMustBeGivenAndBeTheirs) {
 }
 
 // A scene without patches or refined keypoints as an older version wrote
-// it: version 3 had no component at the end of each image's record and no
-// next component id at the end; version 2 had, besides, neither the patch
-// count in an image's features nor the refined keypoints after its point
-// ids; version 1 had, besides, no flag byte before the features (they were
-// always inline).
+// it: version 4 wrote each image's point per keypoint after its features
+// (the tracks name them since version 5); version 3 had, besides, no
+// component at the end of each image's record and no next component id at
+// the end; version 2 had, besides, neither the patch count in an image's
+// features nor the refined keypoints after its point ids; version 1 had,
+// besides, no flag byte before the features (they were always inline).
 std::string as_older_version(const Scene& scene, int version) {
   // Where each image's record starts: the first at its id (a length, then
   // the bytes), the others as far on as the records before them take.
@@ -356,7 +357,12 @@ std::string as_older_version(const Scene& scene, int version) {
   id0_record[0] = static_cast<char>(id0.size());
   const size_t first_record = bytes.find(id0_record + id0);
   EXPECT_NE(first_record, std::string::npos);
-  std::vector<std::pair<size_t, size_t>> cuts;  // offset, length
+  struct Edit {
+    size_t offset, erased;
+    std::string inserted;
+    bool operator<(const Edit& o) const { return offset < o.offset; }
+  };
+  std::vector<Edit> edits;
   for (size_t k = 0; k < scene.images.size(); ++k) {
     const SceneImage& image = scene.images[k];
     const size_t record = first_record + first_images(k) - first_images(0);
@@ -366,23 +372,31 @@ std::string as_older_version(const Scene& scene, int version) {
     const size_t rows = static_cast<size_t>(image.descriptors.rows);
     const size_t patch_count = flag + 1 + (8 + 16 * n) + 4 +
                                (rows > 0 ? 8 + 512 * rows : 0) + (8 + 3 * n);
-    const size_t refined = patch_count + 4 + 8 + 8 * image.point_of.size();
+    // The point ids (a count, then one int64 each), where the refined
+    // keypoints' count now starts; version 2 had no such count.
+    std::string point_ids(8 + 8 * n, '\0');
+    const uint64_t count = n;
+    std::memcpy(point_ids.data(), &count, 8);
+    for (size_t i = 0; i < n; ++i)
+      std::memcpy(point_ids.data() + 8 + 8 * i, &image.point_of[i], 8);
+    edits.push_back({patch_count + 4, version <= 2 ? 8u : 0u, point_ids});
     const size_t end = first_record + first_images(k + 1) - first_images(0);
     // The component and the scout (a length, then its bytes).
-    cuts.push_back(
-        {end - 4 - 8 - image.scout.size(), 4 + 8 + image.scout.size()});
-    if (version <= 2) cuts.push_back({refined, 8});
-    if (version <= 2) cuts.push_back({patch_count, 4});
-    if (version == 1) cuts.push_back({flag, 1});
+    if (version <= 3)
+      edits.push_back(
+          {end - 4 - 8 - image.scout.size(), 4 + 8 + image.scout.size(), ""});
+    if (version <= 2) edits.push_back({patch_count, 4, ""});
+    if (version == 1) edits.push_back({flag, 1, ""});
   }
-  cuts.push_back({bytes.size() - 4, 4});  // the next component id
-  std::sort(cuts.rbegin(), cuts.rend());
-  for (const auto& [offset, length] : cuts) bytes.erase(offset, length);
+  if (version <= 3)
+    edits.push_back({bytes.size() - 4, 4, ""});  // the next component id
+  std::sort(edits.rbegin(), edits.rend());
+  for (const Edit& e : edits) bytes.replace(e.offset, e.erased, e.inserted);
   bytes[8] = static_cast<char>(version);  // the version after the magic
   return bytes;
 }
 
-TEST(SerializationTest, VersionOneTwoAndThreeStatesStillRestore) {
+TEST(SerializationTest, VersionsOneToFourStillRestore) {
   Scene scene = make_rich_scene(3, 20, 0);
   scene.pairs.clear();
   scene.points.clear();
@@ -394,7 +408,7 @@ TEST(SerializationTest, VersionOneTwoAndThreeStatesStillRestore) {
     image.scout.clear();
   }
   scene.next_component = 1;
-  for (int version : {1, 2, 3}) {
+  for (int version : {1, 2, 3, 4}) {
     SCOPED_TRACE("version " + std::to_string(version));
     const Scene restored = deserialize_scene(as_older_version(scene, version));
     expect_identical(scene, restored);
@@ -480,9 +494,6 @@ TEST_F(DamagedIndexTest, PairImagesOutOfRangeOrUnordered) {
 
 TEST_F(DamagedIndexTest, PerKeypointArraysDisagree) {
   Scene damaged = scene_;
-  damaged.images[2].point_of.pop_back();
-  expect_refused(damaged);
-  damaged = scene_;
   damaged.images[2].colors.push_back({1, 2, 3});
   expect_refused(damaged);
   damaged = scene_;
@@ -500,10 +511,13 @@ TEST_F(DamagedIndexTest, PairMatchKeypointOutOfRange) {
   expect_refused(scene_);
 }
 
-// point_of names a point that Scene::points does not hold: remove_capture
-// and the mapper call points.at() or index with it.
-TEST_F(DamagedIndexTest, PointOfNamesMissingPoint) {
-  scene_.images[0].point_of.back() = scene_.next_point_id + 1000;
+// Keypoints' points are rebuilt from the tracks: a keypoint two tracks
+// claim has no single point, and the mapper assumes one.
+TEST_F(DamagedIndexTest, TwoTracksClaimingOneKeypoint) {
+  ASSERT_GE(scene_.points.size(), 2u);
+  auto first = scene_.points.begin();
+  const Observation claimed = first->second.track.front();
+  std::next(first)->second.track.push_back(claimed);
   expect_refused(scene_);
 }
 

@@ -46,7 +46,10 @@ std::string site_path(const std::string& site, const std::string& leaf) {
 }  // namespace
 
 SiteJob::SiteJob(std::string id, db::Store& store, const WorkerOptions& options)
-    : id_(std::move(id)), store_(store), options_(options) {}
+    : id_(std::move(id)),
+      store_(store),
+      options_(options),
+      feature_writer_(store) {}
 
 SiteJob::~SiteJob() = default;
 
@@ -74,6 +77,7 @@ void SiteJob::reset() {
   dense_.reset();
   statuses_.clear();
   depth_maps_.clear();
+  feature_writes_.clear();
   std::lock_guard lock(images_mutex_);
   images_.clear();
 }
@@ -248,6 +252,7 @@ Increment SiteJob::run(const std::vector<Work>& work,
       report.withdrawn.push_back(w.capture);
     }
   }
+  start_feature_writes(report);
   const Model model = sparse_->model();
   const bool changed = !report.added.empty() || !report.withdrawn.empty();
   if (dense_ && changed && (!model.images.empty() || !depth_maps_.empty())) {
@@ -342,8 +347,7 @@ size_t SiteJob::add_state_ops(const Model& model,
     db::WriteOp op =
         db::WriteOp::put(site_path(id_, "features/" + capture),
                          "capture-features", Json{{"capture", capture}});
-    op.blobs = db::BlobRefs{
-        {"features", store_.put_blob(sparse_->capture_features(capture))}};
+    op.blobs = db::BlobRefs{{"features", features_blob(capture)}};
     ops->push_back(std::move(op));
     pending_features_.insert(capture);
   }
@@ -360,13 +364,41 @@ size_t SiteJob::add_state_ops(const Model& model,
                        documents::to_json(header), engine_version_);
   const std::string bytes = sparse_->serialize(/*features_apart=*/true);
   const std::vector<std::string_view> parts = cut_state_parts(bytes);
+  const std::vector<std::string> shas = store_.put_blobs(parts);
   db::BlobRefs refs;
-  for (size_t i = 0; i < parts.size(); ++i)
-    refs[state_part_name(i)] = store_.put_blob(parts[i]);
+  for (size_t i = 0; i < parts.size(); ++i) refs[state_part_name(i)] = shas[i];
   state.blobs = std::move(refs);
   ops->push_back(std::move(state));
   pending_engine_written_ = pending_state_written_ = true;
   return bytes.size();
+}
+
+void SiteJob::start_feature_writes(const IncrementReport& report) {
+  for (const std::string& capture : report.withdrawn)
+    feature_writes_.erase(capture);
+  if (report.added.empty()) return;
+  const std::vector<std::string> ids = sparse_->captures_with_features();
+  const std::set<std::string> with_features(ids.begin(), ids.end());
+  for (const std::string& capture : report.added) {
+    if (with_features.count(capture))
+      feature_writes_[capture] =
+          feature_writer_.put(sparse_->capture_features(capture));
+  }
+}
+
+std::string SiteJob::features_blob(const std::string& capture) {
+  auto queued = feature_writes_.find(capture);
+  if (queued != feature_writes_.end()) {
+    std::shared_future<std::string> sha = queued->second;
+    feature_writes_.erase(queued);
+    try {
+      return sha.get();
+    } catch (const std::exception&) {
+      // Written again below: the store's error, if it persists, is this
+      // save's to report.
+    }
+  }
+  return store_.put_blob(sparse_->capture_features(capture));
 }
 
 Increment SiteJob::save_state() {

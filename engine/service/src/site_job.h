@@ -14,6 +14,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <future>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -24,6 +25,7 @@
 
 #include "arscout/db/document.h"
 #include "arscout/engine/service.h"
+#include "blob_writer.h"
 #include "dense_tiles.h"
 #include "model_document.h"
 #include "site_directory.h"
@@ -194,6 +196,11 @@ class SiteJob {
                        const DenseTiles* new_cloud = nullptr,
                        const std::set<std::string>* new_views = nullptr);
   void add(const std::string& capture, IncrementReport* report);
+  // Hands the features of the captures `report` added to feature_writer_.
+  void start_feature_writes(const IncrementReport& report);
+  // The stored blob of `capture`'s features: the one feature_writer_ stored
+  // for it, or stored now.
+  std::string features_blob(const std::string& capture);
   std::string dense_summary(const DenseTask& task, bool model_published) const;
   void add_tile_ops(const DenseTiles& tiles,
                     std::vector<db::WriteOp>* ops) const;
@@ -219,6 +226,10 @@ class SiteJob {
   // Captures whose features are stored under features/ (once each: the
   // state blob leaves them out).
   std::set<std::string> features_, pending_features_, pending_removed_features_;
+  // The features of captures added since the state was saved, being stored
+  // by feature_writer_ (their documents are written with the state).
+  std::map<std::string, std::shared_future<std::string>> feature_writes_;
+  BlobWriter feature_writer_;
   std::int64_t model_version_ = 0;
   std::int64_t pending_model_version_ = 0;
   std::int64_t engine_version_ = 0;  // of /sites/{id}/engine, 0: none yet

@@ -1,10 +1,13 @@
 #include "features/matcher.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <limits>
 #include <stdexcept>
+#include <string>
 #include <thread>
 
 #if defined(__x86_64__)
@@ -109,9 +112,27 @@ __attribute__((target("avx2,fma"))) void dot_block_avx2(const float* a,
   }
 }
 
+// ARSCOUT_CPU_DISABLE lists instruction sets the kernels must not use
+// (comma separated, any case: "avx2", "avx512vnni"), as OpenCV's
+// OPENCV_CPU_DISABLE does: a machine with the newest set can then test the
+// older kernels, and a user can rule out a suspect one.
+bool cpu_disabled(const std::string& feature) {
+  const char* env = std::getenv("ARSCOUT_CPU_DISABLE");
+  std::string list = env ? env : "";
+  for (char& c : list) c = static_cast<char>(std::tolower(c));
+  size_t begin = 0;
+  while (begin <= list.size()) {
+    const size_t end = std::min(list.find(',', begin), list.size());
+    if (list.compare(begin, end - begin, feature) == 0) return true;
+    begin = end + 1;
+  }
+  return false;
+}
+
 bool cpu_has_avx2() {
-  static const bool has =
-      __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  static const bool has = __builtin_cpu_supports("avx2") &&
+                          __builtin_cpu_supports("fma") &&
+                          !cpu_disabled("avx2");
   return has;
 }
 #endif
@@ -352,9 +373,9 @@ __attribute__((target("avx2,avx512vnni,avx512vl"))) void code_dots_vnni(
 }
 
 bool cpu_has_vnni() {
-  static const bool has = cpu_has_avx2() &&
-                          __builtin_cpu_supports("avx512vnni") &&
-                          __builtin_cpu_supports("avx512vl");
+  static const bool has =
+      cpu_has_avx2() && __builtin_cpu_supports("avx512vnni") &&
+      __builtin_cpu_supports("avx512vl") && !cpu_disabled("avx512vnni");
   return has;
 }
 #endif
@@ -449,6 +470,14 @@ std::vector<std::pair<int, int>> match_descriptors(const cv::Mat& a,
     matches.emplace_back(i, best.index);
   }
   return matches;
+}
+
+const char* matcher_kernel() {
+#if defined(__x86_64__)
+  if (cpu_has_vnni()) return "avx512vnni";
+  if (cpu_has_avx2()) return "avx2";
+#endif
+  return "portable";
 }
 
 float quantized_dot(const float* a, const float* b) {

@@ -27,6 +27,12 @@ std::vector<std::pair<int, int>> match_descriptors(const cv::Mat& a,
 // about 1e-4 of the exact one.
 float quantized_dot(const float* a, const float* b);
 
+// The kernel match_descriptors runs on this CPU: "avx512vnni", "avx2" or
+// "portable". The environment variable ARSCOUT_CPU_DISABLE (read once, a
+// comma-separated list such as "avx512vnni,avx2") rules out the sets it
+// names; every kernel gives the same matches.
+const char* matcher_kernel();
+
 // Descriptors of a photo that was turned clockwise by `quarter_turns` x 90
 // degrees, as they would be had it been held upright: match a's descriptors
 // against rotate_descriptors(b, t) when b is a's view turned t quarter turns.

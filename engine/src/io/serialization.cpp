@@ -18,7 +18,11 @@ constexpr char kMagic[8] = {'A', 'R', 'S', 'C', 'E', 'N', 'E', '1'};
 // Version 3 adds the keypoint patches and the refined keypoints.
 // Version 4 adds each image's component and scout, and the next component
 // id.
-constexpr uint32_t kVersion = 4;
+// Version 5 leaves out each image's point per keypoint (8 bytes for each of
+// up to 3000 keypoints, most of them -1: about 40 % of a walk's state, which
+// the service writes every 30 s): the tracks name the same links, and
+// reading rebuilds them.
+constexpr uint32_t kVersion = 5;
 constexpr char kFeaturesMagic[8] = {'A', 'R', 'S', 'F', 'E', 'A', 'T', '1'};
 // Features with patches; the form written now.
 constexpr char kFeaturesMagic2[8] = {'A', 'R', 'S', 'F', 'E', 'A', 'T', '2'};
@@ -259,7 +263,6 @@ void write_image(Writer& w, const SceneImage& image, bool features_apart) {
   const bool apart = features_apart && !image.keypoints.empty();
   w.pod<uint8_t>(apart ? 0 : 1);
   if (!apart) write_features(w, image);
-  w.vec(image.point_of);
   w.size(image.refined_keypoints.size());
   for (const auto& [keypoint, position] : image.refined_keypoints) {
     w.pod(keypoint);
@@ -307,7 +310,10 @@ SceneImage read_image(Reader& r, uint32_t version,
     if (!features) r.fail("the features of " + image.id + " are kept apart");
     attach_features(features(image.id), image);
   }
-  image.point_of = r.vec<int64_t>();
+  if (version >= 5)
+    image.point_of.assign(image.keypoints.size(), -1);
+  else
+    image.point_of = r.vec<int64_t>();
   if (version >= 3) read_refined_keypoints(r, image);
   image.registered = r.pod<uint8_t>();
   const int status = r.pod<int>();
@@ -356,8 +362,11 @@ void read_pair(Reader& r, Scene& scene) {
   pair.homography_ratio = r.pod<double>();
 }
 
-// Indices must stay in range, or a damaged state would crash later.
-void check_indices(const Reader& r, const Scene& scene) {
+// Indices must stay in range, or a damaged state would crash later. With
+// `link_tracks` (version 5 on) each observation also sets its keypoint's
+// point, and two points may not claim one keypoint; before, the stored
+// links had to agree with the tracks.
+void check_indices(const Reader& r, Scene& scene, bool link_tracks) {
   for (const SceneImage& image : scene.images) {
     if (image.camera < 0 ||
         image.camera >= static_cast<int>(scene.cameras.size())) {
@@ -392,7 +401,11 @@ void check_indices(const Reader& r, const Scene& scene) {
               static_cast<int>(scene.images[obs.image].keypoints.size())) {
         r.fail("observation index");
       }
-      if (scene.images[obs.image].point_of[obs.keypoint] != id) {
+      int64_t& linked = scene.images[obs.image].point_of[obs.keypoint];
+      if (link_tracks) {
+        if (linked >= 0) r.fail("two tracks claim one keypoint");
+        linked = id;
+      } else if (linked != id) {
         r.fail("a track and its keypoint disagree");
       }
     }
@@ -495,7 +508,7 @@ Scene deserialize_scene(const std::string& bytes,
   scene.scale_image = r.pod<int>();
   if (version >= 4) scene.next_component = r.pod<int>();
   if (!r.done()) r.fail("trailing bytes");
-  check_indices(r, scene);
+  check_indices(r, scene, /*link_tracks=*/version >= 5);
   return scene;
 }
 

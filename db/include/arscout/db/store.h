@@ -141,6 +141,13 @@ class Store {
   // stored twice are kept once.
   virtual std::string put_blob(std::istream& in) = 0;
   std::string put_blob(std::string_view bytes);
+  // Stores each of `blobs` (bytes in hand) as put_blob does and returns
+  // their SHA-256s in order. Blobs stored already are not written again;
+  // the others are written in a few transactions rather than a few per
+  // blob, each byte once (the engine saves its state as a few hundred
+  // parts). A failure may leave some of them stored, never half of one.
+  virtual std::vector<std::string> put_blobs(
+      const std::vector<std::string_view>& blobs);
   virtual std::optional<BlobInfo> blob_info(std::string_view sha256) = 0;
   // Writes length bytes (all remaining when negative) starting at offset to
   // `out`, a chunk at a time. Throws kUnknownBlob, or kInvalidArgument for a

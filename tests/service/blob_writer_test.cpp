@@ -1,0 +1,56 @@
+// BlobWriter: blobs stored off the caller's thread, in order, each future
+// giving the blob's hash.
+#include "blob_writer.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "arscout/db/store.h"
+#include "arscout/util/sha256.h"
+#include "test_stores.h"
+
+namespace arscout::engine::service {
+namespace {
+
+TEST(BlobWriter, StoresEveryBlobAndGivesItsHash) {
+  auto store = db::Store::open(arscout::testing::fresh_sqlite_url());
+  BlobWriter writer(*store);
+  std::vector<std::string> blobs;
+  std::vector<std::shared_future<std::string>> shas;
+  for (int i = 0; i < 20; ++i) {
+    blobs.push_back(std::string(1000 + 70000 * i, static_cast<char>('a' + i)));
+    shas.push_back(writer.put(blobs.back()));
+  }
+  for (size_t i = 0; i < blobs.size(); ++i) {
+    EXPECT_EQ(shas[i].get(), util::sha256_hex(blobs[i]));
+    EXPECT_EQ(store->get_blob(shas[i].get()), blobs[i]);
+  }
+  // The thread ends when the queue is empty and starts again with work.
+  EXPECT_EQ(writer.put("later").get(), util::sha256_hex("later"));
+}
+
+TEST(BlobWriter, DestroyedWithWorkQueuedEndsCleanly) {
+  auto store = db::Store::open(arscout::testing::fresh_sqlite_url());
+  std::vector<std::shared_future<std::string>> shas;
+  {
+    BlobWriter writer(*store);
+    for (int i = 0; i < 50; ++i)
+      shas.push_back(writer.put(std::string(200000, static_cast<char>(i))));
+  }
+  int stored = 0, dropped = 0;
+  for (auto& sha : shas) {
+    try {
+      store->get_blob(sha.get());
+      ++stored;
+    } catch (const std::future_error&) {
+      ++dropped;
+    }
+  }
+  EXPECT_EQ(stored + dropped, 50);
+  EXPECT_GE(stored, 1);
+}
+
+}  // namespace
+}  // namespace arscout::engine::service
