@@ -119,7 +119,8 @@ __attribute__((target("avx2,fma"))) void dot_block_avx2(const float* a,
 bool cpu_disabled(const std::string& feature) {
   const char* env = std::getenv("ARSCOUT_CPU_DISABLE");
   std::string list = env ? env : "";
-  for (char& c : list) c = static_cast<char>(std::tolower(c));
+  for (char& c : list)
+    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   size_t begin = 0;
   while (begin <= list.size()) {
     const size_t end = std::min(list.find(',', begin), list.size());
@@ -273,6 +274,14 @@ struct QuantizedRows {
   std::vector<float> scale;    // per row: its largest component / 4095
 };
 
+// std::lround for 0 <= x <= 4095 without its library call, which took
+// about a twelfth of the matcher's time: x - floor(x) is exact for such x,
+// so the codes are the same bits (checked for every float from 0 to 4095).
+inline int16_t round_code(float x) {
+  const int whole = static_cast<int>(x);
+  return static_cast<int16_t>(whole + (x - static_cast<float>(whole) >= 0.5f));
+}
+
 // One row's codes and its scale (its largest component / 4095; 0 for a zero
 // row); -1 when a component is negative.
 float quantize_row(const float* row, int16_t* code) {
@@ -286,7 +295,7 @@ float quantize_row(const float* row, int16_t* code) {
     return 0;
   }
   for (int k = 0; k < kDim; ++k)
-    code[k] = static_cast<int16_t>(std::lround(row[k] * (kCodeMax / top)));
+    code[k] = round_code(row[k] * (kCodeMax / top));
   return top / kCodeMax;
 }
 
