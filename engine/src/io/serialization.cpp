@@ -387,8 +387,10 @@ void check_indices(const Reader& r, Scene& scene, bool link_tracks) {
       }
     }
   }
-  for (const SceneImage& image : scene.images) {
-    for (int64_t point : image.point_of) {
+  // Links read from the state (before version 5) must name points; linked
+  // from the tracks they are all -1 yet.
+  for (size_t i = 0; !link_tracks && i < scene.images.size(); ++i) {
+    for (int64_t point : scene.images[i].point_of) {
       if (point >= 0 && !scene.points.count(point))
         r.fail("keypoint names a missing point");
     }
