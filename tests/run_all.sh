@@ -1,20 +1,26 @@
 #!/usr/bin/env bash
 # The whole test suite, as CI runs it (.ci/run, the README's test command),
-# from the repository root, after deploy/install-deps.sh:
+# from the repository root, after deploy/install-deps.sh. Every test runs
+# once, in one of two trees:
 #
-#  1. the default build (build/, RelWithDebInfo, the system compiler), the
-#     lint step (tests/lint.sh: clang-format and clang-tidy, any finding
-#     fails; about 7 minutes), and every test but the `long` ones;
+#  1. the default build (build/, RelWithDebInfo without debug information,
+#     the system compiler), the lint step (tests/lint.sh: clang-format and
+#     clang-tidy, any finding fails), and the tests that reconstruct whole
+#     photo sets (labels engine-data, engine-synthetic, browser: the real
+#     photos, the rendered block walks, the 20-million-point street in
+#     Chromium), which need an optimized build;
 #  2. an AddressSanitizer + UndefinedBehaviorSanitizer build (build-san/,
-#     clang, with the libFuzzer targets of tests/fuzz) and the same tests
-#     but the `engine-data` and `engine-synthetic` ones (whole
-#     reconstructions of real photos and of the rendered block walk), plus
-#     a short run of each fuzz target
-#     (label `fuzz`). The engine-data tests reconstruct real photo sets end
-#     to end; under ASan they take about 40 minutes more on 2 cores, past
-#     CI's limit, and they exercise the code the synthetic engine tests do
+#     clang, -O1, with the libFuzzer targets of tests/fuzz) and every other
+#     test: the unit and integration tests of every library, the servers,
+#     the CLI, the reliability tests, and a short run of each fuzz target
+#     (label `fuzz`). The whole-reconstruction tests are left out there:
+#     under ASan they take about 40 minutes more on 2 cores, past CI's
+#     limit, and they run the code the unit tests run under the sanitizers
 #     (docs/RELIABILITY.md says when they last ran under ASan).
 #
+# The default half's tree is configured without the unit tests
+# (-DARSCOUT_UNIT_TESTS=OFF): a build/ made by this script runs only the
+# whole reconstructions; configure it with -DARSCOUT_UNIT_TESTS=ON for all.
 # Either half alone: `tests/run_all.sh default` or `tests/run_all.sh san`.
 # The long runs (`ctest -L long`, docs/RELIABILITY.md) are left to people.
 set -euo pipefail
@@ -38,7 +44,8 @@ if [ "$which" != san ]; then
   # No debug information (ARSCOUT_DEBUG_INFO=none): CI steps through nothing,
   # and it is a quarter of the build's time on 2 cores.
   cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DARSCOUT_CLI_UNITY=OFF -DARSCOUT_DEBUG_INFO=none
+    -DARSCOUT_CLI_UNITY=OFF -DARSCOUT_DEBUG_INFO=none \
+    -DARSCOUT_UNIT_TESTS=OFF -DARSCOUT_WHOLE_RUN_TESTS=ON
   cmake --build build
   echo "== default build: $(minutes_since "$started") minutes"
   # Formatting and clang-tidy on the production code (tests/lint.sh).
@@ -55,7 +62,7 @@ if [ "$which" != default ]; then
   # the whole-reconstruction tests, which this half does not run.
   cmake -S . -B build-san -G Ninja -DCMAKE_CXX_COMPILER=clang++ \
     -DARSCOUT_SANITIZE=ON -DARSCOUT_FUZZ=ON -DARSCOUT_DEBUG_INFO=lines \
-    -DARSCOUT_WHOLE_RUN_TESTS=OFF
+    -DARSCOUT_WHOLE_RUN_TESTS=OFF -DARSCOUT_UNIT_TESTS=ON
   cmake --build build-san
   echo "== sanitizer build: $(minutes_since "$started") minutes"
   # Any report (leaks included) fails the test that triggered it: the
