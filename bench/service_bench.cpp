@@ -378,9 +378,11 @@ void print_accuracy(arscout::db::Store& store, const Options& o) {
     const auto c = arscout::eval::compare_to_ground_truth(poses, truth);
     std::printf(
         "accuracy %s: %d cameras, centre error after a similarity fit: "
-        "median %.2f cm, max %.2f cm; rotation median %.3f deg\n",
+        "median %.2f cm, max %.2f cm; rotation median %.3f deg (%.3f deg "
+        "between cameras, a common tilt taken out)\n",
         site.path.c_str(), c.matched, c.median_centre_error * 100,
-        c.max_centre_error * 100, c.median_rotation_error_deg);
+        c.max_centre_error * 100, c.median_rotation_error_deg,
+        c.median_relative_rotation_error_deg);
     // The worst, and which component each is in: a bad merge shows as one
     // component's cameras off together.
     std::map<std::string, int> component;

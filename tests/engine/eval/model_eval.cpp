@@ -517,6 +517,38 @@ double rotation_angle_deg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
   return angle * 180 / std::numbers::pi;
 }
 
+namespace {
+
+// Median angle between the true orientations and the aligned estimated ones
+// after the rotation Q that best maps all of the latter onto the former (in
+// the chordal sense: Q maximises the sum of trace(G_i^T Q A_i) over
+// camera-to-world rotations A_i estimated, G_i true) is applied to them.
+double median_relative_rotation_error(
+    const Similarity& alignment,
+    const std::vector<std::pair<const Pose*, const Pose*>>& pairs) {
+  Eigen::Matrix3d correlation = Eigen::Matrix3d::Zero();
+  std::vector<Pose> aligned;
+  for (const auto& [est, tru] : pairs) {
+    aligned.push_back(transform_pose(alignment, *est));
+    correlation += tru->R.transpose() * aligned.back().R;
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(
+      correlation, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d sign = Eigen::Matrix3d::Identity();
+  sign(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant();
+  const Eigen::Matrix3d common =
+      svd.matrixU() * sign * svd.matrixV().transpose();
+  std::vector<double> errors;
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    // World-to-camera: the camera-to-world common * A_i^T transposed.
+    errors.push_back(rotation_angle_deg(pairs[i].second->R,
+                                        aligned[i].R * common.transpose()));
+  }
+  return median(errors);
+}
+
+}  // namespace
+
 PoseComparison compare_to_ground_truth(
     const std::map<std::string, Pose>& estimated,
     const std::map<std::string, Pose>& truth) {
@@ -541,6 +573,8 @@ PoseComparison compare_to_ground_truth(
     result.cameras.push_back(camera_error(result.alignment, *est, *tru));
   }
   summarise_errors(result);
+  result.median_relative_rotation_error_deg =
+      median_relative_rotation_error(result.alignment, pairs);
   return result;
 }
 

@@ -132,6 +132,12 @@ struct PoseComparison {
   double max_centre_error = 0;
   double median_rotation_error_deg = 0;
   double max_rotation_error_deg = 0;
+  // The rotation errors once the one rotation that best maps the aligned
+  // orientations onto the true ones (their chordal mean) is taken out: the
+  // orientation errors between cameras. They differ from the above where
+  // the centres' fit leaves the rotation loose, as about the line of a
+  // nearly straight walk, where one common tilt shows in every camera.
+  double median_relative_rotation_error_deg = 0;
   // RMS distance of the matched true centres from their centroid (the ring
   // radius for a ring of cameras): divide a centre error by it to get a
   // unit-free figure.

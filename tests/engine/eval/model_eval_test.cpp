@@ -230,6 +230,7 @@ TEST(CompareToGroundTruth, SimilarityTransformedCopyHasNoError) {
   EXPECT_EQ(c.truth_count, 12);
   EXPECT_LT(c.max_centre_error, 1e-9);
   EXPECT_LT(c.max_rotation_error_deg, 1e-6);
+  EXPECT_LT(c.median_relative_rotation_error_deg, 1e-6);
   EXPECT_NEAR(c.scene_scale, 8.0, 1e-9);  // the ring radius
   const ev::Similarity undo = inverse(sim);
   EXPECT_NEAR(c.alignment.scale, undo.scale, 1e-9);
@@ -318,6 +319,30 @@ TEST(CompareToGroundTruth, RotatedCameraHasThatRotationError) {
   EXPECT_NEAR(c.max_rotation_error_deg, 5.0, 1e-9);
   EXPECT_LT(c.median_rotation_error_deg, 1e-6);
   EXPECT_LT(c.max_centre_error, 1e-9);
+}
+
+// A straight walk: the centres leave the fit's rotation about the walk's
+// line to their noise, so every aligned camera carries the same tilt, which
+// the relative figure takes out.
+TEST(CompareToGroundTruth, AStraightWalkShowsTheFitsLooseTiltInEveryCamera) {
+  std::mt19937 rng(17);
+  std::normal_distribution<double> noise(0, 0.02);
+  std::map<std::string, Pose> truth, estimated;
+  const Matrix3d tilt = rotation_about(Vector3d::UnitX(), 4.0);
+  const Matrix3d looking = rotation_about(Vector3d::UnitY(), 90.0);
+  for (int i = 0; i < 40; ++i) {
+    char name[16];
+    std::snprintf(name, sizeof name, "%04d.jpg", i);
+    const Vector3d centre(2.5 * i, 0.001 * std::sin(i), 1.6);
+    truth[name] = Pose::from_centre(name, looking, centre);
+    const double dy = noise(rng), dz = noise(rng);
+    estimated[name] = Pose::from_centre(name, looking * tilt.transpose(),
+                                        tilt * centre + Vector3d(0, dy, dz));
+  }
+  const auto c = ev::compare_to_ground_truth(estimated, truth);
+  EXPECT_LT(c.median_centre_error, 0.05);
+  EXPECT_GT(c.median_rotation_error_deg, 1.0);
+  EXPECT_LT(c.median_relative_rotation_error_deg, 1e-6);
 }
 
 TEST(CompareToGroundTruth, NeedsThreeCommonNames) {
