@@ -84,6 +84,7 @@ struct Options {
   bool split = false;
   bool toward = false;
   bool no_dense = false;
+  int prepare_ahead = arscout::engine::WorkerOptions{}.prepare_ahead;
   bool per_capture = false;
   // How long to wait, after the last photo, for the worker to go idle (the
   // background refinement and the dense re-fusing it causes may run on).
@@ -453,6 +454,7 @@ void run(const Options& o) {
       [&](const arscout::db::Change& c) { on_model(*store, c, seen); });
   arscout::engine::WorkerOptions options;
   options.dense = !o.no_dense;
+  options.prepare_ahead = o.prepare_ahead;
   options.site_radius_m = o.site_radius_m;
   options.dense_options.new_coverage_share = o.new_coverage;
   options.dense_options.long_side = o.dense_long_side;
@@ -503,6 +505,11 @@ int main(int argc, char** argv) {
   app.add_flag("--toward", o.toward,
                "with --split: every second scout walks its part backwards");
   app.add_flag("--no-dense", o.no_dense, "sparse only");
+  app.add_option("--prepare-ahead", o.prepare_ahead,
+                 "photos decoded and described ahead of their increments "
+                 "(0: inside them), as arscout engine's")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_flag("--per-capture", o.per_capture, "a row per capture");
   app.add_option("--site-radius", o.site_radius_m,
                  "as arscout serve's: a capture joins a site whose footprint "

@@ -48,6 +48,12 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
          "coming (also saved after a quiet second; a crash redoes what was "
          "unsaved; 0: at every increment; default 30)")
       ->check(CLI::Range(0.0, 3600.0));
+  cmd->add_option("--prepare-ahead", o->prepare_ahead,
+                  "photos decoded and described ahead of their increments, "
+                  "on a thread of their own, at most this many held (0: "
+                  "each inside its increment)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000));
   cmd->add_flag("!--no-dense", o->dense, "sparse models only");
   cmd->add_option("--dense-long-side", o->dense_options.long_side,
                   "dense working resolution, long side in px")

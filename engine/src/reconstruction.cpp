@@ -11,6 +11,7 @@
 #include "features/image_loader.h"
 #include "features/matcher.h"
 #include "io/serialization.h"
+#include "prepared_capture.h"
 #include "sfm/mapper.h"
 #include "sfm/model_builder.h"
 #include "sfm/scene.h"
@@ -94,6 +95,12 @@ struct Reconstruction::Impl {
   std::map<int, Undistorter> undistorters;  // per camera; rebuilt on demand
 
   int camera_for(const CaptureInput& capture, const WorkingImage& image);
+  const PreparedCapture::Impl* usable(const CaptureInput& capture,
+                                      const PreparedCapture::Impl* prepared,
+                                      int* camera);
+  PreparedCapture::Impl prepare_here(const CaptureInput& capture,
+                                     const PreparedCapture::Impl* prepared,
+                                     int* camera);
   const Undistorter& undistorter(int camera, cv::Size size);
   Eigen::Vector3d position(int index) const;
   bool near_duplicate(int a, int b) const;
@@ -467,6 +474,67 @@ Reconstruction::Reconstruction(Reconstruction&&) noexcept = default;
 Reconstruction& Reconstruction::operator=(Reconstruction&&) noexcept = default;
 
 AddResult Reconstruction::add_capture(const CaptureInput& capture) {
+  return add_capture(capture, PreparedCapture());
+}
+
+// The prepared photo when it was made for this capture and the camera the
+// scene holds for it; the camera's index in `camera` either way (a new one
+// is added).
+const PreparedCapture::Impl* Reconstruction::Impl::usable(
+    const CaptureInput& capture, const PreparedCapture::Impl* prepared,
+    int* camera) {
+  if (!prepared || prepared->capture_id != capture.id) return nullptr;
+  WorkingImage sizes;
+  sizes.original_width = prepared->original_width;
+  sizes.original_height = prepared->original_height;
+  sizes.scale = prepared->scale;
+  *camera = camera_for(capture, sizes);
+  const SceneCamera& held = scene.cameras[*camera];
+  if (held.scale != prepared->scale ||
+      !same_geometry(held.original, prepared->intrinsics))
+    return nullptr;
+  return prepared;
+}
+
+// The capture decoded, undistorted through its camera and described (or
+// what was prepared ahead, when usable); its camera in `camera`.
+PreparedCapture::Impl Reconstruction::Impl::prepare_here(
+    const CaptureInput& capture, const PreparedCapture::Impl* prepared,
+    int* camera) {
+  if (const PreparedCapture::Impl* ready = usable(capture, prepared, camera)) {
+    PreparedCapture::Impl copy = *ready;
+    copy.timings = StageTimings{};  // spent elsewhere, before this call
+    return copy;
+  }
+  PreparedCapture::Impl here;
+  StageTimings& timings = here.timings;
+  auto stage = std::chrono::steady_clock::now();
+  const cv::Size known =
+      capture.camera ? cv::Size(capture.camera->width, capture.camera->height)
+                     : cv::Size();
+  const WorkingImage working =
+      decode_working_image(capture.image_bytes, options.long_side, known);
+  timings.decode_s = seconds_since(stage);
+  *camera = camera_for(capture, working);
+  here.width = working.color.cols;
+  here.height = working.color.rows;
+
+  stage = std::chrono::steady_clock::now();
+  const Undistorter& undistort = undistorter(*camera, working.color.size());
+  const cv::Mat color = undistort.apply(working.color);
+  const cv::Mat gray = undistort.apply(working.gray);
+  timings.undistort_s = seconds_since(stage);
+
+  stage = std::chrono::steady_clock::now();
+  FeatureOptions feature_options;
+  feature_options.max_features = options.max_features;
+  here.features = extract_features(gray, color, feature_options);
+  timings.features_s = seconds_since(stage);
+  return here;
+}
+
+AddResult Reconstruction::add_capture(const CaptureInput& capture,
+                                      const PreparedCapture& prepared) {
   const auto start = std::chrono::steady_clock::now();
   Scene& scene = impl_->scene;
   const ReconstructionOptions& options = impl_->options;
@@ -483,35 +551,19 @@ AddResult Reconstruction::add_capture(const CaptureInput& capture) {
   }
   AddResult result;
   result.id = capture.id;
+  int camera = 0;
+  PreparedCapture::Impl here =
+      impl_->prepare_here(capture, prepared.impl_.get(), &camera);
   StageTimings& timings = result.timings;
-  auto stage = std::chrono::steady_clock::now();
-  const cv::Size known =
-      capture.camera ? cv::Size(capture.camera->width, capture.camera->height)
-                     : cv::Size();
-  WorkingImage working =
-      decode_working_image(capture.image_bytes, options.long_side, known);
-  timings.decode_s = seconds_since(stage);
-  const int camera = impl_->camera_for(capture, working);
-
-  stage = std::chrono::steady_clock::now();
-  const Undistorter& undistort =
-      impl_->undistorter(camera, working.color.size());
-  const cv::Mat color = undistort.apply(working.color);
-  const cv::Mat gray = undistort.apply(working.gray);
-  timings.undistort_s = seconds_since(stage);
-
-  stage = std::chrono::steady_clock::now();
-  FeatureOptions feature_options;
-  feature_options.max_features = options.max_features;
-  Features features = extract_features(gray, color, feature_options);
-  timings.features_s = seconds_since(stage);
+  timings = here.timings;
+  Features& features = here.features;
 
   SceneImage image;
   image.id = capture.id;
   image.scout = capture.scout;
   image.camera = camera;
-  image.width = working.color.cols;
-  image.height = working.color.rows;
+  image.width = here.width;
+  image.height = here.height;
   image.keypoints = std::move(features.keypoints);
   image.descriptors = features.descriptors;
   image.colors = std::move(features.colors);

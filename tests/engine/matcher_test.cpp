@@ -265,9 +265,12 @@ TEST(MatcherTest, KernelFollowsCpuDisable) {
   EXPECT_TRUE(kernel == "avx512vnni" || kernel == "avx2" ||
               kernel == "portable")
       << kernel;
-  if (disabled.find("avx512vnni") != std::string::npos)
+  if (disabled.find("avx512vnni") != std::string::npos) {
     EXPECT_NE(kernel, "avx512vnni");
-  if (disabled.find("avx2") != std::string::npos) EXPECT_EQ(kernel, "portable");
+  }
+  if (disabled.find("avx2") != std::string::npos) {
+    EXPECT_EQ(kernel, "portable");
+  }
 }
 
 // Rows with a negative component are matched by the exact dot product.

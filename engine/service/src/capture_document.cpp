@@ -1,5 +1,9 @@
 #include "capture_document.h"
 
+#include <stdexcept>
+
+#include "arscout/db/store.h"
+#include "arscout/documents/capture.h"
 #include "arscout/documents/document_error.h"
 
 namespace arscout::engine::service {
@@ -23,6 +27,35 @@ std::optional<CameraIntrinsics> camera_intrinsics(const nlohmann::json& attrs) {
   } catch (const documents::DocumentError&) {
     return std::nullopt;
   }
+}
+
+std::string capture_image_sha(db::Store& store, const std::string& capture) {
+  auto doc = store.get("/captures/" + capture);
+  if (!doc) throw std::invalid_argument("capture " + capture + " is gone");
+  if (!doc->blobs.count("image"))
+    throw std::runtime_error("capture " + capture + " has no image");
+  return doc->blobs.at("image");
+}
+
+CaptureInput capture_input(db::Store& store, const std::string& capture,
+                           std::string image_bytes) {
+  auto doc = store.get("/captures/" + capture);
+  if (!doc) throw std::invalid_argument("capture " + capture + " is gone");
+  CaptureInput input;
+  input.id = capture;
+  input.image_bytes = std::move(image_bytes);
+  const documents::Capture attrs = documents::capture_from_json(doc->attrs);
+  input.gps = geo_fix(attrs.gps);
+  input.scout = attrs.scout;
+  if (!attrs.camera.empty()) {
+    input.camera_id = attrs.camera;
+    if (auto cam = store.get("/cameras/" + attrs.camera))
+      input.camera = camera_intrinsics(cam->attrs);
+  } else {
+    input.camera_id = "unnamed-" + std::to_string(attrs.width) + "x" +
+                      std::to_string(attrs.height);
+  }
+  return input;
 }
 
 }  // namespace arscout::engine::service

@@ -43,6 +43,7 @@
 #include "arscout/documents/capture.h"
 #include "arscout/engine/service.h"
 #include "capture_document.h"
+#include "capture_preparer.h"
 #include "fair_turns.h"
 #include "site_directory.h"
 #include "site_job.h"
@@ -127,6 +128,23 @@ struct EngineWorker::Impl {
   PhaseClocks phases;  // thread-safe on its own
   std::unique_ptr<db::Subscription> subscription;
   std::vector<std::thread> threads;
+  // Photos prepared ahead of their increments (capture_preparer.h); null
+  // when none are.
+  std::unique_ptr<service::CapturePreparer> preparer = make_preparer();
+
+  std::unique_ptr<service::CapturePreparer> make_preparer() {
+    if (options.prepare_ahead <= 0 || options.reconstruction.deterministic)
+      return nullptr;
+    return std::make_unique<service::CapturePreparer>(
+        [this](const std::string& capture) {
+          return store.get_blob(service::capture_image_sha(store, capture));
+        },
+        [this](const std::string& capture, std::string bytes) {
+          return service::capture_input(store, capture, std::move(bytes));
+        },
+        options.reconstruction,
+        static_cast<std::size_t>(options.prepare_ahead));
+  }
 
   void log(const std::string& line) const {
     if (options.progress) options.progress(line);
@@ -164,6 +182,8 @@ struct EngineWorker::Impl {
       in_flight.insert(change.seq);
       if (held.count(site)) {
         q.pending.push_back(work);
+        if (preparer && work.kind == Work::Kind::kAdd)
+          preparer->want(work.capture);
         make_ready(site, q);
       } else {
         q.deferred.push_back(work);
@@ -316,7 +336,8 @@ struct EngineWorker::Impl {
       const std::int64_t through =
           work.empty() ? 0 : service::settled_through(work, q.pending);
       if (!q.job)
-        q.job = std::make_shared<service::SiteJob>(site, store, options);
+        q.job = std::make_shared<service::SiteJob>(site, store, options,
+                                                   preparer.get());
       const std::shared_ptr<service::SiteJob> held_job = q.job;
       service::SiteJob& job = *held_job;
       // A dense phase waiting to publish goes first: the lanes take turns.
@@ -588,7 +609,8 @@ struct EngineWorker::Impl {
     SiteQueue& qb = sites[other];
     qb.running = true;  // keeps its lanes out
     if (!qb.job)
-      qb.job = std::make_shared<service::SiteJob>(other, store, options);
+      qb.job = std::make_shared<service::SiteJob>(other, store, options,
+                                                  preparer.get());
     const std::shared_ptr<service::SiteJob> other_job = qb.job;
     lock.unlock();
     bool merged = false, jobs_reset = false;

@@ -45,10 +45,12 @@ std::string site_path(const std::string& site, const std::string& leaf) {
 
 }  // namespace
 
-SiteJob::SiteJob(std::string id, db::Store& store, const WorkerOptions& options)
+SiteJob::SiteJob(std::string id, db::Store& store, const WorkerOptions& options,
+                 CapturePreparer* preparer)
     : id_(std::move(id)),
       store_(store),
       options_(options),
+      preparer_(preparer),
       feature_writer_(store) {}
 
 SiteJob::~SiteJob() = default;
@@ -90,10 +92,7 @@ std::string SiteJob::image_bytes(const std::string& capture) {
     if (it != images_.end()) sha = it->second;
   }
   if (sha.empty()) {
-    auto doc = store_.get("/captures/" + capture);
-    if (!doc || !doc->blobs.count("image"))
-      throw std::runtime_error("capture " + capture + " has no image");
-    sha = doc->blobs.at("image");
+    sha = capture_image_sha(store_, capture);
     std::lock_guard lock(images_mutex_);
     images_.emplace(capture, sha);
   }
@@ -179,32 +178,22 @@ void SiteJob::restore() {
   loaded_ = true;
 }
 
-CaptureInput SiteJob::capture_input(const std::string& capture) {
-  auto doc = store_.get("/captures/" + capture);
-  if (!doc) throw std::invalid_argument("capture " + capture + " is gone");
-  CaptureInput input;
-  input.id = capture;
-  input.image_bytes = image_bytes(capture);
-  const documents::Capture attrs = documents::capture_from_json(doc->attrs);
-  input.gps = geo_fix(attrs.gps);
-  input.scout = attrs.scout;
-  if (!attrs.camera.empty()) {
-    input.camera_id = attrs.camera;
-    if (auto cam = store_.get("/cameras/" + attrs.camera))
-      input.camera = camera_intrinsics(cam->attrs);
-  } else {
-    input.camera_id = "unnamed-" + std::to_string(attrs.width) + "x" +
-                      std::to_string(attrs.height);
-  }
-  return input;
-}
-
 void SiteJob::add(const std::string& capture, IncrementReport* report) {
   for (const CaptureState& c : sparse_->captures())
     if (c.id == capture) return;  // delivered again: already in the state
   AddResult result;
   try {
-    result = sparse_->add_capture(capture_input(capture));
+    // Prepared ahead when a preparer holds it (capture_preparer.h).
+    std::optional<CapturePreparer::Prepared> ready;
+    if (preparer_) ready = preparer_->take(capture);
+    if (ready) {
+      result = sparse_->add_capture(
+          capture_input(store_, capture, std::move(ready->image_bytes)),
+          ready->photo);
+    } else {
+      result = sparse_->add_capture(
+          capture_input(store_, capture, image_bytes(capture)));
+    }
   } catch (const std::invalid_argument& e) {
     // A photo the engine cannot use is rejected, not retried forever.
     pending_statuses_[capture] = std::string("rejected\n") + e.what();

@@ -26,6 +26,7 @@
 #include "arscout/db/document.h"
 #include "arscout/engine/service.h"
 #include "blob_writer.h"
+#include "capture_preparer.h"
 #include "dense_tiles.h"
 #include "model_document.h"
 #include "site_directory.h"
@@ -94,7 +95,10 @@ struct Increment {
 
 class SiteJob {
  public:
-  SiteJob(std::string id, db::Store& store, const WorkerOptions& options);
+  // `preparer`, when given, prepares this site's photos ahead of its
+  // increments (it outlives the job).
+  SiteJob(std::string id, db::Store& store, const WorkerOptions& options,
+          CapturePreparer* preparer = nullptr);
   ~SiteJob();
 
   const std::string& id() const { return id_; }
@@ -204,7 +208,6 @@ class SiteJob {
   std::string dense_summary(const DenseTask& task, bool model_published) const;
   void add_tile_ops(const DenseTiles& tiles,
                     std::vector<db::WriteOp>* ops) const;
-  CaptureInput capture_input(const std::string& capture);
   // Deletions of this site's engine documents (it was merged away).
   void add_departure_ops(std::vector<db::WriteOp>* ops) const;
   std::string image_bytes(const std::string& capture);
@@ -212,6 +215,7 @@ class SiteJob {
   std::string id_;
   db::Store& store_;
   const WorkerOptions& options_;
+  CapturePreparer* const preparer_;
   bool loaded_ = false;
   std::unique_ptr<Reconstruction> sparse_;
   std::shared_ptr<DenseReconstruction> dense_;

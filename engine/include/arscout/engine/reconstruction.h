@@ -245,6 +245,36 @@ struct CaptureState {
   int component = -1;  // when registered
 };
 
+// What add_capture does to a photo before it touches the model: decoding
+// at the working resolution, undistortion, features (the slowest part of a
+// photo that does not depend on the model). prepare_capture is a pure
+// function of the capture and the options and touches no Reconstruction, so
+// a service runs it on another thread while the site's model is busy with
+// earlier photos, and the photo's increment starts with its features ready.
+// Opaque; copies share one immutable result.
+class PreparedCapture {
+ public:
+  struct Impl;
+  PreparedCapture();
+  ~PreparedCapture();
+  PreparedCapture(const PreparedCapture&);
+  PreparedCapture& operator=(const PreparedCapture&);
+  const std::string& capture_id() const;  // "" for a default-made one
+  // Decode, undistortion and features, as add_capture would time them.
+  StageTimings timings() const;
+
+ private:
+  friend PreparedCapture prepare_capture(const CaptureInput&,
+                                         const ReconstructionOptions&);
+  friend class Reconstruction;
+  std::shared_ptr<const Impl> impl_;
+};
+
+// Throws std::invalid_argument as add_capture does for a photo that cannot
+// be decoded or an invalid camera. `capture.image_bytes` is read, not kept.
+PreparedCapture prepare_capture(const CaptureInput& capture,
+                                const ReconstructionOptions& options);
+
 class Reconstruction {
  public:
   explicit Reconstruction(ReconstructionOptions options = {});
@@ -256,6 +286,14 @@ class Reconstruction {
   // for a duplicate id, an image that cannot be decoded or an invalid
   // camera; the model is then unchanged.
   AddResult add_capture(const CaptureInput& capture);
+  // The same with the photo prepared ahead (prepare_capture on the same
+  // capture with this site's options): its features are used when they
+  // were made for the camera this site holds for the capture (else the
+  // photo is prepared again here), and `capture.image_bytes` is then not
+  // read. The result is the same as add_capture(capture)'s; its timings
+  // count only this call's stages.
+  AddResult add_capture(const CaptureInput& capture,
+                        const PreparedCapture& prepared);
 
   // Takes another site's reconstruction in (two sites that grew together,
   // docs/engine.md "Sites that grow together"): its captures, their

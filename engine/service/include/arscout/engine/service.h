@@ -70,6 +70,11 @@ struct WorkerOptions {
   // scouts that sent them (oldest first within each): one scout's burst
   // delays another's photo by at most this many.
   int increment_captures = 4;
+  // Photos decoded and described ahead of their increments, on a thread of
+  // their own, at most this many held at once (0: each inside its
+  // increment). Deterministic runs prepare none: the same features, but
+  // their timing would follow the machine.
+  int prepare_ahead = 16;
   bool dense = true;
   ReconstructionOptions reconstruction;
   DenseOptions dense_options;

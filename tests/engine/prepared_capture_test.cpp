@@ -1,0 +1,110 @@
+// Photos prepared ahead (prepare_capture) give the model add_capture gives
+// when it prepares them itself; a prepared photo made for another capture
+// or another camera is not used.
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "arscout/engine/reconstruction.h"
+#include "rendered_street.h"
+
+namespace arscout::engine {
+namespace {
+
+using namespace street_fixture;
+
+// The street views as captures: PNG bytes, the exact intrinsics.
+std::vector<CaptureInput> street_captures() {
+  const std::vector<Rendered>& street = rendered_street({640, 480});
+  std::vector<CaptureInput> result;
+  for (int i = 0; i < kStreetViews; ++i) {
+    std::vector<uchar> png;
+    if (!cv::imencode(".png", street[i].image.bgr, png))
+      throw std::runtime_error("PNG encoding failed");
+    CaptureInput input;
+    input.id = view_id(i);
+    input.image_bytes.assign(png.begin(), png.end());
+    const Eigen::Matrix3d& k = street[i].view.K;
+    input.camera = centred_camera(640, 480, k(0, 0), "calibrated");
+    input.camera->cx = k(0, 2);
+    input.camera->cy = k(1, 2);
+    input.camera_id = "street";
+    result.push_back(std::move(input));
+  }
+  return result;
+}
+
+ReconstructionOptions options() {
+  ReconstructionOptions o;
+  o.deterministic = true;
+  o.long_side = 640;
+  return o;
+}
+
+void expect_same_models(const Model& a, const Model& b) {
+  ASSERT_EQ(a.images.size(), b.images.size());
+  ASSERT_EQ(a.points.size(), b.points.size());
+  for (size_t i = 0; i < a.images.size(); ++i) {
+    EXPECT_EQ(a.images[i].id, b.images[i].id);
+    EXPECT_EQ(a.images[i].qvec, b.images[i].qvec) << a.images[i].id;
+    EXPECT_EQ(a.images[i].tvec, b.images[i].tvec) << a.images[i].id;
+    EXPECT_EQ(a.images[i].keypoints, b.images[i].keypoints);
+  }
+}
+
+TEST(PreparedCapture, GivesTheModelAddCaptureGivesAlone) {
+  const std::vector<CaptureInput> captures = street_captures();
+  Reconstruction inline_site(options()), ahead_site(options());
+  for (const CaptureInput& capture : captures) {
+    const PreparedCapture prepared = prepare_capture(capture, options());
+    EXPECT_EQ(prepared.capture_id(), capture.id);
+    EXPECT_GT(prepared.timings().features_s, 0);
+    CaptureInput without_bytes = capture;
+    without_bytes.image_bytes.clear();  // must not be read
+    const AddResult ahead = ahead_site.add_capture(without_bytes, prepared);
+    const AddResult alone = inline_site.add_capture(capture);
+    EXPECT_EQ(ahead.status, alone.status) << capture.id;
+    EXPECT_EQ(ahead.features, alone.features);
+    EXPECT_EQ(ahead.matched_pairs, alone.matched_pairs);
+    // This call's own stages: the photo was decoded and described before.
+    EXPECT_EQ(ahead.timings.features_s, 0);
+    EXPECT_GT(alone.timings.features_s, 0);
+  }
+  EXPECT_GE(inline_site.registered_count(), 3);
+  expect_same_models(inline_site.model(), ahead_site.model());
+}
+
+TEST(PreparedCapture, MadeForAnotherCaptureOrCameraIsNotUsed) {
+  const std::vector<CaptureInput> captures = street_captures();
+  Reconstruction inline_site(options()), other_site(options());
+  for (size_t i = 0; i < captures.size(); ++i) {
+    const CaptureInput& capture = captures[i];
+    // Odd photos: prepared as another capture; even ones: without their
+    // camera (the guessed intrinsics, not the site's camera "street").
+    CaptureInput prepared_as = capture;
+    if (i % 2) {
+      prepared_as.id = "someone-else";
+    } else {
+      prepared_as.camera.reset();
+    }
+    const PreparedCapture wrong = prepare_capture(prepared_as, options());
+    const AddResult result = other_site.add_capture(capture, wrong);
+    EXPECT_GT(result.timings.features_s, 0) << "prepared again here";
+    inline_site.add_capture(capture);
+  }
+  expect_same_models(inline_site.model(), other_site.model());
+}
+
+TEST(PreparedCapture, RefusesWhatAddCaptureRefuses) {
+  CaptureInput broken = street_captures().front();
+  broken.image_bytes = "not an image";
+  EXPECT_THROW(prepare_capture(broken, options()), std::invalid_argument);
+  broken = street_captures().front();
+  broken.camera->fx = -1;
+  EXPECT_THROW(prepare_capture(broken, options()), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace arscout::engine
