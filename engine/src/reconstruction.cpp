@@ -104,6 +104,11 @@ struct Reconstruction::Impl {
   const Undistorter& undistorter(int camera, cv::Size size);
   Eigen::Vector3d position(int index) const;
   bool near_duplicate(int a, int b) const;
+  double depth_of(int index) const;
+  // Median depths (median_depth) of the images one neighbours() call has
+  // weighed: near_duplicate asks for a candidate's once per partner
+  // already chosen, and each costs a pass over its points.
+  mutable std::map<int, double> depth_memo;
   std::vector<std::pair<double, int>> by_distance(int index) const;
   std::set<int> spatial_neighbours(int index, std::set<int> chosen) const;
   std::vector<int> loop_candidates(
@@ -190,10 +195,16 @@ bool Reconstruction::Impl::near_duplicate(int a, int b) const {
   const SceneImage& x = scene.images[a];
   const SceneImage& y = scene.images[b];
   if (!x.registered || !y.registered) return false;
-  const double depth = median_depth(scene, a);
+  const double depth = depth_of(a);
   if (!(depth > 0)) return false;
   return (x.centre() - y.centre()).norm() < kDuplicateBaseline * depth &&
          x.q.angularDistance(y.q) < kDuplicateAngleRad;
+}
+
+double Reconstruction::Impl::depth_of(int index) const {
+  auto [at, added] = depth_memo.try_emplace(index, 0.0);
+  if (added) at->second = median_depth(scene, index);
+  return at->second;
 }
 
 // Earlier captures with a fix by distance from `index`'s fix (within the
@@ -280,6 +291,7 @@ std::vector<int> Reconstruction::Impl::loop_candidates(
 // those, and the best of a cheap visual screen over the rest (which also
 // finds photos turned sideways or upside down): never all pairs.
 std::vector<Candidate> Reconstruction::Impl::neighbours(int index) const {
+  depth_memo.clear();  // the model moved since the last call
   const SceneImage& image = scene.images[index];
   std::set<int> chosen;
   int recent = 0;

@@ -17,7 +17,7 @@ using namespace street_fixture;
 
 // The street views as captures: PNG bytes, the exact intrinsics.
 std::vector<CaptureInput> street_captures() {
-  const std::vector<Rendered>& street = rendered_street({640, 480});
+  const std::vector<Rendered>& street = rendered_street({320, 240});
   std::vector<CaptureInput> result;
   for (int i = 0; i < kStreetViews; ++i) {
     std::vector<uchar> png;
@@ -27,7 +27,7 @@ std::vector<CaptureInput> street_captures() {
     input.id = view_id(i);
     input.image_bytes.assign(png.begin(), png.end());
     const Eigen::Matrix3d& k = street[i].view.K;
-    input.camera = centred_camera(640, 480, k(0, 0), "calibrated");
+    input.camera = centred_camera(320, 240, k(0, 0), "calibrated");
     input.camera->cx = k(0, 2);
     input.camera->cy = k(1, 2);
     input.camera_id = "street";
@@ -39,7 +39,7 @@ std::vector<CaptureInput> street_captures() {
 ReconstructionOptions options() {
   ReconstructionOptions o;
   o.deterministic = true;
-  o.long_side = 640;
+  o.long_side = 320;
   return o;
 }
 
