@@ -4,7 +4,6 @@
 #include <memory>
 #include <stdexcept>
 
-#include "features/image_loader.h"
 #include "stopwatch.h"
 
 namespace arscout::engine {
@@ -35,24 +34,46 @@ StageTimings PreparedCapture::timings() const {
   return impl_ ? impl_->timings : StageTimings{};
 }
 
-PreparedCapture prepare_capture(const CaptureInput& capture,
-                                const ReconstructionOptions& options) {
-  if (capture.camera) {
-    if (std::string problem = validate(*capture.camera); !problem.empty()) {
-      throw std::invalid_argument("capture " + capture.id +
-                                  ": camera: " + problem);
-    }
-  }
-  auto impl = std::make_shared<PreparedCapture::Impl>();
-  impl->capture_id = capture.id;
-  StageTimings& timings = impl->timings;
-  auto stage = std::chrono::steady_clock::now();
+void check_camera(const CaptureInput& capture) {
+  if (!capture.camera) return;
+  if (std::string problem = validate(*capture.camera); !problem.empty())
+    throw std::invalid_argument("capture " + capture.id +
+                                ": camera: " + problem);
+}
+
+WorkingImage decode_capture(const CaptureInput& capture,
+                            const ReconstructionOptions& options,
+                            StageTimings& timings) {
+  const auto start = std::chrono::steady_clock::now();
   const cv::Size known =
       capture.camera ? cv::Size(capture.camera->width, capture.camera->height)
                      : cv::Size();
-  const WorkingImage working =
+  WorkingImage working =
       decode_working_image(capture.image_bytes, options.long_side, known);
-  timings.decode_s = seconds_since(stage);
+  timings.decode_s = seconds_since(start);
+  return working;
+}
+
+Features describe(const WorkingImage& working, const Undistorter& undistort,
+                  const ReconstructionOptions& options, StageTimings& timings) {
+  auto stage = std::chrono::steady_clock::now();
+  const cv::Mat color = undistort.apply(working.color);
+  const cv::Mat gray = undistort.apply(working.gray);
+  timings.undistort_s = seconds_since(stage);
+  stage = std::chrono::steady_clock::now();
+  FeatureOptions feature_options;
+  feature_options.max_features = options.max_features;
+  Features features = extract_features(gray, color, feature_options);
+  timings.features_s = seconds_since(stage);
+  return features;
+}
+
+PreparedCapture prepare_capture(const CaptureInput& capture,
+                                const ReconstructionOptions& options) {
+  check_camera(capture);
+  auto impl = std::make_shared<PreparedCapture::Impl>();
+  impl->capture_id = capture.id;
+  const WorkingImage working = decode_capture(capture, options, impl->timings);
   impl->original_width = working.original_width;
   impl->original_height = working.original_height;
   impl->scale = working.scale;
@@ -60,20 +81,11 @@ PreparedCapture prepare_capture(const CaptureInput& capture,
   impl->height = working.color.rows;
   impl->intrinsics = first_intrinsics(capture, working.original_width,
                                       working.original_height);
-
-  stage = std::chrono::steady_clock::now();
   const Undistorter undistort(impl->intrinsics, working.scale,
                               working.color.size());
-  const cv::Mat color = undistort.apply(working.color);
-  const cv::Mat gray = undistort.apply(working.gray);
-  timings.undistort_s = seconds_since(stage);
-
-  stage = std::chrono::steady_clock::now();
-  FeatureOptions feature_options;
-  feature_options.max_features = options.max_features;
-  impl->features = extract_features(gray, color, feature_options);
-  timings.features_s = seconds_since(stage);
-  timings.total_s = timings.decode_s + timings.undistort_s + timings.features_s;
+  impl->features = describe(working, undistort, options, impl->timings);
+  const StageTimings& t = impl->timings;
+  impl->timings.total_s = t.decode_s + t.undistort_s + t.features_s;
   PreparedCapture prepared;
   prepared.impl_ = std::move(impl);
   return prepared;

@@ -6,6 +6,7 @@
 
 #include "arscout/engine/reconstruction.h"
 #include "features/feature_extractor.h"
+#include "features/image_loader.h"
 
 namespace arscout::engine {
 
@@ -31,5 +32,19 @@ CameraIntrinsics first_intrinsics(const CaptureInput& capture,
 // Equal numbers where undistortion reads them (size, focal lengths,
 // principal point, distortion), whatever the source says.
 bool same_geometry(const CameraIntrinsics& a, const CameraIntrinsics& b);
+
+// Throws std::invalid_argument naming the capture when the camera it
+// carries is not usable (validate()).
+void check_camera(const CaptureInput& capture);
+
+// The stages add_capture and prepare_capture share, each timed into
+// `timings`: the photo decoded at the working resolution (throws
+// std::invalid_argument when it cannot be), then undistorted through
+// `undistort` and described.
+WorkingImage decode_capture(const CaptureInput& capture,
+                            const ReconstructionOptions& options,
+                            StageTimings& timings);
+Features describe(const WorkingImage& working, const Undistorter& undistort,
+                  const ReconstructionOptions& options, StageTimings& timings);
 
 }  // namespace arscout::engine

@@ -145,9 +145,8 @@ int Reconstruction::Impl::camera_for(const CaptureInput& capture,
   }
   SceneCamera camera;
   camera.id = key;
-  camera.original = capture.camera ? *capture.camera
-                                   : guessed_camera(image.original_width,
-                                                    image.original_height);
+  camera.original =
+      first_intrinsics(capture, image.original_width, image.original_height);
   camera.scale = image.scale;
   const cv::Matx33d k = working_k(camera.original, image.scale);
   camera.params = {k(0, 0), k(1, 1), k(0, 2), k(1, 2), 0, 0};
@@ -519,29 +518,12 @@ PreparedCapture::Impl Reconstruction::Impl::prepare_here(
     return copy;
   }
   PreparedCapture::Impl here;
-  StageTimings& timings = here.timings;
-  auto stage = std::chrono::steady_clock::now();
-  const cv::Size known =
-      capture.camera ? cv::Size(capture.camera->width, capture.camera->height)
-                     : cv::Size();
-  const WorkingImage working =
-      decode_working_image(capture.image_bytes, options.long_side, known);
-  timings.decode_s = seconds_since(stage);
+  const WorkingImage working = decode_capture(capture, options, here.timings);
   *camera = camera_for(capture, working);
   here.width = working.color.cols;
   here.height = working.color.rows;
-
-  stage = std::chrono::steady_clock::now();
-  const Undistorter& undistort = undistorter(*camera, working.color.size());
-  const cv::Mat color = undistort.apply(working.color);
-  const cv::Mat gray = undistort.apply(working.gray);
-  timings.undistort_s = seconds_since(stage);
-
-  stage = std::chrono::steady_clock::now();
-  FeatureOptions feature_options;
-  feature_options.max_features = options.max_features;
-  here.features = extract_features(gray, color, feature_options);
-  timings.features_s = seconds_since(stage);
+  here.features = describe(working, undistorter(*camera, working.color.size()),
+                           options, here.timings);
   return here;
 }
 
@@ -555,12 +537,7 @@ AddResult Reconstruction::add_capture(const CaptureInput& capture,
     throw std::invalid_argument("capture " + capture.id +
                                 " is already in the model");
   }
-  if (capture.camera) {
-    if (std::string problem = validate(*capture.camera); !problem.empty()) {
-      throw std::invalid_argument("capture " + capture.id +
-                                  ": camera: " + problem);
-    }
-  }
+  check_camera(capture);
   AddResult result;
   result.id = capture.id;
   int camera = 0;
