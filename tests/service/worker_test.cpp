@@ -138,6 +138,10 @@ TEST_P(EngineWorkerOn, TwoScoutsTwoSitesModelsWrittenBack) {
   const engine::WorkerStats stats = worker.stats();
   EXPECT_EQ(stats.captures_placed, 11 + 29);
   EXPECT_EQ(stats.failures, 0);
+  // The photos queued behind an increment were prepared ahead
+  // (capture_preparer.h), each used at most once.
+  EXPECT_GT(stats.photos_prepared_used, 0);
+  EXPECT_LE(stats.photos_prepared_used, stats.photos_prepared);
 
   const auto sites = store->list_children("/sites");
   ASSERT_EQ(sites.size(), 2u);

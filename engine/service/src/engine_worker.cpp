@@ -1160,6 +1160,12 @@ WorkerStats EngineWorker::stats() const {
     unsaved += static_cast<std::int64_t>(q.unsaved.size());
   s.captures_waiting =
       static_cast<std::int64_t>(impl_->in_flight.size()) - unsaved;
+  if (impl_->preparer) {
+    const service::CapturePreparer::Counts c = impl_->preparer->counts();
+    s.photos_prepared = c.prepared;
+    s.photos_prepared_used = c.taken;
+    s.photos_prepared_late = c.missed;
+  }
   return s;
 }
 

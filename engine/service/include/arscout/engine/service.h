@@ -110,6 +110,13 @@ struct WorkerStats {
   // Captures placed and not yet in a committed increment: queued for their
   // site (or deferred while another worker holds it), or being added.
   std::int64_t captures_waiting = 0;
+  // Photos prepared ahead of their increments (WorkerOptions::
+  // prepare_ahead): made, used by an increment, and found still queued by
+  // their increment, which then prepared them itself (the preparer is
+  // behind).
+  std::int64_t photos_prepared = 0;
+  std::int64_t photos_prepared_used = 0;
+  std::int64_t photos_prepared_late = 0;
 };
 
 class EngineWorker {
