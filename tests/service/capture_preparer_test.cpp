@@ -138,6 +138,29 @@ TEST(CapturePreparer, HoldsNoMoreThanItsCapacity) {
   EXPECT_TRUE(preparer.take("b").has_value());
 }
 
+TEST(CapturePreparer, ClearWaitsForTheWorkUnderWayAndDropsTheRest) {
+  Gate gate;
+  std::atomic<int> reads{0};
+  CapturePreparer preparer(
+      [&](const std::string& capture) {
+        ++reads;
+        if (capture == "first") gate.pass();
+        return photo_bytes();
+      },
+      input_of, small());
+  preparer.want("first");
+  preparer.want("second");
+  while (gate.waiting.load() == 0) std::this_thread::yield();
+  std::thread clearing([&] { preparer.clear(); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  gate.release();
+  clearing.join();  // returned only once "first" was done
+  EXPECT_EQ(preparer.counts().prepared, 1);
+  EXPECT_FALSE(preparer.take("first").has_value()) << "dropped";
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(reads.load(), 1) << "second was dropped unread";
+}
+
 TEST(CapturePreparer, AFailureIsLeftForTheIncrementToReport) {
   CapturePreparer preparer(
       [&](const std::string& capture) -> std::string {

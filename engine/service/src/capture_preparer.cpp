@@ -57,6 +57,13 @@ std::optional<CapturePreparer::Prepared> CapturePreparer::take(
   return prepared;
 }
 
+void CapturePreparer::clear() {
+  std::unique_lock lock(mutex_);
+  queued_.clear();
+  changed_.wait(lock, [&] { return working_on_.empty(); });
+  held_.clear();
+}
+
 CapturePreparer::Counts CapturePreparer::counts() const {
   std::lock_guard lock(mutex_);
   return counts_;

@@ -55,6 +55,11 @@ class CapturePreparer {
   // it itself rather than wait its turn.
   std::optional<Prepared> take(const std::string& capture);
 
+  // Drops what is queued and held and waits for the photo being prepared:
+  // from its return until the next want() the preparer reads nothing (the
+  // worker's stop(): the store may go away after it).
+  void clear();
+
   struct Counts {
     std::int64_t prepared = 0;  // made
     std::int64_t taken = 0;     // of those, used by an increment

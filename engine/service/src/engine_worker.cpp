@@ -1116,6 +1116,9 @@ void EngineWorker::stop() {
   w.changed.notify_all();
   w.beat_cv.notify_all();
   for (std::thread& t : w.threads) t.join();
+  // Queued work is dropped (a restart redoes it), and nothing reads the
+  // store after stop() returns.
+  if (w.preparer) w.preparer->clear();
   const bool had_threads = !w.threads.empty();
   w.threads.clear();
   if (!had_threads) return;
