@@ -77,14 +77,27 @@ struct Gate {
   }
 };
 
+// Photo bytes for any capture, counting the reads; the read of "first"
+// waits at `gate` when one is given.
+CapturePreparer::ReadBytes counted_reads(std::atomic<int>& reads,
+                                         Gate* gate = nullptr) {
+  return [&reads, gate](const std::string& capture) {
+    ++reads;
+    if (gate && capture == "first") gate->pass();
+    return photo_bytes();
+  };
+}
+
+// Queues "first" and "second" and returns once "first" is being read.
+void first_under_way(CapturePreparer& preparer, Gate& gate) {
+  preparer.want("first");
+  preparer.want("second");
+  while (gate.waiting.load() == 0) std::this_thread::yield();
+}
+
 TEST(CapturePreparer, PreparesWhatIsWantedAndHandsItOverOnce) {
   std::atomic<int> reads{0};
-  CapturePreparer preparer(
-      [&](const std::string&) {
-        ++reads;
-        return photo_bytes();
-      },
-      input_of, small());
+  CapturePreparer preparer(counted_reads(reads), input_of, small());
   preparer.want("a");
   preparer.want("a");  // once
   ASSERT_TRUE(eventually([&] { return preparer.counts().prepared == 1; }));
@@ -102,15 +115,9 @@ TEST(CapturePreparer, PreparesWhatIsWantedAndHandsItOverOnce) {
 
 TEST(CapturePreparer, OneStillQueuedIsLeftToTheCaller) {
   Gate gate;
-  CapturePreparer preparer(
-      [&](const std::string& capture) {
-        if (capture == "first") gate.pass();
-        return photo_bytes();
-      },
-      input_of, small());
-  preparer.want("first");
-  preparer.want("second");
-  while (gate.waiting.load() == 0) std::this_thread::yield();
+  std::atomic<int> reads{0};
+  CapturePreparer preparer(counted_reads(reads, &gate), input_of, small());
+  first_under_way(preparer, gate);
   // "first" is being prepared, "second" waits its turn: the caller takes
   // it over rather than wait.
   EXPECT_FALSE(preparer.take("second").has_value());
@@ -122,12 +129,8 @@ TEST(CapturePreparer, OneStillQueuedIsLeftToTheCaller) {
 
 TEST(CapturePreparer, HoldsNoMoreThanItsCapacity) {
   std::atomic<int> reads{0};
-  CapturePreparer preparer(
-      [&](const std::string&) {
-        ++reads;
-        return photo_bytes();
-      },
-      input_of, small(), /*capacity=*/1);
+  CapturePreparer preparer(counted_reads(reads), input_of, small(),
+                           /*capacity=*/1);
   preparer.want("a");
   preparer.want("b");
   ASSERT_TRUE(eventually([&] { return preparer.counts().prepared == 1; }));
@@ -141,16 +144,8 @@ TEST(CapturePreparer, HoldsNoMoreThanItsCapacity) {
 TEST(CapturePreparer, ClearWaitsForTheWorkUnderWayAndDropsTheRest) {
   Gate gate;
   std::atomic<int> reads{0};
-  CapturePreparer preparer(
-      [&](const std::string& capture) {
-        ++reads;
-        if (capture == "first") gate.pass();
-        return photo_bytes();
-      },
-      input_of, small());
-  preparer.want("first");
-  preparer.want("second");
-  while (gate.waiting.load() == 0) std::this_thread::yield();
+  CapturePreparer preparer(counted_reads(reads, &gate), input_of, small());
+  first_under_way(preparer, gate);
   std::thread clearing([&] { preparer.clear(); });
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   gate.release();
