@@ -79,12 +79,12 @@ struct Gate {
 
 // Photo bytes for any capture, counting the reads; the read of "first"
 // waits at `gate` when one is given.
-CapturePreparer::ReadBytes counted_reads(std::atomic<int>& reads,
+CapturePreparer::ReadInput counted_reads(std::atomic<int>& reads,
                                          Gate* gate = nullptr) {
   return [&reads, gate](const std::string& capture) {
     ++reads;
     if (gate && capture == "first") gate->pass();
-    return photo_bytes();
+    return input_of(capture, photo_bytes());
   };
 }
 
@@ -97,7 +97,7 @@ void first_under_way(CapturePreparer& preparer, Gate& gate) {
 
 TEST(CapturePreparer, PreparesWhatIsWantedAndHandsItOverOnce) {
   std::atomic<int> reads{0};
-  CapturePreparer preparer(counted_reads(reads), input_of, small());
+  CapturePreparer preparer(counted_reads(reads), small());
   preparer.want("a");
   preparer.want("a");  // once
   ASSERT_TRUE(eventually([&] { return preparer.counts().prepared == 1; }));
@@ -116,7 +116,7 @@ TEST(CapturePreparer, PreparesWhatIsWantedAndHandsItOverOnce) {
 TEST(CapturePreparer, OneStillQueuedIsLeftToTheCaller) {
   Gate gate;
   std::atomic<int> reads{0};
-  CapturePreparer preparer(counted_reads(reads, &gate), input_of, small());
+  CapturePreparer preparer(counted_reads(reads, &gate), small());
   first_under_way(preparer, gate);
   // "first" is being prepared, "second" waits its turn: the caller takes
   // it over rather than wait.
@@ -129,7 +129,7 @@ TEST(CapturePreparer, OneStillQueuedIsLeftToTheCaller) {
 
 TEST(CapturePreparer, HoldsNoMoreThanItsCapacity) {
   std::atomic<int> reads{0};
-  CapturePreparer preparer(counted_reads(reads), input_of, small(),
+  CapturePreparer preparer(counted_reads(reads), small(),
                            /*capacity=*/1);
   preparer.want("a");
   preparer.want("b");
@@ -144,7 +144,7 @@ TEST(CapturePreparer, HoldsNoMoreThanItsCapacity) {
 TEST(CapturePreparer, ClearWaitsForTheWorkUnderWayAndDropsTheRest) {
   Gate gate;
   std::atomic<int> reads{0};
-  CapturePreparer preparer(counted_reads(reads, &gate), input_of, small());
+  CapturePreparer preparer(counted_reads(reads, &gate), small());
   first_under_way(preparer, gate);
   std::thread clearing([&] { preparer.clear(); });
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -158,11 +158,11 @@ TEST(CapturePreparer, ClearWaitsForTheWorkUnderWayAndDropsTheRest) {
 
 TEST(CapturePreparer, AFailureIsLeftForTheIncrementToReport) {
   CapturePreparer preparer(
-      [&](const std::string& capture) -> std::string {
+      [&](const std::string& capture) {
         if (capture == "gone") throw std::invalid_argument("capture is gone");
-        return "not an image";
+        return input_of(capture, "not an image");
       },
-      input_of, small());
+      small());
   preparer.want("gone");
   preparer.want("broken");
   ASSERT_TRUE(eventually([&] { return preparer.counts().dropped == 2; }));

@@ -29,22 +29,27 @@ std::optional<CameraIntrinsics> camera_intrinsics(const nlohmann::json& attrs) {
   }
 }
 
-std::string capture_image_sha(db::Store& store, const std::string& capture) {
+namespace {
+
+std::optional<db::Document> capture_document(db::Store& store,
+                                             const std::string& capture) {
   auto doc = store.get("/captures/" + capture);
   if (!doc) throw std::invalid_argument("capture " + capture + " is gone");
-  if (!doc->blobs.count("image"))
-    throw std::runtime_error("capture " + capture + " has no image");
-  return doc->blobs.at("image");
+  return doc;
 }
 
-CaptureInput capture_input(db::Store& store, const std::string& capture,
-                           std::string image_bytes) {
-  auto doc = store.get("/captures/" + capture);
-  if (!doc) throw std::invalid_argument("capture " + capture + " is gone");
+std::string image_sha(const db::Document& doc, const std::string& capture) {
+  if (!doc.blobs.count("image"))
+    throw std::runtime_error("capture " + capture + " has no image");
+  return doc.blobs.at("image");
+}
+
+CaptureInput input_of(db::Store& store, const db::Document& doc,
+                      const std::string& capture, std::string image_bytes) {
   CaptureInput input;
   input.id = capture;
   input.image_bytes = std::move(image_bytes);
-  const documents::Capture attrs = documents::capture_from_json(doc->attrs);
+  const documents::Capture attrs = documents::capture_from_json(doc.attrs);
   input.gps = geo_fix(attrs.gps);
   input.scout = attrs.scout;
   if (!attrs.camera.empty()) {
@@ -56,6 +61,25 @@ CaptureInput capture_input(db::Store& store, const std::string& capture,
                       std::to_string(attrs.height);
   }
   return input;
+}
+
+}  // namespace
+
+std::string capture_image_sha(db::Store& store, const std::string& capture) {
+  return image_sha(*capture_document(store, capture), capture);
+}
+
+CaptureInput capture_input(db::Store& store, const std::string& capture,
+                           std::string image_bytes) {
+  return input_of(store, *capture_document(store, capture), capture,
+                  std::move(image_bytes));
+}
+
+CaptureInput stored_capture_input(db::Store& store,
+                                  const std::string& capture) {
+  const auto doc = capture_document(store, capture);
+  return input_of(store, *doc, capture,
+                  store.get_blob(image_sha(*doc, capture)));
 }
 
 }  // namespace arscout::engine::service

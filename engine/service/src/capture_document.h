@@ -39,4 +39,8 @@ std::string capture_image_sha(db::Store& store, const std::string& capture);
 CaptureInput capture_input(db::Store& store, const std::string& capture,
                            std::string image_bytes);
 
+// The same with its photo's bytes read from the store, the capture's
+// document read once. Throws as capture_image_sha does.
+CaptureInput stored_capture_input(db::Store& store, const std::string& capture);
+
 }  // namespace arscout::engine::service

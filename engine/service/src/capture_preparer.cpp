@@ -6,12 +6,11 @@
 
 namespace arscout::engine::service {
 
-CapturePreparer::CapturePreparer(ReadBytes read_bytes, ReadInput read_input,
+CapturePreparer::CapturePreparer(ReadInput read_input,
                                  ReconstructionOptions options,
                                  std::size_t capacity,
                                  std::chrono::seconds stale_after)
-    : read_bytes_(std::move(read_bytes)),
-      read_input_(std::move(read_input)),
+    : read_input_(std::move(read_input)),
       options_(std::move(options)),
       capacity_(std::max<std::size_t>(1, capacity)),
       stale_after_(stale_after),
@@ -106,10 +105,10 @@ void CapturePreparer::prepare(const std::string& capture,
   lock.unlock();
   std::optional<Prepared> made;
   try {
+    CaptureInput input = read_input_(capture);
     Prepared prepared;
-    prepared.image_bytes = read_bytes_(capture);
-    const CaptureInput input = read_input_(capture, prepared.image_bytes);
     prepared.photo = prepare_capture(input, options_);
+    prepared.image_bytes = std::move(input.image_bytes);
     made = std::move(prepared);
   } catch (const std::exception&) {
     made.reset();

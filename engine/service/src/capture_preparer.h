@@ -25,11 +25,9 @@ namespace arscout::engine::service {
 
 class CapturePreparer {
  public:
-  // Reads a capture's image bytes from the store; throws when it cannot.
-  using ReadBytes = std::function<std::string(const std::string& capture)>;
-  // Reads what the engine takes from a capture, with the bytes given.
-  using ReadInput = std::function<CaptureInput(const std::string& capture,
-                                               std::string image_bytes)>;
+  // Reads what the engine takes from a stored capture, its photo's bytes
+  // with it; throws when it cannot.
+  using ReadInput = std::function<CaptureInput(const std::string& capture)>;
 
   struct Prepared {
     std::string image_bytes;  // for the case the site prepares it again
@@ -39,8 +37,8 @@ class CapturePreparer {
   // Holds at most `capacity` prepared photos not yet taken; a prepared
   // photo nobody takes within `stale_after` (its site went to another
   // worker, it was withdrawn) is dropped when room is needed.
-  CapturePreparer(ReadBytes read_bytes, ReadInput read_input,
-                  ReconstructionOptions options, std::size_t capacity = 16,
+  CapturePreparer(ReadInput read_input, ReconstructionOptions options,
+                  std::size_t capacity = 16,
                   std::chrono::seconds stale_after = std::chrono::seconds(60));
   ~CapturePreparer();  // stops the thread; what it holds is dropped
   CapturePreparer(const CapturePreparer&) = delete;
@@ -77,7 +75,6 @@ class CapturePreparer {
   bool room(std::unique_lock<std::mutex>& lock);
   void prepare(const std::string& capture, std::unique_lock<std::mutex>& lock);
 
-  const ReadBytes read_bytes_;
   const ReadInput read_input_;
   const ReconstructionOptions options_;
   const std::size_t capacity_;

@@ -137,10 +137,7 @@ struct EngineWorker::Impl {
       return nullptr;
     return std::make_unique<service::CapturePreparer>(
         [this](const std::string& capture) {
-          return store.get_blob(service::capture_image_sha(store, capture));
-        },
-        [this](const std::string& capture, std::string bytes) {
-          return service::capture_input(store, capture, std::move(bytes));
+          return service::stored_capture_input(store, capture);
         },
         options.reconstruction,
         static_cast<std::size_t>(options.prepare_ahead));
