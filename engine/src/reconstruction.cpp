@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iterator>
+#include <optional>
 #include <set>
 #include <stdexcept>
 
@@ -11,6 +13,7 @@
 #include "features/image_loader.h"
 #include "features/matcher.h"
 #include "io/serialization.h"
+#include "parallel.h"
 #include "prepared_capture.h"
 #include "sfm/mapper.h"
 #include "sfm/model_builder.h"
@@ -70,6 +73,14 @@ struct Candidate {
   int turns = 0;
 };
 
+// A pair to match and verify: a new image, an earlier one, and the quarter
+// turns that align the new one's descriptors with the earlier one's.
+struct PairTask {
+  int index = 0;
+  int other = 0;
+  int turns = 0;
+};
+
 std::string camera_key(const CaptureInput& capture) {
   if (!capture.camera_id.empty()) return capture.camera_id;
   return "capture:" + capture.id;  // no shared camera named: its own
@@ -117,11 +128,14 @@ struct Reconstruction::Impl {
   std::vector<Candidate> neighbours(int index) const;
   std::vector<int> covisible_with(const std::set<int>& images) const;
   int overlap(int index, int other) const;
+  std::vector<int> overlaps(int index, const std::vector<int>& others) const;
   std::pair<int, int> best_rotation(int index, int other) const;
   std::vector<Candidate> visual_screen(int index,
                                        const std::set<int>& skip) const;
   int match_image(int index, StageTimings& timings);
-  bool verify_pair(int index, int other_index, int turns);
+  std::optional<ImagePair> verified_pair(const PairTask& task,
+                                         int threads) const;
+  int verify_pairs(const std::vector<PairTask>& tasks);
   int match_across(int first);
   void set_gps(SceneImage& image, const std::optional<GeoFix>& fix);
 };
@@ -270,11 +284,11 @@ std::vector<int> Reconstruction::Impl::loop_candidates(
         }))
       continue;
     screened.push_back(i);
-    const int score = overlap_score(scene.images[index].descriptors,
-                                    scene.images[i].descriptors, options.ratio,
-                                    kScreenSamples);
-    if (score >= kScreenMinimum) scored.push_back({-score, i});
   }
+  const std::vector<int> scores = overlaps(index, screened);
+  for (size_t k = 0; k < screened.size(); ++k)
+    if (scores[k] >= kScreenMinimum)
+      scored.push_back({-scores[k], screened[k]});
   std::sort(scored.begin(), scored.end());
   std::vector<int> result;
   for (size_t k = 0;
@@ -301,15 +315,23 @@ std::vector<Candidate> Reconstruction::Impl::neighbours(int index) const {
     ++recent;
   }
   std::map<int, int> scores;  // of the screen, by partner
-  const auto score = [&](int other) {
-    auto [at, added] = scores.try_emplace(other, 0);
-    if (added) at->second = overlap(index, other);
-    return at->second;
+  const auto screen = [&](const std::set<int>& others) {
+    std::vector<int> missing;
+    for (int other : others)
+      if (!scores.count(other)) missing.push_back(other);
+    const std::vector<int> found = overlaps(index, missing);
+    for (size_t k = 0; k < missing.size(); ++k) scores[missing[k]] = found[k];
   };
+  const auto score = [&](int other) { return scores.at(other); };
   if (image.gps) {
     const std::set<int> recent_ones = chosen;
     const std::set<int> spatial = spatial_neighbours(index, chosen);
     chosen = recent_ones;
+    std::set<int> new_ones;
+    std::set_difference(spatial.begin(), spatial.end(), recent_ones.begin(),
+                        recent_ones.end(),
+                        std::inserter(new_ones, new_ones.end()));
+    screen(new_ones);
     // Nearby by a noisy fix is not overlapping: a photo of the other side
     // of the street costs a full match and gives nothing.
     for (int other : spatial) {
@@ -323,6 +345,7 @@ std::vector<Candidate> Reconstruction::Impl::neighbours(int index) const {
   // quarter turns.
   std::vector<Candidate> result;
   if (image.gps) {
+    screen(chosen);
     for (int other : chosen) {
       if (score(other) >= kPartnerScreen) result.push_back({other, 0});
     }
@@ -339,6 +362,16 @@ int Reconstruction::Impl::overlap(int index, int other) const {
   return overlap_score(scene.images[index].descriptors,
                        scene.images[other].descriptors, options.ratio,
                        kScreenSamples);
+}
+
+// overlap() of `index` with each of `others`, several at once on up to
+// options.threads cores.
+std::vector<int> Reconstruction::Impl::overlaps(
+    int index, const std::vector<int>& others) const {
+  std::vector<int> result(others.size(), 0);
+  run_tasks(others.size(), options.threads,
+            [&](size_t k) { result[k] = overlap(index, others[k]); });
+  return result;
 }
 
 // Registered images that share the most points with `images`.
@@ -407,24 +440,45 @@ std::vector<Candidate> Reconstruction::Impl::visual_screen(
 
 int Reconstruction::Impl::match_image(int index, StageTimings& timings) {
   const auto start = std::chrono::steady_clock::now();
-  int verified = 0;
+  std::vector<PairTask> tasks;
   for (const auto& [other_index, turns] : neighbours(index))
-    verified += verify_pair(index, other_index, turns) ? 1 : 0;
+    tasks.push_back({index, other_index, turns});
+  const int verified = verify_pairs(tasks);
   timings.matching_s += seconds_since(start);
   return verified;
 }
 
-// Matches `index` (its descriptors turned by `turns` quarter turns) with
-// the earlier `other_index` and keeps the pair when the essential matrix
-// verifies it.
-bool Reconstruction::Impl::verify_pair(int index, int other_index, int turns) {
-  const SceneImage& image = scene.images[index];
+// Matches and verifies the pairs, several at once on up to options.threads
+// cores, each pair's match then on one core (a lone pair's match spreads
+// over them instead), and keeps those that verify. A pair's result does not
+// depend on the thread that made it, and they are stored in the order
+// given, so the scene does not depend on the threads.
+int Reconstruction::Impl::verify_pairs(const std::vector<PairTask>& tasks) {
+  std::vector<std::optional<ImagePair>> found(tasks.size());
+  const int match_threads = tasks.size() > 1 ? 1 : options.threads;
+  run_tasks(tasks.size(), options.threads, [&](size_t k) {
+    found[k] = verified_pair(tasks[k], match_threads);
+  });
+  int verified = 0;
+  for (size_t k = 0; k < tasks.size(); ++k) {
+    if (!found[k]) continue;
+    scene.pairs[{tasks[k].other, tasks[k].index}] = std::move(*found[k]);
+    ++verified;
+  }
+  return verified;
+}
+
+// Matches the task's image (its descriptors turned by its quarter turns)
+// with the earlier one: the pair when the essential matrix verifies it.
+std::optional<ImagePair> Reconstruction::Impl::verified_pair(
+    const PairTask& task, int threads) const {
+  const SceneImage& image = scene.images[task.index];
   const SceneCamera& camera = scene.cameras[image.camera];
-  const SceneImage& other = scene.images[other_index];
+  const SceneImage& other = scene.images[task.other];
   const SceneCamera& other_camera = scene.cameras[other.camera];
   const auto matches = match_descriptors(
-      other.descriptors, rotate_descriptors(image.descriptors, turns),
-      options.ratio, options.threads);
+      other.descriptors, rotate_descriptors(image.descriptors, task.turns),
+      options.ratio, threads);
   std::vector<Eigen::Vector2d> x1, x2;
   for (const auto& [a, b] : matches) {
     x1.push_back(normalize(other_camera, other.keypoints[a]));
@@ -434,15 +488,14 @@ bool Reconstruction::Impl::verify_pair(int index, int other_index, int turns) {
       kEssentialThresholdPx * 2 / (camera.params[0] + other_camera.params[0]);
   const auto pose =
       estimate_relative_pose(x1, x2, threshold, options.min_pair_inliers);
-  if (!pose) return false;
+  if (!pose) return std::nullopt;
   ImagePair pair;
   for (int i : pose->inliers) pair.matches.push_back(matches[i]);
   pair.R = pose->R;
   pair.t = pose->t;
   pair.median_angle_deg = pose->median_angle_deg;
   pair.homography_ratio = pose->homography_ratio;
-  scene.pairs[{other_index, index}] = std::move(pair);
-  return true;
+  return pair;
 }
 
 // After absorbing another scene (its photos from `first` on): the absorbed
@@ -462,7 +515,7 @@ int Reconstruction::Impl::match_across(int first) {
   }
   std::sort(nearest.begin(), nearest.end());
   if (nearest.size() > kAcrossPhotos) nearest.resize(kAcrossPhotos);
-  int verified = 0;
+  std::vector<PairTask> tasks;
   for (const auto& [distance, j] : nearest) {
     std::vector<std::pair<double, int>> ours;
     for (int i = 0; i < first; ++i) {
@@ -471,9 +524,9 @@ int Reconstruction::Impl::match_across(int first) {
     }
     std::sort(ours.begin(), ours.end());
     for (size_t k = 0; k < ours.size() && k < kAcrossPartners; ++k)
-      verified += verify_pair(j, ours[k].second, 0) ? 1 : 0;
+      tasks.push_back({j, ours[k].second, 0});
   }
-  return verified;
+  return verify_pairs(tasks);
 }
 
 Reconstruction::Reconstruction(ReconstructionOptions options)

@@ -4,6 +4,8 @@
 #include <exception>
 #include <utility>
 
+#include "thread_priority.h"
+
 namespace arscout::engine::service {
 
 CapturePreparer::CapturePreparer(ReadInput read_input,
@@ -84,6 +86,9 @@ bool CapturePreparer::room(std::unique_lock<std::mutex>& lock) {
 }
 
 void CapturePreparer::run() {
+  // Ahead of the increments, not in their way: a photo this thread has not
+  // reached is prepared by its increment.
+  lower_thread_priority(BackgroundLane::kPrepareAhead);
   std::unique_lock lock(mutex_);
   while (true) {
     changed_.wait_for(lock, std::chrono::seconds(1), [&] {

@@ -2,12 +2,13 @@
 // subscription's thread); a small pool runs the sites' increments, one at a
 // time per site, each folding in everything queued for its site meanwhile.
 //
-// A site's dense phase runs in a lane of its own (its own threads, at a
-// lower CPU priority), beside the site's next sparse phases: a photo's
-// registration never waits for a depth map. The lanes take turns only to
-// publish (SiteJob::publication). Deterministic runs keep the dense phase
-// inline, after the sparse phase, so that what it sweeps never depends on
-// timing.
+// A site's dense phase runs in a lane of its own (its own threads, its
+// sweeps at a lower CPU priority), beside the site's next sparse phases: a
+// photo's registration never waits for a depth map. The lanes take turns
+// only to publish (SiteJob::publication), and the dense lane publishes at
+// full priority, since the sparse lane waits for it then. Deterministic runs
+// keep the dense phase inline, after the sparse phase, so that what it sweeps
+// never depends on timing.
 //
 // The checkpoint: every change up to the last one placed is either done or
 // queued; queued changes are "in flight" until the increment holding them
@@ -31,12 +32,6 @@
 #include <set>
 #include <thread>
 
-#ifdef __linux__
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
-#endif
-
 #include "arscout/db/errors.h"
 #include "arscout/db/path.h"
 #include "arscout/db/store.h"
@@ -48,23 +43,13 @@
 #include "site_directory.h"
 #include "site_job.h"
 #include "site_leases.h"
+#include "thread_priority.h"
 #include "worker_metrics.h"
 
 namespace arscout::engine {
 
 using service::PhaseClocks;
 using service::Work;
-
-namespace {
-// The dense lanes yield the CPU to the sparse ones, whose latency a scout
-// waits on (a nice value, per thread on Linux; elsewhere nothing).
-void lower_thread_priority() {
-#ifdef __linux__
-  constexpr int kDenseNice = 10;
-  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kDenseNice);
-#endif
-}
-}  // namespace
 
 // Times one capture's increment may fail in the engine before the capture
 // is rejected (after_engine_fault).
@@ -737,7 +722,6 @@ struct EngineWorker::Impl {
 
   // --- dense lanes (their own threads) -------------------------------------
   void run_dense_lanes() {
-    lower_thread_priority();
     std::unique_lock lock(mutex);
     while (true) {
       changed.wait(lock, [&] { return stopping || !dense_ready.empty(); });
@@ -800,7 +784,11 @@ struct EngineWorker::Impl {
       std::lock_guard guard(mutex);
       return !q.running && q.pending.empty();
     };
-    job.compute_dense(*task);
+    // The sweep yields the CPU to the sparse lane, whose latency a scout
+    // waits on; the publication after it does not, as the sparse lane
+    // waits for it.
+    service::run_at_lane_priority(service::BackgroundLane::kDense,
+                                  [&] { job.compute_dense(*task); });
     set_dense_turn(q, true);  // a refinement gives way too
     std::lock_guard publication(job.publication());
     service::Increment dense = job.finish_dense(*task);

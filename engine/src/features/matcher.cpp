@@ -8,11 +8,12 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
-#include <thread>
 
 #if defined(__x86_64__)
 #include <immintrin.h>
 #endif
+
+#include "parallel.h"
 
 namespace arscout::engine {
 namespace {
@@ -435,28 +436,20 @@ std::vector<std::pair<int, int>> match_descriptors(const cv::Mat& a,
   std::vector<RowBest> rows(a.rows);
   const int parts = std::max(1, std::min(threads, a.rows / 256 + 1));
   std::vector<ColumnBests> columns(parts, ColumnBests(b.rows));
-  std::vector<std::thread> workers;
   // Parts start at multiples of the row block: the 12-bit rows are padded
   // only at the end.
   const int chunk =
       ((a.rows + parts - 1) / parts + kRowBlock - 1) / kRowBlock * kRowBlock;
   QuantizedRows qa, qb;
   const bool coded = quantize_rows(a, qa) && quantize_rows(b, qb);
-  for (int p = 0; p < parts; ++p) {
+  run_workers(parts, [&](int p) {
     const int begin = std::min(a.rows, p * chunk),
               end = std::min(a.rows, begin + chunk);
-    auto work = [&, p, begin, end] {
-      if (coded)
-        scan_code_rows(qa, qb, b.rows, begin, end, rows, columns[p]);
-      else
-        scan_rows(a, b, begin, end, rows, columns[p]);
-    };
-    if (p + 1 == parts)
-      work();
+    if (coded)
+      scan_code_rows(qa, qb, b.rows, begin, end, rows, columns[p]);
     else
-      workers.emplace_back(work);
-  }
-  for (std::thread& worker : workers) worker.join();
+      scan_rows(a, b, begin, end, rows, columns[p]);
+  });
   // Merge the per-part column bests; parts are in row order, so keeping the
   // first strict maximum keeps the lower row on ties.
   ColumnBests best_column = columns[0];
