@@ -87,7 +87,7 @@ bool CapturePreparer::room(std::unique_lock<std::mutex>& lock) {
 
 void CapturePreparer::run() {
   // Ahead of the increments, not in their way: a photo this thread has not
-  // reached is prepared by its increment.
+  // reached is prepared by its increment (thread_priority.h).
   lower_thread_priority(BackgroundLane::kPrepareAhead);
   std::unique_lock lock(mutex_);
   while (true) {
