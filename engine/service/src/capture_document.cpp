@@ -31,11 +31,10 @@ std::optional<CameraIntrinsics> camera_intrinsics(const nlohmann::json& attrs) {
 
 namespace {
 
-std::optional<db::Document> capture_document(db::Store& store,
-                                             const std::string& capture) {
+db::Document capture_document(db::Store& store, const std::string& capture) {
   auto doc = store.get("/captures/" + capture);
   if (!doc) throw std::invalid_argument("capture " + capture + " is gone");
-  return doc;
+  return std::move(*doc);
 }
 
 std::string image_sha(const db::Document& doc, const std::string& capture) {
@@ -66,20 +65,19 @@ CaptureInput input_of(db::Store& store, const db::Document& doc,
 }  // namespace
 
 std::string capture_image_sha(db::Store& store, const std::string& capture) {
-  return image_sha(*capture_document(store, capture), capture);
+  return image_sha(capture_document(store, capture), capture);
 }
 
 CaptureInput capture_input(db::Store& store, const std::string& capture,
                            std::string image_bytes) {
-  return input_of(store, *capture_document(store, capture), capture,
+  return input_of(store, capture_document(store, capture), capture,
                   std::move(image_bytes));
 }
 
 CaptureInput stored_capture_input(db::Store& store,
                                   const std::string& capture) {
-  const auto doc = capture_document(store, capture);
-  return input_of(store, *doc, capture,
-                  store.get_blob(image_sha(*doc, capture)));
+  const db::Document doc = capture_document(store, capture);
+  return input_of(store, doc, capture, store.get_blob(image_sha(doc, capture)));
 }
 
 }  // namespace arscout::engine::service
