@@ -85,6 +85,7 @@ struct Options {
   bool toward = false;
   bool no_dense = false;
   int prepare_ahead = arscout::engine::WorkerOptions{}.prepare_ahead;
+  int increment_captures = arscout::engine::WorkerOptions{}.increment_captures;
   bool per_capture = false;
   // How long to wait, after the last photo, for the worker to go idle (the
   // background refinement and the dense re-fusing it causes may run on).
@@ -455,6 +456,7 @@ void run(const Options& o) {
   arscout::engine::WorkerOptions options;
   options.dense = !o.no_dense;
   options.prepare_ahead = o.prepare_ahead;
+  options.increment_captures = o.increment_captures;
   options.site_radius_m = o.site_radius_m;
   options.dense_options.new_coverage_share = o.new_coverage;
   options.dense_options.long_side = o.dense_long_side;
@@ -510,6 +512,11 @@ int main(int argc, char** argv) {
                  "(0: inside them), as arscout engine's")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--increment-captures", o.increment_captures,
+                 "captures one increment of a site takes at most, as arscout "
+                 "engine's")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
   app.add_flag("--per-capture", o.per_capture, "a row per capture");
   app.add_option("--site-radius", o.site_radius_m,
                  "as arscout serve's: a capture joins a site whose footprint "

@@ -54,6 +54,12 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
                   "each inside its increment)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000));
+  cmd->add_option("--increment-captures", o->increment_captures,
+                  "captures one increment of a site takes at most, in turns "
+                  "between scouts; those queued behind wait for the next "
+                  "(docs/service.md, \"One increment\")")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
   cmd->add_flag("!--no-dense", o->dense, "sparse models only");
   cmd->add_option("--dense-long-side", o->dense_options.long_side,
                   "dense working resolution, long side in px")

@@ -618,6 +618,7 @@ AddResult Reconstruction::add_capture(const CaptureInput& capture,
   result.matched_pairs = impl_->match_image(index, timings);
 
   IncrementalMapper mapper(scene, options, timings);
+  mapper.defer_global_adjustment(capture.more_follow);
   const std::vector<int> registered = mapper.update();
   for (int i : registered) {
     if (i != index) result.also_registered.push_back(scene.images[i].id);
@@ -636,6 +637,7 @@ AddResult Reconstruction::add_capture(const CaptureInput& capture,
   result.pose_inliers = added.registered ? added.pose_inliers : 0;
   result.geo_registered = scene.geo_registered;
   result.loops_closed = mapper.loops_closed();
+  result.global_adjustments = mapper.global_adjustments();
   result.components_merged = mapper.components_merged();
   result.components_retired = mapper.components_retired();
   result.component = added.registered ? added.component : -1;

@@ -5,7 +5,6 @@
 #include <vector>
 
 #include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include "arscout/engine/reconstruction.h"
 #include "rendered_street.h"
@@ -14,27 +13,6 @@ namespace arscout::engine {
 namespace {
 
 using namespace street_fixture;
-
-// The street views as captures: PNG bytes, the exact intrinsics.
-std::vector<CaptureInput> street_captures() {
-  const std::vector<Rendered>& street = rendered_street({320, 240});
-  std::vector<CaptureInput> result;
-  for (int i = 0; i < kStreetViews; ++i) {
-    std::vector<uchar> png;
-    if (!cv::imencode(".png", street[i].image.bgr, png))
-      throw std::runtime_error("PNG encoding failed");
-    CaptureInput input;
-    input.id = view_id(i);
-    input.image_bytes.assign(png.begin(), png.end());
-    const Eigen::Matrix3d& k = street[i].view.K;
-    input.camera = centred_camera(320, 240, k(0, 0), "calibrated");
-    input.camera->cx = k(0, 2);
-    input.camera->cy = k(1, 2);
-    input.camera_id = "street";
-    result.push_back(std::move(input));
-  }
-  return result;
-}
 
 ReconstructionOptions options() {
   ReconstructionOptions o;
@@ -55,7 +33,7 @@ void expect_same_models(const Model& a, const Model& b) {
 }
 
 TEST(PreparedCapture, GivesTheModelAddCaptureGivesAlone) {
-  const std::vector<CaptureInput> captures = street_captures();
+  const std::vector<CaptureInput> captures = street_captures({320, 240});
   Reconstruction inline_site(options()), ahead_site(options());
   for (const CaptureInput& capture : captures) {
     const PreparedCapture prepared = prepare_capture(capture, options());
@@ -77,7 +55,7 @@ TEST(PreparedCapture, GivesTheModelAddCaptureGivesAlone) {
 }
 
 TEST(PreparedCapture, MadeForAnotherCaptureOrCameraIsNotUsed) {
-  const std::vector<CaptureInput> captures = street_captures();
+  const std::vector<CaptureInput> captures = street_captures({320, 240});
   Reconstruction inline_site(options()), other_site(options());
   for (size_t i = 0; i < captures.size(); ++i) {
     const CaptureInput& capture = captures[i];
@@ -98,10 +76,10 @@ TEST(PreparedCapture, MadeForAnotherCaptureOrCameraIsNotUsed) {
 }
 
 TEST(PreparedCapture, RefusesWhatAddCaptureRefuses) {
-  CaptureInput broken = street_captures().front();
+  CaptureInput broken = street_captures({320, 240}).front();
   broken.image_bytes = "not an image";
   EXPECT_THROW(prepare_capture(broken, options()), std::invalid_argument);
-  broken = street_captures().front();
+  broken = street_captures({320, 240}).front();
   broken.camera->fx = -1;
   EXPECT_THROW(prepare_capture(broken, options()), std::invalid_argument);
 }

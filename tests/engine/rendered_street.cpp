@@ -3,9 +3,11 @@
 #include <map>
 #include <mutex>
 #include <random>
+#include <stdexcept>
 #include <utility>
 
 #include <Eigen/Geometry>
+#include <opencv2/imgcodecs.hpp>
 
 namespace arscout::engine::street_fixture {
 
@@ -29,6 +31,27 @@ const std::vector<Rendered>& rendered_street(cv::Size size) {
 }
 
 std::string view_id(int index) { return "view" + std::to_string(index); }
+
+std::vector<CaptureInput> street_captures(cv::Size size) {
+  const std::vector<Rendered>& street = rendered_street(size);
+  std::vector<CaptureInput> result;
+  for (int i = 0; i < kStreetViews; ++i) {
+    std::vector<uchar> png;
+    if (!cv::imencode(".png", street[i].image.bgr, png))
+      throw std::runtime_error("PNG encoding failed");
+    CaptureInput input;
+    input.id = view_id(i);
+    input.image_bytes.assign(png.begin(), png.end());
+    const Eigen::Matrix3d& k = street[i].view.K;
+    input.camera =
+        centred_camera(size.width, size.height, k(0, 0), "calibrated");
+    input.camera->cx = k(0, 2);
+    input.camera->cy = k(1, 2);
+    input.camera_id = "street";
+    result.push_back(std::move(input));
+  }
+  return result;
+}
 
 Eigen::Vector3d surface_point(const Rendered& r, int x, int y) {
   const double z = r.image.depth.at<float>(y, x);

@@ -35,6 +35,9 @@ const std::vector<Rendered>& rendered_street(cv::Size size);
 
 // "view<index>": the id the tests give view `index`.
 std::string view_id(int index);
+// The views at `size` as captures: PNG bytes, the exact intrinsics, one
+// camera ("street"), no fixes.
+std::vector<CaptureInput> street_captures(cv::Size size);
 
 // The world point seen at pixel (x, y) of `r`, at its true depth.
 Eigen::Vector3d surface_point(const Rendered& r, int x, int y);

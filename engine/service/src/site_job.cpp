@@ -178,7 +178,8 @@ void SiteJob::restore() {
   loaded_ = true;
 }
 
-void SiteJob::add(const std::string& capture, IncrementReport* report) {
+void SiteJob::add(const std::string& capture, bool more_follow,
+                  IncrementReport* report) {
   for (const CaptureState& c : sparse_->captures())
     if (c.id == capture) return;  // delivered again: already in the state
   AddResult result;
@@ -186,14 +187,12 @@ void SiteJob::add(const std::string& capture, IncrementReport* report) {
     // Prepared ahead when a preparer holds it (capture_preparer.h).
     std::optional<CapturePreparer::Prepared> ready;
     if (preparer_) ready = preparer_->take(capture);
-    if (ready) {
-      result = sparse_->add_capture(
-          capture_input(store_, capture, std::move(ready->image_bytes)),
-          ready->photo);
-    } else {
-      result = sparse_->add_capture(
-          capture_input(store_, capture, image_bytes(capture)));
-    }
+    CaptureInput input =
+        ready ? capture_input(store_, capture, std::move(ready->image_bytes))
+              : capture_input(store_, capture, image_bytes(capture));
+    input.more_follow = more_follow;
+    result = ready ? sparse_->add_capture(input, ready->photo)
+                   : sparse_->add_capture(input);
   } catch (const std::invalid_argument& e) {
     // A photo the engine cannot use is rejected, not retried forever.
     pending_statuses_[capture] = std::string("rejected\n") + e.what();
@@ -233,12 +232,15 @@ Increment SiteJob::run(const std::vector<Work>& work,
   IncrementReport report;
   pending_through_seq_ = std::max(through_seq_, settled_through);
   Increment increment;
-  for (const Work& w : work) {
-    increment.settled.push_back(w.capture);
-    if (w.kind == Work::Kind::kAdd) {
-      add(w.capture, &report);
-    } else if (sparse_->remove_capture(w.capture)) {
-      report.withdrawn.push_back(w.capture);
+  for (auto w = work.begin(); w != work.end(); ++w) {
+    increment.settled.push_back(w->capture);
+    if (w->kind == Work::Kind::kAdd) {
+      const bool more_follow = std::any_of(
+          w + 1, work.end(),
+          [](const Work& later) { return later.kind == Work::Kind::kAdd; });
+      add(w->capture, more_follow, &report);
+    } else if (sparse_->remove_capture(w->capture)) {
+      report.withdrawn.push_back(w->capture);
     }
   }
   start_feature_writes(report);

@@ -199,7 +199,10 @@ class SiteJob {
                        const IncrementReport& report,
                        const DenseTiles* new_cloud = nullptr,
                        const std::set<std::string>* new_views = nullptr);
-  void add(const std::string& capture, IncrementReport* report);
+  // `more_follow`: the increment adds more captures after this one
+  // (CaptureInput::more_follow).
+  void add(const std::string& capture, bool more_follow,
+           IncrementReport* report);
   // Hands the features of the captures `report` added to feature_writer_.
   void start_feature_writes(const IncrementReport& report);
   // The stored blob of `capture`'s features: the one feature_writer_ stored

@@ -85,6 +85,10 @@ std::vector<int> IncrementalMapper::update() {
   // so that an increment stays bounded), which may let more register.
   if (start_component(registered))
     register_by_points(registered, options_.max_registrations_per_update, {});
+  // Left due by earlier calls that deferred it, when this call registered
+  // nothing to run it.
+  if (!defer_global_ && scene_.global_ba_deferred && inline_global_due())
+    adjust_global();
   return registered;
 }
 
@@ -138,11 +142,19 @@ void IncrementalMapper::extend_model(int index) {
   adjust_local(index);
   geo_register(scene_.images[index].component, scene_.geo_registered);
   merge_through(index);
-  if (global_inline() &&
-      scene_.registered_count() >=
-          options_.global_ba_growth * scene_.registered_at_last_global_ba) {
+  if (!inline_global_due()) return;
+  if (defer_global_)
+    scene_.global_ba_deferred = true;
+  else
     adjust_global();
-  }
+}
+
+// COLMAP's rule for a small model: a global adjustment whenever the model
+// grew by `global_ba_growth` since the last one.
+bool IncrementalMapper::inline_global_due() const {
+  return global_inline() &&
+         scene_.registered_count() >=
+             options_.global_ba_growth * scene_.registered_at_last_global_ba;
 }
 
 // After a loop closure moved the chain onto the old captures, the new
@@ -850,6 +862,7 @@ void IncrementalMapper::adjust_local(int index) {
 
 void IncrementalMapper::adjust_global() {
   StageClock clock(timings_.bundle_adjustment_s);
+  ++global_adjustments_;
   BundleOptions ba = bundle_options(kGlobalIterations);
   ba.function_tolerance = kInlineGlobalTolerance;
   align_to_priors(ba);
@@ -865,6 +878,7 @@ void IncrementalMapper::adjust_global() {
   if (scene_.points.size() + before / 50 < before)
     adjust_bundle(scene_, {}, true, ba);
   scene_.registered_at_last_global_ba = scene_.registered_count();
+  scene_.global_ba_deferred = false;
 }
 
 // Drops observations that reproject badly, then points left with fewer than

@@ -33,6 +33,10 @@ class IncrementalMapper {
   // Registers every image it can (initializing the model first when it has
   // none); returns the newly registered images in order of registration.
   std::vector<int> update();
+  // While set, update() leaves the inline global adjustment of a small
+  // model to a later call (CaptureInput::more_follow); the rule that makes
+  // it due counts from the last one, so the next call without it runs it.
+  void defer_global_adjustment(bool defer) { defer_global_ = defer; }
   // After a withdrawal: re-initializes when too little is left, else
   // adjusts the whole model again.
   void repair_after_removal();
@@ -42,6 +46,8 @@ class IncrementalMapper {
   bool refinement_due() const;
   // Loops closed by this mapper's update() calls.
   int loops_closed() const { return loops_closed_; }
+  // Global adjustments this mapper ran inside update().
+  int global_adjustments() const { return global_adjustments_; }
   // Small components that stopped growing, retired by update() calls.
   int components_retired() const { return components_retired_; }
   // Mean reprojection error over all observations, working pixels.
@@ -143,6 +149,7 @@ class IncrementalMapper {
   bool near_duplicate_view(int index, const std::vector<int>& covisible) const;
   void adjust_global();
   bool global_inline() const;
+  bool inline_global_due() const;
   void filter_points(const std::vector<int>& images);
   bool geo_register(int component, bool placed);
   std::optional<Similarity> first_placement(int component) const;
@@ -163,6 +170,8 @@ class IncrementalMapper {
   StageTimings& timings_;
   int loops_closed_ = 0;
   int components_retired_ = 0;
+  bool defer_global_ = false;
+  int global_adjustments_ = 0;
   int components_merged_ = 0;
 };
 

@@ -102,6 +102,11 @@ struct Scene {
   bool geo_registered = false;         // world frame is ENU
   bool initialized = false;
   int registered_at_last_global_ba = 0;
+  // A small model's inline global adjustment fell due in a call that
+  // deferred it (CaptureInput::more_follow); the next call that does not
+  // defer runs it (not serialized: a restored scene runs it at the next
+  // registration that finds it due).
+  bool global_ba_deferred = false;
   // Refinement rounds in a row that ended on their iteration cap while the
   // model kept its registered captures (`unsettled_at_count`); a capture
   // registered or a loop closed starts the count again (neither is

@@ -119,6 +119,11 @@ struct CaptureInput {
   // Who took it: a photo is matched with its own scout's recent photos
   // (its walk), not with whoever uploaded just before. "" when unknown.
   std::string scout;
+  // More captures follow in the same increment (the service folds those
+  // queued meanwhile): a global adjustment of a small model that falls due
+  // now waits for the increment's last capture, so an increment runs it
+  // once, not after every other photo (docs/engine.md, "Adjustments").
+  bool more_follow = false;
 };
 
 struct StageTimings {
@@ -156,6 +161,9 @@ struct AddResult {
   // Small components that stopped growing, retired by this increment
   // (ReconstructionOptions::retire_component_below).
   int components_retired = 0;
+  // Global adjustments this call ran inside the increment (a small model's
+  // periodic one, or after a loop closure); 0 when deferred (more_follow).
+  int global_adjustments = 0;
   StageTimings timings;
 };
 
