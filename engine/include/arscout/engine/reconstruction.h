@@ -122,7 +122,8 @@ struct CaptureInput {
   // More captures follow in the same increment (the service folds those
   // queued meanwhile): a global adjustment of a small model that falls due
   // now waits for the increment's last capture, so an increment runs it
-  // once, not after every other photo (docs/engine.md, "Adjustments").
+  // once, not after every other photo (docs/engine.md, "Bounded
+  // increments").
   bool more_follow = false;
 };
 
