@@ -34,6 +34,7 @@ struct Options {
   std::string scene;
   int views = 48;
   int fold = 4;
+  int long_side = arscout::engine::ReconstructionOptions{}.long_side;
 };
 
 struct RunFigures {
@@ -108,6 +109,7 @@ RunFigures run(const Options& o,
   engine::ReconstructionOptions options;
   options.deterministic = true;
   options.threads = 1;
+  options.long_side = o.long_side;
   engine::Reconstruction site(options);
   RunFigures figures;
   for (size_t i = 0; i < captures.size(); ++i) {
@@ -152,6 +154,11 @@ int main(int argc, char** argv) {
   app.add_option("--fold", o.fold, "captures per folded increment")
       ->capture_default_str()
       ->check(CLI::Range(2, 1000));
+  app.add_option("--long-side", o.long_side,
+                 "working resolution, long side in px (as arscout "
+                 "reconstruct's)")
+      ->capture_default_str()
+      ->check(CLI::Range(100, 10000));
   CLI11_PARSE(app, argc, argv);
   try {
     const auto captures = scene_captures(o);
