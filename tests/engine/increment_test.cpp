@@ -14,13 +14,6 @@ namespace {
 
 using namespace street_fixture;
 
-ReconstructionOptions options() {
-  ReconstructionOptions o;
-  o.deterministic = true;
-  o.long_side = 320;
-  return o;
-}
-
 // Global adjustments run by each add_capture of `captures`, each marked
 // as followed by more captures of its increment or not.
 std::vector<int> global_adjustments(const std::vector<CaptureInput>& captures,
@@ -45,7 +38,7 @@ TEST(Increment, AGlobalAdjustmentDueWhileMoreFollowWaitsForTheLast) {
   ASSERT_EQ(captures.size(), 5u);
   // The first three make the initial model; the fourth and fifth each grow
   // it by more than a tenth, so each is due one when it comes alone.
-  Reconstruction alone(options()), folded(options());
+  Reconstruction alone(street_options()), folded(street_options());
   const std::vector<int> one_by_one =
       global_adjustments(captures, {false, false, false, false, false}, alone);
   EXPECT_EQ(one_by_one[3], 1);

@@ -14,13 +14,6 @@ namespace {
 
 using namespace street_fixture;
 
-ReconstructionOptions options() {
-  ReconstructionOptions o;
-  o.deterministic = true;
-  o.long_side = 320;
-  return o;
-}
-
 void expect_same_models(const Model& a, const Model& b) {
   ASSERT_EQ(a.images.size(), b.images.size());
   ASSERT_EQ(a.points.size(), b.points.size());
@@ -34,9 +27,9 @@ void expect_same_models(const Model& a, const Model& b) {
 
 TEST(PreparedCapture, GivesTheModelAddCaptureGivesAlone) {
   const std::vector<CaptureInput> captures = street_captures({320, 240});
-  Reconstruction inline_site(options()), ahead_site(options());
+  Reconstruction inline_site(street_options()), ahead_site(street_options());
   for (const CaptureInput& capture : captures) {
-    const PreparedCapture prepared = prepare_capture(capture, options());
+    const PreparedCapture prepared = prepare_capture(capture, street_options());
     EXPECT_EQ(prepared.capture_id(), capture.id);
     EXPECT_GT(prepared.timings().features_s, 0);
     CaptureInput without_bytes = capture;
@@ -56,7 +49,7 @@ TEST(PreparedCapture, GivesTheModelAddCaptureGivesAlone) {
 
 TEST(PreparedCapture, MadeForAnotherCaptureOrCameraIsNotUsed) {
   const std::vector<CaptureInput> captures = street_captures({320, 240});
-  Reconstruction inline_site(options()), other_site(options());
+  Reconstruction inline_site(street_options()), other_site(street_options());
   for (size_t i = 0; i < captures.size(); ++i) {
     const CaptureInput& capture = captures[i];
     // Odd photos: prepared as another capture; even ones: without their
@@ -67,7 +60,8 @@ TEST(PreparedCapture, MadeForAnotherCaptureOrCameraIsNotUsed) {
     } else {
       prepared_as.camera.reset();
     }
-    const PreparedCapture wrong = prepare_capture(prepared_as, options());
+    const PreparedCapture wrong =
+        prepare_capture(prepared_as, street_options());
     const AddResult result = other_site.add_capture(capture, wrong);
     EXPECT_GT(result.timings.features_s, 0) << "prepared again here";
     inline_site.add_capture(capture);
@@ -78,10 +72,12 @@ TEST(PreparedCapture, MadeForAnotherCaptureOrCameraIsNotUsed) {
 TEST(PreparedCapture, RefusesWhatAddCaptureRefuses) {
   CaptureInput broken = street_captures({320, 240}).front();
   broken.image_bytes = "not an image";
-  EXPECT_THROW(prepare_capture(broken, options()), std::invalid_argument);
+  EXPECT_THROW(prepare_capture(broken, street_options()),
+               std::invalid_argument);
   broken = street_captures({320, 240}).front();
   broken.camera->fx = -1;
-  EXPECT_THROW(prepare_capture(broken, options()), std::invalid_argument);
+  EXPECT_THROW(prepare_capture(broken, street_options()),
+               std::invalid_argument);
 }
 
 }  // namespace

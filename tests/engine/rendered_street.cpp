@@ -32,6 +32,13 @@ const std::vector<Rendered>& rendered_street(cv::Size size) {
 
 std::string view_id(int index) { return "view" + std::to_string(index); }
 
+ReconstructionOptions street_options() {
+  ReconstructionOptions o;
+  o.deterministic = true;
+  o.long_side = 320;
+  return o;
+}
+
 std::vector<CaptureInput> street_captures(cv::Size size) {
   const std::vector<Rendered>& street = rendered_street(size);
   std::vector<CaptureInput> result;

@@ -38,6 +38,9 @@ std::string view_id(int index);
 // The views at `size` as captures: PNG bytes, the exact intrinsics, one
 // camera ("street"), no fixes.
 std::vector<CaptureInput> street_captures(cv::Size size);
+// Deterministic reconstruction at a long side of 320 px, for the captures
+// of street_captures({320, 240}).
+ReconstructionOptions street_options();
 
 // The world point seen at pixel (x, y) of `r`, at its true depth.
 Eigen::Vector3d surface_point(const Rendered& r, int x, int y);
