@@ -1,4 +1,7 @@
 #include <algorithm>
+#include <optional>
+#include <tuple>
+#include <utility>
 
 #include "estimators/bundle_adjuster.h"
 #include "estimators/estimators.h"
@@ -9,8 +12,10 @@
 namespace arscout::engine {
 namespace {
 
-std::vector<cv::Point2d> to_cv(const std::vector<Eigen::Vector2d>& points) {
-  std::vector<cv::Point2d> out;
+using PointList = std::vector<cv::Point2d>;
+
+PointList to_cv(const std::vector<Eigen::Vector2d>& points) {
+  PointList out;
   out.reserve(points.size());
   for (const auto& p : points) out.emplace_back(p.x(), p.y());
   return out;
@@ -37,6 +42,97 @@ double median_angle(const RelativePose& pose,
   return angles[angles.size() / 2];
 }
 
+cv::Mat essential_of(const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
+  Eigen::Matrix3d t_cross;
+  t_cross << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
+  cv::Mat E;
+  cv::eigen2cv(Eigen::Matrix3d(t_cross * R), E);
+  return E;
+}
+
+// The correspondences within `threshold` (Sampson distance, as OpenCV's
+// essential-matrix RANSAC measures it) of E = [t]x R.
+cv::Mat sampson_inliers(const cv::Mat& essential, const PointList& p1,
+                        const PointList& p2, double threshold) {
+  Eigen::Matrix3d E;
+  cv::cv2eigen(essential, E);
+  cv::Mat mask(static_cast<int>(p1.size()), 1, CV_8U);
+  for (size_t i = 0; i < p1.size(); ++i) {
+    const Eigen::Vector3d a(p1[i].x, p1[i].y, 1), b(p2[i].x, p2[i].y, 1);
+    const Eigen::Vector3d Ea = E * a, Etb = E.transpose() * b;
+    const double e = b.dot(Ea);
+    const double d2 =
+        e * e /
+        (Ea.head<2>().squaredNorm() + Etb.head<2>().squaredNorm() + 1e-30);
+    mask.at<uchar>(static_cast<int>(i)) = d2 <= threshold * threshold;
+  }
+  return mask;
+}
+
+// An essential matrix's pose with its inliers in front of both cameras
+// (recoverPose's cheirality test on the correspondences `mask` admits).
+RelativePose recovered_pose(const cv::Mat& E, const PointList& p1,
+                            const PointList& p2, cv::Mat mask) {
+  cv::Mat R, t;
+  cv::recoverPose(E, p1, p2, cv::Mat::eye(3, 3, CV_64F), R, t, mask);
+  RelativePose pose;
+  cv::cv2eigen(R, pose.R);
+  cv::Mat t_unit = t / cv::norm(t);
+  cv::cv2eigen(t_unit, pose.t);
+  for (int i = 0; i < mask.rows; ++i) {
+    if (mask.at<uchar>(i)) pose.inliers.push_back(i);
+  }
+  return pose;
+}
+
+// The essential matrices of a homography's decompositions, one for each
+// distinct rotation (the decompositions come in pairs of opposite t).
+std::vector<cv::Mat> homography_essentials(const cv::Mat& H) {
+  std::vector<cv::Mat> rotations, translations, normals;
+  cv::decomposeHomographyMat(H, cv::Mat::eye(3, 3, CV_64F), rotations,
+                             translations, normals);
+  std::vector<cv::Mat> result;
+  std::vector<Eigen::Matrix3d> seen;
+  for (size_t k = 0; k < rotations.size(); ++k) {
+    Eigen::Matrix3d R;
+    Eigen::Vector3d t;
+    cv::cv2eigen(rotations[k], R);
+    cv::cv2eigen(translations[k], t);
+    if (t.norm() < 1e-12) continue;  // a pure rotation: no epipolar geometry
+    const bool repeated = std::any_of(seen.begin(), seen.end(),
+                                      [&](const Eigen::Matrix3d& other) {
+                                        return (R - other).norm() < 1e-9;
+                                      });
+    if (repeated) continue;
+    seen.push_back(R);
+    result.push_back(essential_of(R, t.normalized()));
+  }
+  return result;
+}
+
+// A wall filling the view leaves the essential matrix ambiguous: both
+// poses its homography decomposes into explain every match on the wall,
+// and only the few off it tell them apart. RANSAC stops once a sample of
+// wall points gives the wrong one, which already explains most matches
+// (docs/engine.md, "Planar scenes"). So the homography's poses are scored
+// on every match too, and one explaining more than RANSAC's replaces it.
+// Returns the better candidate's essential matrix and Sampson inliers, or
+// nothing when RANSAC's pose (with `ransac_inliers`) explains the most.
+std::optional<std::pair<cv::Mat, cv::Mat>> better_planar_candidate(
+    const cv::Mat& H, const PointList& p1, const PointList& p2,
+    double threshold, int ransac_inliers) {
+  std::optional<std::pair<cv::Mat, cv::Mat>> best;
+  int best_count = ransac_inliers;
+  for (const cv::Mat& E : homography_essentials(H)) {
+    cv::Mat mask = sampson_inliers(E, p1, p2, threshold);
+    const int count = cv::countNonZero(mask);
+    if (count <= best_count) continue;
+    best_count = count;
+    best = std::make_pair(E, mask);
+  }
+  return best;
+}
+
 }  // namespace
 
 std::optional<RelativePose> estimate_relative_pose(
@@ -46,27 +142,23 @@ std::optional<RelativePose> estimate_relative_pose(
       static_cast<int>(x1.size()) < std::max(5, min_inliers)) {
     return std::nullopt;
   }
-  const std::vector<cv::Point2d> p1 = to_cv(x1), p2 = to_cv(x2);
+  const PointList p1 = to_cv(x1), p2 = to_cv(x2);
   cv::Mat mask;
   // OpenCV's RANSAC seeds its generator with a constant, so this is
   // deterministic for the same input.
-  const cv::Mat E = cv::findEssentialMat(p1, p2, cv::Mat::eye(3, 3, CV_64F),
-                                         cv::RANSAC, 0.999, threshold, mask);
+  cv::Mat E = cv::findEssentialMat(p1, p2, cv::Mat::eye(3, 3, CV_64F),
+                                   cv::RANSAC, 0.999, threshold, mask);
   if (E.rows != 3 || E.cols != 3) return std::nullopt;  // none, or several
-  cv::Mat R, t;
-  const int in_front =
-      cv::recoverPose(E, p1, p2, cv::Mat::eye(3, 3, CV_64F), R, t, mask);
-  if (in_front < min_inliers) return std::nullopt;
-  RelativePose pose;
-  cv::cv2eigen(R, pose.R);
-  cv::Mat t_unit = t / cv::norm(t);
-  cv::cv2eigen(t_unit, pose.t);
-  for (int i = 0; i < mask.rows; ++i) {
-    if (mask.at<uchar>(i)) pose.inliers.push_back(i);
-  }
-  refine_relative_pose(x1, x2, pose.inliers, &pose.R, &pose.t);
   cv::Mat h_mask;
-  cv::findHomography(p1, p2, cv::RANSAC, threshold, h_mask);
+  const cv::Mat H = cv::findHomography(p1, p2, cv::RANSAC, threshold, h_mask);
+  if (!H.empty()) {
+    auto better =
+        better_planar_candidate(H, p1, p2, threshold, cv::countNonZero(mask));
+    if (better) std::tie(E, mask) = *better;
+  }
+  RelativePose pose = recovered_pose(E, p1, p2, mask);
+  if (static_cast<int>(pose.inliers.size()) < min_inliers) return std::nullopt;
+  refine_relative_pose(x1, x2, pose.inliers, &pose.R, &pose.t);
   const int h_inliers = h_mask.empty() ? 0 : cv::countNonZero(h_mask);
   pose.homography_ratio = static_cast<double>(h_inliers) / pose.inliers.size();
   pose.median_angle_deg = median_angle(pose, x1, x2);
