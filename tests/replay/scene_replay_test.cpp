@@ -104,8 +104,11 @@ TEST(ReplayRegression, LundSessionDrivesTheEngineToTheExpectedModel) {
        replay::median_horizontal_distance(positions,
                                           replay::capture_fixes(*r.store)),
        0, 6},
-      // Measured: 1657 sparse, 87 611 dense points, the same on every
-      // deterministic replay; 10% as for the fountain. (65 843 before the
+      // Measured: 1651 sparse, 81 815 dense points, the same on every
+      // deterministic replay; 10% as for the fountain. (1657 and 87 611
+      // before the homography's poses were scored against RANSAC's,
+      // docs/engine.md, "Planar scenes": the model-GPS distance moved from
+      // 3.35 to 3.43 m and the voxel edge with the scale; 65 843 before the
       // matcher's 12-bit dot products and the adjustments' tolerances: the
       // model-GPS distance fell from 3.6 to 3.35 m, the scale the fixes
       // give moved, and the voxel edge with it; 76 118 dense before
@@ -118,8 +121,8 @@ TEST(ReplayRegression, LundSessionDrivesTheEngineToTheExpectedModel) {
       // give, changed with it; 79 426 while the voxel edge kept the scale
       // of the first model, docs/dense.md.)
       {"sparse points", stats.value("sparse_points", 0.0), 1520, 1860},
-      {"dense points", replay::dense_point_count(*r.store, *r.model), 78900,
-       96400},
+      {"dense points", replay::dense_point_count(*r.store, *r.model), 73600,
+       90000},
   });
 }
 

@@ -19,7 +19,7 @@ struct RelativePose {
   Eigen::Vector3d t = Eigen::Vector3d::Zero();      // unit length
   std::vector<int> inliers;     // indices of inlier correspondences
   double median_angle_deg = 0;  // triangulation angle over the inliers
-  double homography_ratio = 0;  // homography inliers / essential inliers
+  double homography_ratio = 0;  // homography / essential RANSAC inliers
 };
 // nullopt when fewer than `min_inliers` correspondences agree.
 std::optional<RelativePose> estimate_relative_pose(

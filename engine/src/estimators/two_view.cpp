@@ -1,6 +1,5 @@
 #include <algorithm>
 #include <optional>
-#include <tuple>
 #include <utility>
 
 #include "estimators/bundle_adjuster.h"
@@ -72,8 +71,8 @@ cv::Mat sampson_inliers(const cv::Mat& essential, const PointList& p1,
 // An essential matrix's pose with its inliers in front of both cameras
 // (recoverPose's cheirality test on the correspondences `mask` admits).
 RelativePose recovered_pose(const cv::Mat& E, const PointList& p1,
-                            const PointList& p2, cv::Mat mask) {
-  cv::Mat R, t;
+                            const PointList& p2, const cv::Mat& inliers) {
+  cv::Mat mask = inliers.clone(), R, t;
   cv::recoverPose(E, p1, p2, cv::Mat::eye(3, 3, CV_64F), R, t, mask);
   RelativePose pose;
   cv::cv2eigen(R, pose.R);
@@ -115,20 +114,21 @@ std::vector<cv::Mat> homography_essentials(const cv::Mat& H) {
 // and only the few off it tell them apart. RANSAC stops once a sample of
 // wall points gives the wrong one, which already explains most matches
 // (docs/engine.md, "Planar scenes"). So the homography's poses are scored
-// on every match too, and one explaining more than RANSAC's replaces it.
-// Returns the better candidate's essential matrix and Sampson inliers, or
-// nothing when RANSAC's pose (with `ransac_inliers`) explains the most.
-std::optional<std::pair<cv::Mat, cv::Mat>> better_planar_candidate(
-    const cv::Mat& H, const PointList& p1, const PointList& p2,
-    double threshold, int ransac_inliers) {
-  std::optional<std::pair<cv::Mat, cv::Mat>> best;
-  int best_count = ransac_inliers;
+// too, by the matches each explains in front of both cameras, and one that
+// explains more than RANSAC's pose replaces it.
+RelativePose best_of_planar_candidates(RelativePose ransac, const cv::Mat& H,
+                                       const PointList& p1, const PointList& p2,
+                                       double threshold) {
+  RelativePose best = std::move(ransac);
   for (const cv::Mat& E : homography_essentials(H)) {
-    cv::Mat mask = sampson_inliers(E, p1, p2, threshold);
-    const int count = cv::countNonZero(mask);
-    if (count <= best_count) continue;
-    best_count = count;
-    best = std::make_pair(E, mask);
+    // Its matches in front can only be fewer: most candidates stop here,
+    // before the cheirality test's triangulations.
+    const cv::Mat inliers = sampson_inliers(E, p1, p2, threshold);
+    if (static_cast<size_t>(cv::countNonZero(inliers)) <= best.inliers.size())
+      continue;
+    RelativePose candidate = recovered_pose(E, p1, p2, inliers);
+    if (candidate.inliers.size() > best.inliers.size())
+      best = std::move(candidate);
   }
   return best;
 }
@@ -146,21 +146,23 @@ std::optional<RelativePose> estimate_relative_pose(
   cv::Mat mask;
   // OpenCV's RANSAC seeds its generator with a constant, so this is
   // deterministic for the same input.
-  cv::Mat E = cv::findEssentialMat(p1, p2, cv::Mat::eye(3, 3, CV_64F),
-                                   cv::RANSAC, 0.999, threshold, mask);
+  const cv::Mat E = cv::findEssentialMat(p1, p2, cv::Mat::eye(3, 3, CV_64F),
+                                         cv::RANSAC, 0.999, threshold, mask);
   if (E.rows != 3 || E.cols != 3) return std::nullopt;  // none, or several
   cv::Mat h_mask;
   const cv::Mat H = cv::findHomography(p1, p2, cv::RANSAC, threshold, h_mask);
-  if (!H.empty()) {
-    auto better =
-        better_planar_candidate(H, p1, p2, threshold, cv::countNonZero(mask));
-    if (better) std::tie(E, mask) = *better;
-  }
   RelativePose pose = recovered_pose(E, p1, p2, mask);
+  // The degeneracy measure against RANSAC's essential matrix, as before
+  // the planar candidates: one of those explains a plane's matches better.
+  const size_t ransac_inliers = pose.inliers.size();
+  const int h_inliers = h_mask.empty() ? 0 : cv::countNonZero(h_mask);
+  // Only where a plane holds most matches can RANSAC's pose be its twin.
+  if (!H.empty() && 2 * static_cast<size_t>(h_inliers) >= ransac_inliers)
+    pose = best_of_planar_candidates(std::move(pose), H, p1, p2, threshold);
   if (static_cast<int>(pose.inliers.size()) < min_inliers) return std::nullopt;
   refine_relative_pose(x1, x2, pose.inliers, &pose.R, &pose.t);
-  const int h_inliers = h_mask.empty() ? 0 : cv::countNonZero(h_mask);
-  pose.homography_ratio = static_cast<double>(h_inliers) / pose.inliers.size();
+  pose.homography_ratio =
+      static_cast<double>(h_inliers) / std::max<size_t>(ransac_inliers, 1);
   pose.median_angle_deg = median_angle(pose, x1, x2);
   return pose;
 }
