@@ -21,7 +21,11 @@ struct RelativePose {
   double median_angle_deg = 0;  // triangulation angle over the inliers
   double homography_ratio = 0;  // homography / essential RANSAC inliers
 };
-// nullopt when fewer than `min_inliers` correspondences agree.
+// nullopt when fewer than `min_inliers` correspondences agree. Where a
+// plane holds most matches, the poses its homography decomposes into are
+// candidates too, and the one with the most matches in front of both
+// cameras wins (a wall's twin pose can satisfy RANSAC; docs/engine.md,
+// "Planar scenes").
 std::optional<RelativePose> estimate_relative_pose(
     const std::vector<Eigen::Vector2d>& x1,
     const std::vector<Eigen::Vector2d>& x2, double threshold, int min_inliers);
