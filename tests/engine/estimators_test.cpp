@@ -116,7 +116,7 @@ TEST(RelativePoseHomographyTest, PlanarSceneHasHomographyRatioNearOne) {
 // points stand up to half a metre off it (sills, recesses). The homography of
 // the wall explains three quarters of the matches in two ways (its two
 // decompositions), and only the points off the wall tell the true pose
-// from its twin. RANSAC alone settled on the twin in 2 of these 40 scenes
+// from its twin. RANSAC alone settled on the twin in 1 of these 40 scenes
 // (7 degrees off), as it did on seed 31's block walk at 900 px, whose every
 // later photo then followed it (docs/engine.md, "Planar scenes").
 synthetic::Truth wall_walk(std::mt19937& rng) {
@@ -149,7 +149,11 @@ TEST(RelativePosePlanarTest, AWallWithFewPointsOffItGivesTheTruePose) {
     ASSERT_TRUE(pose.has_value()) << "seed " << seed;
     const double error = synthetic::rotation_error_deg(pose->R, R);
     worst_deg = std::max(worst_deg, error);
-    wrong += error > 0.5 || synthetic::direction_error_deg(pose->t, t) > 5;
+    // A twin is 7 degrees and its baseline 90 off here; noise on a
+    // near-planar pair moves a pose by under 1 degree and its baseline,
+    // which only the few points off the wall fix, by up to about 5.
+    const double baseline_error = synthetic::direction_error_deg(pose->t, t);
+    wrong += error > 2 || baseline_error > 20;
   }
   EXPECT_EQ(wrong, 0) << "of 40 scenes; worst rotation error " << worst_deg
                       << " degrees";
