@@ -1,5 +1,4 @@
 #include <algorithm>
-#include <optional>
 #include <utility>
 
 #include "estimators/bundle_adjuster.h"
@@ -149,20 +148,21 @@ std::optional<RelativePose> estimate_relative_pose(
   const cv::Mat E = cv::findEssentialMat(p1, p2, cv::Mat::eye(3, 3, CV_64F),
                                          cv::RANSAC, 0.999, threshold, mask);
   if (E.rows != 3 || E.cols != 3) return std::nullopt;  // none, or several
-  cv::Mat h_mask;
-  const cv::Mat H = cv::findHomography(p1, p2, cv::RANSAC, threshold, h_mask);
   RelativePose pose = recovered_pose(E, p1, p2, mask);
   // The degeneracy measure against RANSAC's essential matrix, as before
   // the planar candidates: one of those explains a plane's matches better.
   const size_t ransac_inliers = pose.inliers.size();
+  // A pair that fails here pays for no homography (most partners fail).
+  if (static_cast<int>(ransac_inliers) < min_inliers) return std::nullopt;
+  cv::Mat h_mask;
+  const cv::Mat H = cv::findHomography(p1, p2, cv::RANSAC, threshold, h_mask);
   const int h_inliers = h_mask.empty() ? 0 : cv::countNonZero(h_mask);
   // Only where a plane holds most matches can RANSAC's pose be its twin.
+  // A candidate replaces it only with more inliers, so min_inliers holds.
   if (!H.empty() && 2 * static_cast<size_t>(h_inliers) >= ransac_inliers)
     pose = best_of_planar_candidates(std::move(pose), H, p1, p2, threshold);
-  if (static_cast<int>(pose.inliers.size()) < min_inliers) return std::nullopt;
   refine_relative_pose(x1, x2, pose.inliers, &pose.R, &pose.t);
-  pose.homography_ratio =
-      static_cast<double>(h_inliers) / std::max<size_t>(ransac_inliers, 1);
+  pose.homography_ratio = static_cast<double>(h_inliers) / ransac_inliers;
   pose.median_angle_deg = median_angle(pose, x1, x2);
   return pose;
 }
