@@ -202,7 +202,8 @@ void print_refine(const engine::RefineResult& r) {
             << "      refine: " << r.images << " images, " << r.iterations
             << " iterations, " << r.seconds << " s, keypoints "
             << std::setprecision(3) << r.pixel_sigma << " px, loss "
-            << r.loss_scale_px << " px" << std::setprecision(2)
+            << r.loss_scale_px << " px, cameras moved up to "
+            << std::setprecision(4) << r.largest_move << std::setprecision(2)
             << (r.converged ? "" : " (given way)") << std::endl;
 }
 

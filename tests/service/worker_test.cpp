@@ -477,9 +477,11 @@ TEST(EngineWorker, TwoScoutsSplittingAWalkEndInOneComponent) {
   options.dense = false;
   options.site_radius_m = 5;
   std::mutex lines_mutex;
-  std::vector<std::string> merges;  // the progress lines of site merges
+  std::vector<std::string> merges;    // the progress lines of site merges
+  std::vector<std::string> progress;  // all of them, printed on a failure
   options.progress = [&](const std::string& line) {
     std::lock_guard lock(lines_mutex);
+    progress.push_back(line);
     if (line.find("took in site") != std::string::npos) merges.push_back(line);
   };
 
@@ -539,7 +541,13 @@ TEST(EngineWorker, TwoScoutsSplittingAWalkEndInOneComponent) {
   EXPECT_EQ(poses.matched, kViews);
   EXPECT_LE(poses.median_centre_error, 0.02);
   EXPECT_LE(poses.max_centre_error, 0.10);
-  if (!HasFailure()) fs::remove_all(dir);
+  if (!HasFailure()) {
+    fs::remove_all(dir);
+    return;
+  }
+  for (const auto& camera : poses.cameras)
+    std::cout << camera.name << " " << camera.centre_error << " m\n";
+  for (const std::string& line : progress) std::cout << line << "\n";
 }
 
 }  // namespace

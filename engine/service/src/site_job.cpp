@@ -507,7 +507,9 @@ Increment SiteJob::run_refine(const std::function<bool()>& stop) {
     summary << "merged " << refined.components_merged << " components";
   } else if (refined.registered.empty()) {
     summary << "global refinement of " << refined.images << " key views, "
-            << refined.iterations << " iterations";
+            << refined.iterations << " iterations, cameras moved up to "
+            << refined.largest_move << " (keypoints " << refined.pixel_sigma
+            << " px)";
   } else {
     summary << "registered " << refined.registered.size()
             << " waiting captures";

@@ -115,6 +115,17 @@ class ReprojectionCost final : public ceres::SizedCostFunction<2, 4, 3, 3, 6> {
   double aspect_;
 };
 
+// The GPS priors are plain least squares, the upright prior has this
+// Cauchy scale (in its own deviations), in the adjustment and in the fit
+// that places a model before it (fit_model_to_priors) alike. Where the fit
+// was robust on the fixes and the adjustment not, they disagreed on where
+// the model sits: every refinement round of a 400-photo walk spent its 30
+// iterations moving the whole model 5 cm back to the adjustment's choice,
+// never converging (docs/engine.md, "One weighing of the priors"). Robust
+// fixes in both let a small component placed far from its fixes stay
+// there (the fit then ran off to scales of e^13775).
+constexpr double kUprightLossSigmas = 3.0;
+
 // The camera centre -R^T t against its ENU fix, in units of the fix's
 // standard deviation per axis (zero weight where the axis is unknown).
 struct GpsPriorCost {
@@ -211,7 +222,7 @@ class ProblemBuilder {
         loss_(std::make_unique<ceres::LossFunctionWrapper>(
             reprojection_loss(options.loss_scale_px, 1.0),
             ceres::TAKE_OWNERSHIP)),
-        upright_loss_(std::make_unique<ceres::CauchyLoss>(3.0)),
+        upright_loss_(std::make_unique<ceres::CauchyLoss>(kUprightLossSigmas)),
         problem_(problem_options()) {}
 
   void select(const std::vector<int>& free_images, bool global) {
@@ -456,39 +467,49 @@ class ProblemBuilder {
   std::set<int64_t> points_;
 };
 
-// A camera's centre and orientation after the similarity (log scale, R as
-// a quaternion, t) against its fix and the upright prior.
-struct SimilarityPriorCost {
-  SimilarityPriorCost(const Eigen::Vector3d& centre,
-                      const Eigen::Vector3d& x_axis, const Eigen::Vector3d& enu,
-                      const Eigen::Vector3d& inverse_sigma,
-                      double upright_inverse_sigma)
-      : centre(centre),
-        x_axis(x_axis),
-        enu(enu),
-        inverse_sigma(inverse_sigma),
-        upright_inverse_sigma(upright_inverse_sigma) {}
+// A camera's centre after the similarity (log scale, R as a quaternion, t)
+// against its fix: GpsPriorCost with the model moved as a whole.
+struct SimilarityFixCost {
+  SimilarityFixCost(const Eigen::Vector3d& centre, const Eigen::Vector3d& enu,
+                    const Eigen::Vector3d& inverse_sigma)
+      : centre(centre), enu(enu), inverse_sigma(inverse_sigma) {}
 
   template <typename T>
   bool operator()(const T* log_scale, const T* q, const T* t,
                   T* residual) const {
     const T q_wxyz[4] = {q[3], q[0], q[1], q[2]};
     const T c[3] = {T(centre[0]), T(centre[1]), T(centre[2])};
-    const T x[3] = {T(x_axis[0]), T(x_axis[1]), T(x_axis[2])};
-    T rotated[3], axis[3];
+    T rotated[3];
     ceres::QuaternionRotatePoint(q_wxyz, c, rotated);
-    ceres::QuaternionRotatePoint(q_wxyz, x, axis);
     const T scale = exp(log_scale[0]);
     for (int i = 0; i < 3; ++i) {
       residual[i] =
           (scale * rotated[i] + t[i] - T(enu[i])) * T(inverse_sigma[i]);
     }
-    residual[3] = axis[2] * T(upright_inverse_sigma);
     return true;
   }
 
-  Eigen::Vector3d centre, x_axis, enu, inverse_sigma;
-  double upright_inverse_sigma;
+  Eigen::Vector3d centre, enu, inverse_sigma;
+};
+
+// A camera's x axis after the similarity's rotation against the upright
+// prior: UprightCost with the model turned as a whole.
+struct SimilarityUprightCost {
+  SimilarityUprightCost(const Eigen::Vector3d& x_axis, double inverse_sigma)
+      : x_axis(x_axis), inverse_sigma(inverse_sigma) {}
+
+  template <typename T>
+  bool operator()(const T* q, T* residual) const {
+    const T q_wxyz[4] = {q[3], q[0], q[1], q[2]};
+    const T x[3] = {T(x_axis[0]), T(x_axis[1]), T(x_axis[2])};
+    T axis[3];
+    ceres::QuaternionRotatePoint(q_wxyz, x, axis);
+    residual[0] = axis[2] * T(inverse_sigma);
+    return true;
+  }
+
+  Eigen::Vector3d x_axis;
+  double inverse_sigma;
 };
 
 // First-order (Sampson) distance of a correspondence to E = [t]x R.
@@ -583,13 +604,18 @@ std::optional<Similarity> fit_model_to_priors(const Scene& scene,
     if (!image.registered || !image.gps || image.component != component)
       continue;
     ++fixes;
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<SimilarityFixCost, 3, 1, 4, 3>(
+            new SimilarityFixCost(image.centre(), image.gps_enu,
+                                  inverse_sigma(*image.gps))),
+        nullptr, &log_scale, q.coeffs().data(), t.data());
+    if (upright <= 0) continue;
     const Eigen::Vector3d x_axis =
         image.q.toRotationMatrix().row(0).transpose();
     problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<SimilarityPriorCost, 4, 1, 4, 3>(
-            new SimilarityPriorCost(image.centre(), x_axis, image.gps_enu,
-                                    inverse_sigma(*image.gps), upright)),
-        new ceres::CauchyLoss(3.0), &log_scale, q.coeffs().data(), t.data());
+        new ceres::AutoDiffCostFunction<SimilarityUprightCost, 1, 4>(
+            new SimilarityUprightCost(x_axis, upright)),
+        new ceres::CauchyLoss(kUprightLossSigmas), q.coeffs().data());
   }
   if (fixes < 3) return std::nullopt;
   problem.SetManifold(q.coeffs().data(), new ceres::EigenQuaternionManifold);

@@ -223,6 +223,7 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   const std::vector<int> keys = key_views();
   ba.global_images.insert(keys.begin(), keys.end());
   align_to_priors(ba);
+  const std::vector<Eigen::Vector3d> centres_before = registered_centres();
   const BundleReport report = adjust_bundle(scene_, {}, true, ba);
   result.iterations = report.iterations;
   result.images = report.images;
@@ -242,6 +243,7 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
       adjust_pose(static_cast<int>(i));
   }
   filter_points(all);
+  result.largest_move = largest_move(centres_before);
   // A round that used up its iterations is continued by the next call, up
   // to kRefineRounds rounds in a row on the same model: a solve that never
   // meets the tolerance must not keep an idle site busy for ever. Rounds
@@ -260,6 +262,22 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   }
   result.seconds = seconds_since(start);
   return result;
+}
+
+std::vector<Eigen::Vector3d> IncrementalMapper::registered_centres() const {
+  std::vector<Eigen::Vector3d> centres;
+  for (const SceneImage& image : scene_.images)
+    if (image.registered) centres.push_back(image.centre());
+  return centres;
+}
+
+double IncrementalMapper::largest_move(
+    const std::vector<Eigen::Vector3d>& before) const {
+  const std::vector<Eigen::Vector3d> after = registered_centres();
+  double largest = 0;
+  for (size_t i = 0; i < std::min(before.size(), after.size()); ++i)
+    largest = std::max(largest, (after[i] - before[i]).norm());
+  return largest;
 }
 
 // The unregistered image with the most 2D-3D correspondences to one
