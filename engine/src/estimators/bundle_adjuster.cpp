@@ -118,12 +118,11 @@ class ReprojectionCost final : public ceres::SizedCostFunction<2, 4, 3, 3, 6> {
 // The GPS priors are plain least squares, the upright prior has this
 // Cauchy scale (in its own deviations), in the adjustment and in the fit
 // that places a model before it (fit_model_to_priors) alike. Where the fit
-// was robust on the fixes and the adjustment not, they disagreed on where
-// the model sits: every refinement round of a 400-photo walk spent its 30
-// iterations moving the whole model 5 cm back to the adjustment's choice,
-// never converging (docs/engine.md, "One weighing of the priors"). Robust
-// fixes in both let a small component placed far from its fixes stay
-// there (the fit then ran off to scales of e^13775).
+// was robust on the fixes and the adjustment not, a fix far off made them
+// disagree on where the model sits, and the adjustment spent its
+// iterations dragging the whole model back (docs/engine.md, "One weighing
+// of the priors"). Robust fixes in both let a small component placed far
+// from its fixes stay there (the fit then ran off to scales of e^13775).
 constexpr double kUprightLossSigmas = 3.0;
 
 // The camera centre -R^T t against its ENU fix, in units of the fix's
