@@ -134,6 +134,8 @@ class IncrementalMapper {
       const std::vector<std::pair<int, int64_t>>& corr) const;
   void triangulate_image(int index);
   void refine_keypoints(int index);
+  // The registered images' centres in image order, and the farthest one
+  // moved since `before` (taken with no registration between the two).
   std::vector<Eigen::Vector3d> registered_centres() const;
   double largest_move(const std::vector<Eigen::Vector3d>& before) const;
   std::optional<Observation> track_reference(int64_t point, int image) const;
