@@ -520,9 +520,9 @@ TEST(BundleAdjusterTest, FitModelToPriorsRecoversKnownSimilarity) {
 // The fit that places a model before an adjustment and the adjustment's
 // own priors weigh the fixes alike, so the adjustment leaves the model
 // where the fit put it, even with a fix far off (multipath). When the fit
-// was robust and the adjustment not, every refinement round spent its
-// iterations moving the whole model back (docs/engine.md, "One weighing
-// of the priors"): here the adjustment then moved cameras 2.7 m.
+// was robust and the adjustment not, the adjustment spent its iterations
+// dragging the whole model back (docs/engine.md, "One weighing of the
+// priors"): here it then moved cameras 2.7 m.
 TEST(BundleAdjusterTest, TheAdjustmentKeepsTheModelWhereTheFitPutIt) {
   std::mt19937 rng(58);
   GpsScene g = make_gps_scene(rng);

@@ -477,12 +477,11 @@ TEST(EngineWorker, TwoScoutsSplittingAWalkEndInOneComponent) {
   options.dense = false;
   options.site_radius_m = 5;
   std::mutex lines_mutex;
-  std::vector<std::string> merges;    // the progress lines of site merges
-  std::vector<std::string> progress;  // all of them, printed on a failure
+  std::vector<std::string> progress;  // the worker's lines, all printed on
+                                      // a failure, the site merges always
   options.progress = [&](const std::string& line) {
     std::lock_guard lock(lines_mutex);
     progress.push_back(line);
-    if (line.find("took in site") != std::string::npos) merges.push_back(line);
   };
 
   engine::EngineWorker worker(*store, options);
@@ -513,7 +512,10 @@ TEST(EngineWorker, TwoScoutsSplittingAWalkEndInOneComponent) {
   EXPECT_TRUE(store->list_children(merged[0].path + "/features").empty());
   EXPECT_EQ(live[0].attrs.value("capture_count", 0), kViews);
   EXPECT_EQ(worker.stats().sites_merged, 1);
-  for (const std::string& line : merges) std::cout << line << std::endl;
+  for (const std::string& line : progress) {
+    if (line.find("took in site") != std::string::npos)
+      std::cout << line << std::endl;
+  }
   const auto model = store->get(live[0].path + "/model");
   ASSERT_TRUE(model);
   const Json& components = model->attrs.at("components");

@@ -125,8 +125,17 @@ class ReprojectionCost final : public ceres::SizedCostFunction<2, 4, 3, 3, 6> {
 // from its fixes stay there (the fit then ran off to scales of e^13775).
 constexpr double kUprightLossSigmas = 3.0;
 
-// The camera centre -R^T t against its ENU fix, in units of the fix's
-// standard deviation per axis (zero weight where the axis is unknown).
+// A camera centre against its ENU fix, in units of the fix's standard
+// deviation per axis (zero weight where the axis is unknown): the one
+// residual of GpsPriorCost and of the fit's SimilarityFixCost.
+template <typename T>
+void fix_residual(const T* centre, const Eigen::Vector3d& enu,
+                  const Eigen::Vector3d& inverse_sigma, T* residual) {
+  for (int i = 0; i < 3; ++i)
+    residual[i] = (centre[i] - T(enu[i])) * T(inverse_sigma[i]);
+}
+
+// The camera centre -R^T t against its ENU fix (fix_residual).
 struct GpsPriorCost {
   GpsPriorCost(const Eigen::Vector3d& enu, const Eigen::Vector3d& inverse_sigma)
       : enu(enu), inverse_sigma(inverse_sigma) {}
@@ -134,11 +143,10 @@ struct GpsPriorCost {
   template <typename T>
   bool operator()(const T* q, const T* t, T* residual) const {
     const T q_inverse[4] = {q[3], -q[0], -q[1], -q[2]};
-    T centre[3];
-    ceres::QuaternionRotatePoint(q_inverse, t, centre);
-    for (int i = 0; i < 3; ++i) {
-      residual[i] = (-centre[i] - T(enu[i])) * T(inverse_sigma[i]);
-    }
+    T rotated[3];
+    ceres::QuaternionRotatePoint(q_inverse, t, rotated);
+    const T centre[3] = {-rotated[0], -rotated[1], -rotated[2]};
+    fix_residual(centre, enu, inverse_sigma, residual);
     return true;
   }
 
@@ -467,7 +475,8 @@ class ProblemBuilder {
 };
 
 // A camera's centre after the similarity (log scale, R as a quaternion, t)
-// against its fix: GpsPriorCost with the model moved as a whole.
+// against its fix (fix_residual): GpsPriorCost with the model moved as a
+// whole.
 struct SimilarityFixCost {
   SimilarityFixCost(const Eigen::Vector3d& centre, const Eigen::Vector3d& enu,
                     const Eigen::Vector3d& inverse_sigma)
@@ -481,10 +490,9 @@ struct SimilarityFixCost {
     T rotated[3];
     ceres::QuaternionRotatePoint(q_wxyz, c, rotated);
     const T scale = exp(log_scale[0]);
-    for (int i = 0; i < 3; ++i) {
-      residual[i] =
-          (scale * rotated[i] + t[i] - T(enu[i])) * T(inverse_sigma[i]);
-    }
+    const T moved[3] = {scale * rotated[0] + t[0], scale * rotated[1] + t[1],
+                        scale * rotated[2] + t[2]};
+    fix_residual(moved, enu, inverse_sigma, residual);
     return true;
   }
 

@@ -230,7 +230,9 @@ struct RefineResult {
   // pixels (docs/engine.md, "The loss scale follows the keypoints").
   double pixel_sigma = 0;
   double loss_scale_px = 0;
-  // The farthest a camera centre moved in this call, in the model's units.
+  // The farthest the adjustment moved a camera centre in this call (after
+  // the model was placed on its fixes, which moves it as a whole), in the
+  // model's units.
   double largest_move = 0;
   // Waiting captures this call registered (ids, in order); when any, the
   // call did only that, and the global adjustment is due next.
