@@ -597,14 +597,16 @@ void refine_relative_pose(const std::vector<Eigen::Vector2d>& x1,
 
 std::optional<Similarity> fit_model_to_priors(const Scene& scene,
                                               const BundleOptions& options,
-                                              int component) {
+                                              int component,
+                                              const Similarity& start) {
   const double upright =
       options.upright_sigma_deg > 0
           ? 1.0 / std::sin(options.upright_sigma_deg * M_PI / 180)
           : 0;
-  double log_scale = 0;
-  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
-  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  if (!(start.scale > 0)) return std::nullopt;
+  double log_scale = std::log(start.scale);
+  Eigen::Quaterniond q(start.R);
+  Eigen::Vector3d t = start.t;
   ceres::Problem problem;
   int fixes = 0;
   for (const SceneImage& image : scene.images) {

@@ -101,9 +101,14 @@ bool evaluate_reprojection(const double* q, const double* t,
 // constrain the model, solved on their own so that the adjustment starts
 // at their optimum. Over the images of one component (each is placed in
 // ENU on its own until components merge). nullopt with fewer than 3 fixes.
+// A local solve from `start`: from a model turned more than a right angle
+// from its fixes it shrinks the model instead of turning it, so start it
+// near the answer (the fixes' robust placement, IncrementalMapper::
+// fit_to_priors).
 std::optional<Similarity> fit_model_to_priors(const Scene& scene,
                                               const BundleOptions& options,
-                                              int component);
+                                              int component,
+                                              const Similarity& start = {});
 
 // Refines a relative pose (x2 = R x1 + t, |t| = 1) on its inlier
 // correspondences (normalized coordinates) by minimizing the Sampson

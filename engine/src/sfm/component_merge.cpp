@@ -11,6 +11,7 @@
 
 #include "estimators/bundle_adjuster.h"
 #include "estimators/estimators.h"
+#include "sfm/fixes.h"
 #include "sfm/mapper.h"
 #include "stopwatch.h"
 
@@ -213,7 +214,7 @@ bool IncrementalMapper::merge_components(int a, int b, int via) {
     for (const Hinge& hinge : posed) seam.push_back(hinge.image);
     sim = hinge_similarity(posed);
   }
-  if (!sim) return false;
+  if (!sim || !merge_agrees_with_fixes(scene_, keep, gone, *sim)) return false;
   // The photos with verified pairs across the seam: once one component,
   // their matches there become tracks that tie the two sides together.
   for (const auto& [key, pair] : scene_.pairs) {
@@ -231,6 +232,10 @@ bool IncrementalMapper::merge_components(int a, int b, int via) {
     if (image.registered && image.component == gone) image.component = keep;
   }
   weld_seam(keep, seam, agreed);
+  // The union's placement by its fixes, as after a registration: the
+  // global refinement that would otherwise do it may wait long on a busy
+  // site.
+  geo_register(keep, scene_.geo_registered);
   return true;
 }
 

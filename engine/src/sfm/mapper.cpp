@@ -8,6 +8,7 @@
 #include "estimators/bundle_adjuster.h"
 #include "estimators/estimators.h"
 #include "features/keypoint_refinement.h"
+#include "sfm/fixes.h"
 #include "sfm/loop_closure.h"
 #include "stopwatch.h"
 
@@ -1021,22 +1022,14 @@ bool IncrementalMapper::geo_register(int component, bool placed) {
 // levelled by the cameras (the GPS heights are too noisy to fix the tilt).
 std::optional<Similarity> IncrementalMapper::first_placement(
     int component) const {
-  std::vector<Eigen::Vector3d> centres, fixes;
-  double accuracy = 0;
-  for (const SceneImage& image : scene_.images) {
-    if (!image.registered || !image.gps || image.component != component)
-      continue;
-    centres.push_back(image.centre());
-    fixes.push_back(image.gps_enu);
-    accuracy += std::hypot(image.gps->h_acc * std::sqrt(2.0), image.gps->v_acc);
-  }
-  if (centres.size() < 3) return std::nullopt;
-  accuracy /= centres.size();
+  const FixedCentres fixed = fixed_centres(scene_, component);
+  if (fixed.centres.size() < 3) return std::nullopt;
   std::vector<int> inliers;
-  auto sim = estimate_similarity(centres, fixes, std::max(3 * accuracy, 5.0),
-                                 scene_.images.size(), &inliers);
+  auto sim =
+      estimate_similarity(fixed.centres, fixed.fixes, fixed.fit_threshold(),
+                          scene_.images.size(), &inliers);
   if (sim && options_.upright_sigma_deg > 0)
-    level(*sim, fixes, inliers, component);
+    level(*sim, fixed.fixes, inliers, component);
   return sim;
 }
 
@@ -1079,9 +1072,16 @@ void IncrementalMapper::align_to_priors(const BundleOptions& ba) {
 // Once in ENU the scale is known to a few percent; fixes that would halve or
 // double it cannot tell (their noise exceeds the model's extent, as on the
 // first steps of a walk), and following them would collapse it.
+// The fit starts from the fixes' robust placement, not from where the
+// component stands: a component first placed by three fixes a metre apart
+// can face any way, and a fit started there from a model turned round by
+// 178 degrees stayed put while the component grew to 99 photos at 0.56 of
+// its scale (bench/RESULTS.md, "Issue 35, fourteenth stop").
 std::optional<Similarity> IncrementalMapper::fit_to_priors(
     const BundleOptions& ba, int component) const {
-  auto sim = fit_model_to_priors(scene_, ba, component);
+  const auto start = first_placement(component);
+  auto sim =
+      fit_model_to_priors(scene_, ba, component, start.value_or(Similarity{}));
   if (sim && sim->scale > 0.5 && sim->scale < 2 && sim->R.allFinite() &&
       sim->t.allFinite())
     return sim;
