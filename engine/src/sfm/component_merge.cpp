@@ -232,10 +232,6 @@ bool IncrementalMapper::merge_components(int a, int b, int via) {
     if (image.registered && image.component == gone) image.component = keep;
   }
   weld_seam(keep, seam, agreed);
-  // The union's placement by its fixes, as after a registration: the
-  // global refinement that would otherwise do it may wait long on a busy
-  // site.
-  geo_register(keep, scene_.geo_registered);
   return true;
 }
 
@@ -355,7 +351,8 @@ std::optional<AbsolutePose> IncrementalMapper::pose_in(int index,
 
 // After a merge: the common points become one track each, the photos
 // along the seam triangulate their matches across it, and a bounded
-// adjustment of the seam follows; the global refinement is due.
+// adjustment of the seam follows, the union is placed by its fixes, and the
+// global refinement is due.
 void IncrementalMapper::weld_seam(
     int component, const std::vector<int>& bridges,
     const std::vector<std::pair<int64_t, int64_t>>& same) {
@@ -389,7 +386,13 @@ void IncrementalMapper::weld_seam(
   }
   scene_.registered_at_last_global_ba = 0;  // refine() is due
   scene_.unsettled_refine_rounds = 0;
-  if (global_inline()) adjust_global();
+  // The union placed by its fixes at once: by the inline global adjustment
+  // while the model is small, else as after a registration (the global
+  // refinement that would do it may wait long on a busy site).
+  if (global_inline())
+    adjust_global();
+  else
+    geo_register(component, scene_.geo_registered);
 }
 
 }  // namespace arscout::engine

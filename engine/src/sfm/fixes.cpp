@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <optional>
 
 namespace arscout::engine {
 
@@ -25,15 +24,15 @@ FixedCentres fixed_centres(const Scene& scene, int component) {
   return result;
 }
 
-namespace {
-
-// The robust placement of a component by its fixes; none below 3 fixes.
-std::optional<Similarity> placement(const FixedCentres& fixed, uint64_t seed) {
+std::optional<Similarity> robust_placement(const FixedCentres& fixed,
+                                           uint64_t seed,
+                                           std::vector<int>* inliers) {
   if (fixed.centres.size() < 3) return std::nullopt;
-  std::vector<int> inliers;
   return estimate_similarity(fixed.centres, fixed.fixes, fixed.fit_threshold(),
-                             seed, &inliers);
+                             seed, inliers);
 }
+
+namespace {
 
 // How far a least-squares fit of 7 parameters to n fixes is off at the
 // fixed cameras, in deviations of one fix: sqrt(7 / n), at most one.
@@ -54,8 +53,8 @@ bool merge_agrees_with_fixes(const Scene& scene, int keep, int gone,
                              const Similarity& sim) {
   const FixedCentres kept = fixed_centres(scene, keep);
   const FixedCentres moved = fixed_centres(scene, gone);
-  const auto keep_place = placement(kept, scene.images.size());
-  const auto gone_place = placement(moved, scene.images.size());
+  const auto keep_place = robust_placement(kept, scene.images.size(), nullptr);
+  const auto gone_place = robust_placement(moved, scene.images.size(), nullptr);
   if (!keep_place || !gone_place) return true;
   double squared = 0;
   for (const Eigen::Vector3d& centre : moved.centres) {

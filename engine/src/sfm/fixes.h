@@ -3,6 +3,8 @@
 // components, independently of the images.
 #pragma once
 
+#include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -27,6 +29,13 @@ struct FixedCentres {
 };
 
 FixedCentres fixed_centres(const Scene& scene, int component);
+
+// The robust similarity from the centres to their fixes (RANSAC within
+// fit_threshold, seeded by `seed`), and its inliers where `inliers` is
+// not null; none below 3 fixes.
+std::optional<Similarity> robust_placement(const FixedCentres& fixed,
+                                           uint64_t seed,
+                                           std::vector<int>* inliers);
 
 // Whether moving component `gone` by `sim` into `keep`'s frame puts its
 // cameras where its own fixes place them: each side is placed by its fixes

@@ -998,11 +998,12 @@ void IncrementalMapper::level(Similarity& sim,
 bool IncrementalMapper::geo_register(int component, bool placed) {
   if (!scene_.enu_origin) return placed;
   std::optional<Similarity> sim;
-  if (placed) sim = fit_to_priors(bundle_options(0), component);
+  const std::optional<Similarity> start = first_placement(component);
+  if (placed) sim = fit_to_priors(bundle_options(0), component, start);
   // A fit the priors cannot follow (it would halve or double the scale: a
   // first placement by three noisy fixes can be that far off) places the
   // component again from scratch.
-  if (!sim) sim = first_placement(component);
+  if (!sim) sim = start;
   if (!sim) return placed;
   const double angle = Eigen::AngleAxisd(sim->R).angle() * 180 / M_PI;
   const bool far = !placed || angle > 2 ||
@@ -1023,11 +1024,8 @@ bool IncrementalMapper::geo_register(int component, bool placed) {
 std::optional<Similarity> IncrementalMapper::first_placement(
     int component) const {
   const FixedCentres fixed = fixed_centres(scene_, component);
-  if (fixed.centres.size() < 3) return std::nullopt;
   std::vector<int> inliers;
-  auto sim =
-      estimate_similarity(fixed.centres, fixed.fixes, fixed.fit_threshold(),
-                          scene_.images.size(), &inliers);
+  auto sim = robust_placement(fixed, scene_.images.size(), &inliers);
   if (sim && options_.upright_sigma_deg > 0)
     level(*sim, fixed.fixes, inliers, component);
   return sim;
@@ -1063,7 +1061,7 @@ BundleOptions IncrementalMapper::bundle_options(int max_iterations) const {
 void IncrementalMapper::align_to_priors(const BundleOptions& ba) {
   if (!scene_.geo_registered) return;
   for (const auto& [component, size] : scene_.component_sizes()) {
-    if (auto sim = fit_to_priors(ba, component)) {
+    if (auto sim = fit_to_priors(ba, component, first_placement(component))) {
       transform_model(*sim, component);
     }
   }
@@ -1078,8 +1076,8 @@ void IncrementalMapper::align_to_priors(const BundleOptions& ba) {
 // 178 degrees stayed put while the component grew to 99 photos at 0.56 of
 // its scale (bench/RESULTS.md, "Issue 35, fourteenth stop").
 std::optional<Similarity> IncrementalMapper::fit_to_priors(
-    const BundleOptions& ba, int component) const {
-  const auto start = first_placement(component);
+    const BundleOptions& ba, int component,
+    const std::optional<Similarity>& start) const {
   auto sim =
       fit_model_to_priors(scene_, ba, component, start.value_or(Similarity{}));
   if (sim && sim->scale > 0.5 && sim->scale < 2 && sim->R.allFinite() &&

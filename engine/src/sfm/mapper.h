@@ -157,8 +157,10 @@ class IncrementalMapper {
   void filter_points(const std::vector<int>& images);
   bool geo_register(int component, bool placed);
   std::optional<Similarity> first_placement(int component) const;
-  std::optional<Similarity> fit_to_priors(const BundleOptions& ba,
-                                          int component) const;
+  // `start`: the component's first_placement (the fit's starting point).
+  std::optional<Similarity> fit_to_priors(
+      const BundleOptions& ba, int component,
+      const std::optional<Similarity>& start) const;
   void transform_model(const Similarity& sim, int component);
   BundleOptions bundle_options(int max_iterations) const;
   void align_to_priors(const BundleOptions& ba);
