@@ -204,6 +204,7 @@ void print_refine(const engine::RefineResult& r) {
             << std::setprecision(3) << r.pixel_sigma << " px, loss "
             << r.loss_scale_px << " px, cameras moved up to "
             << std::setprecision(4) << r.largest_move << std::setprecision(2)
+            << ", " << r.tracks_joined << " matches joined"
             << (r.converged ? "" : " (given way)") << std::endl;
 }
 

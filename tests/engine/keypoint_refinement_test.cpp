@@ -71,6 +71,53 @@ TEST(KeypointRefinementTest, MovesAKeypointOntoTheReferenceSpot) {
   EXPECT_LT(median_after, before[before.size() / 2] / 5);
 }
 
+// Three views of one texture: the reference, a neighbour whose keypoint
+// was detected off the reference's spot, and the target. Aligned to the
+// neighbour's patch at the neighbour's own shift, the target lands on the
+// reference's spot, not on the neighbour's detected one.
+TEST(KeypointRefinementTest, AlignsThroughANeighbourAtItsShift) {
+  const cv::Mat texture = smooth_texture(200, 11);
+  const Eigen::Vector2d to_neighbour(0.8, -0.3), to_target(-0.45, 0.9);
+  const cv::Mat a = moved(texture, Eigen::Vector2d::Zero(), 1.0, 0);
+  const cv::Mat b = moved(texture, to_neighbour, 0.9, 10);
+  const cv::Mat c = moved(texture, to_target, 1.1, -5);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> where(40, 160);
+  std::uniform_real_distribution<double> off(-0.7, 0.7);
+  std::vector<double> through, at_neighbour_centre;
+  for (int i = 0; i < 100; ++i) {
+    const Eigen::Vector2d in_a(where(rng), where(rng));
+    const Eigen::Vector2d in_b =
+        in_a + to_neighbour + Eigen::Vector2d(off(rng), off(rng));
+    const Eigen::Vector2d truth_c = in_a + to_target;
+    const Eigen::Vector2d in_c = truth_c + Eigen::Vector2d(off(rng), off(rng));
+    const cv::Mat pa = extract_patches(a, {in_a});
+    const cv::Mat pb = extract_patches(b, {in_b});
+    const cv::Mat pc = extract_patches(c, {in_c});
+    const auto b_onto_a = align_patch(pa.ptr<uchar>(0), pb.ptr<uchar>(0));
+    if (!b_onto_a) continue;
+    const auto c_onto_a =
+        align_patch(pb.ptr<uchar>(0), pc.ptr<uchar>(0), *b_onto_a);
+    const auto c_onto_b = align_patch(pb.ptr<uchar>(0), pc.ptr<uchar>(0));
+    if (!c_onto_a || !c_onto_b) continue;
+    through.push_back((in_c + *c_onto_a - truth_c).norm());
+    at_neighbour_centre.push_back((in_c + *c_onto_b - truth_c).norm());
+  }
+  ASSERT_GE(through.size(), 80u);
+  std::sort(through.begin(), through.end());
+  std::sort(at_neighbour_centre.begin(), at_neighbour_centre.end());
+  const double median = through[through.size() / 2];
+  const double median_centre =
+      at_neighbour_centre[at_neighbour_centre.size() / 2];
+  std::printf(
+      "through the neighbour's shift %.3f px (largest %.3f), at its "
+      "detected centre %.3f px\n",
+      median, through.back(), median_centre);
+  EXPECT_LT(median, 0.08);
+  EXPECT_LT(through.back(), 0.3);
+  EXPECT_GT(median_centre, 3 * median);
+}
+
 TEST(KeypointRefinementTest, RefusesFlatAndUnrelatedPatches) {
   const cv::Mat flat(100, 100, CV_8U, cv::Scalar(128));
   const cv::Mat texture = moved(smooth_texture(100, 1), {0, 0}, 1, 0);

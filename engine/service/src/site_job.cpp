@@ -509,7 +509,7 @@ Increment SiteJob::run_refine(const std::function<bool()>& stop) {
     summary << "global refinement of " << refined.images << " key views, "
             << refined.iterations << " iterations, cameras moved up to "
             << refined.largest_move << " (keypoints " << refined.pixel_sigma
-            << " px)";
+            << " px), " << refined.tracks_joined << " matches joined";
   } else {
     summary << "registered " << refined.registered.size()
             << " waiting captures";

@@ -79,13 +79,17 @@ struct Windows {
   std::array<Eigen::Vector3d, kWindow> target{};
 };
 
-Windows sample_windows(const Patch& reference, const Patch& target,
-                       const Eigen::Vector2d& shift) {
+Windows sample_windows(const Patch& reference, const Eigen::Vector2d& offset,
+                       const Patch& target, const Eigen::Vector2d& shift) {
   Windows w;
   int i = 0;
   for (int v = -kHalfWindow; v <= kHalfWindow; ++v) {
     for (int u = -kHalfWindow; u <= kHalfWindow; ++u, ++i) {
-      w.reference[i] = reference.at(kCentre + u, kCentre + v);
+      w.reference[i] = offset.isZero() ? reference.at(kCentre + u, kCentre + v)
+                                       : reference
+                                             .sample(kCentre + u + offset.x(),
+                                                     kCentre + v + offset.y())
+                                             .x();
       w.target[i] =
           target.sample(kCentre + u + shift.x(), kCentre + v + shift.y());
     }
@@ -145,22 +149,26 @@ cv::Mat extract_patches(const cv::Mat& gray,
   return patches;
 }
 
-std::optional<Eigen::Vector2d> align_patch(const uchar* reference,
-                                           const uchar* target) {
+std::optional<Eigen::Vector2d> align_patch(
+    const uchar* reference, const uchar* target,
+    const Eigen::Vector2d& reference_offset) {
+  if (reference_offset.norm() > kMaxShift) return std::nullopt;
   const Patch ref(reference);
   const Patch tgt(target);
   Eigen::Vector4d params(0, 0, 1, 0);  // shift x, shift y, gain, bias
   bool converged = false;
   for (int it = 0; it < kIterations && !converged; ++it) {
     const Eigen::Vector2d before = params.head<2>();
-    if (!gauss_newton_step(sample_windows(ref, tgt, before), params))
+    if (!gauss_newton_step(sample_windows(ref, reference_offset, tgt, before),
+                           params))
       return std::nullopt;
     if (params.head<2>().norm() > kMaxSearch) return std::nullopt;
     converged = (params.head<2>() - before).norm() < kConverged;
   }
   const Eigen::Vector2d shift = params.head<2>();
   if (!converged || shift.norm() > kMaxShift ||
-      correlation(sample_windows(ref, tgt, shift)) < kMinCorrelation) {
+      correlation(sample_windows(ref, reference_offset, tgt, shift)) <
+          kMinCorrelation) {
     return std::nullopt;
   }
   return shift;

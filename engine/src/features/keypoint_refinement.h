@@ -38,7 +38,12 @@ cv::Mat extract_patches(const cv::Mat& gray,
 // and bias. Empty when the alignment does not converge, moves more than
 // 1.5 px or leaves a poor match (normalised cross-correlation below 0.8):
 // the keypoint then stays where the detector put it.
-std::optional<Eigen::Vector2d> align_patch(const uchar* reference,
-                                           const uchar* target);
+// `reference_offset` (at most 1.5 px) moves the reference window off the
+// reference patch's centre: the spot to find is then the one at that
+// offset, which is how a keypoint aligns through a neighbour whose own
+// shift onto the track's reference is known.
+std::optional<Eigen::Vector2d> align_patch(
+    const uchar* reference, const uchar* target,
+    const Eigen::Vector2d& reference_offset = Eigen::Vector2d::Zero());
 
 }  // namespace arscout::engine

@@ -44,6 +44,9 @@ constexpr double kRefineTolerance = 1e-10;
 constexpr double kLocalTolerance = 1e-4;
 constexpr double kInlineGlobalTolerance = 1e-5;
 constexpr int kRefineRounds = 6;
+// A round that joined more than one point's worth in this many (tracks
+// merged or extended) leaves the refinement due for another.
+constexpr int64_t kJoinedForAnotherRound = 1000;
 // The global refinement's Cauchy scale, in keypoint deviations.
 constexpr double kRefineLossSigmas = 1.5;
 
@@ -244,6 +247,8 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
       adjust_pose(static_cast<int>(i));
   }
   filter_points(all);
+  // A round that gave way joins at the end of the one that continues it.
+  if (!report.stopped) result.tracks_joined = join_tracks(stop);
   result.largest_move = largest_move(centres_before);
   // A round that used up its iterations is continued by the next call, up
   // to kRefineRounds rounds in a row on the same model: a solve that never
@@ -254,15 +259,53 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
     scene_.unsettled_at_count = scene_.registered_count();
     scene_.unsettled_refine_rounds = 0;
   }
+  // Tracks joined by this round give the next one more to pull on.
+  const bool joined_many = result.tracks_joined * kJoinedForAnotherRound >
+                           static_cast<int64_t>(scene_.points.size());
   const bool settled =
-      result.converged &&
-      (report.converged || ++scene_.unsettled_refine_rounds >= kRefineRounds);
+      result.converged && ((report.converged && !joined_many) ||
+                           ++scene_.unsettled_refine_rounds >= kRefineRounds);
   if (settled) {
     scene_.registered_at_last_global_ba = scene_.registered_count();
     scene_.unsettled_refine_rounds = 0;
   }
   result.seconds = seconds_since(start);
   return result;
+}
+
+// Verified matches whose keypoints the model still holds as two points,
+// or one as none, joined where one position explains both (merge_tracks,
+// extend_track), as COLMAP completes and merges tracks after a global
+// adjustment. A merge or a round that moved one stretch onto another
+// leaves both sides' points of one place apart, each held by its own side
+// only; joined, they tie the sides together in the next round. Returns
+// the matches joined; stops early when `stop` says so.
+int IncrementalMapper::join_tracks(const std::function<bool()>& stop) {
+  StageClock clock(timings_.triangulation_s);
+  int joined = 0;
+  int checked_pairs = 0;
+  for (const auto& [key, pair] : scene_.pairs) {
+    if (stop && ++checked_pairs % 64 == 0 && stop()) break;
+    const SceneImage& a = scene_.images[key.first];
+    const SceneImage& b = scene_.images[key.second];
+    if (!a.registered || !b.registered || a.component != b.component) continue;
+    for (const auto& [first, second] : pair.matches) {
+      const int64_t pa = a.point_of[first];
+      const int64_t pb = b.point_of[second];
+      if (pa == pb) continue;  // one point, or neither triangulated
+      if (pa >= 0 && pb >= 0) {
+        merge_tracks(pa, pb);
+        joined += scene_.points.count(pa) == 0 || scene_.points.count(pb) == 0;
+      } else if (pa >= 0) {
+        extend_track(pa, {key.second, second});
+        joined += b.point_of[second] == pa;
+      } else {
+        extend_track(pb, {key.first, first});
+        joined += a.point_of[first] == pb;
+      }
+    }
+  }
+  return joined;
 }
 
 std::vector<Eigen::Vector3d> IncrementalMapper::registered_centres() const {
@@ -768,14 +811,57 @@ void IncrementalMapper::refine_keypoints(int index) {
     if (image.point_of[k] < 0) continue;
     const auto reference = track_reference(image.point_of[k], index);
     if (!reference) continue;
-    const auto shift = align_patch(
-        scene_.images[reference->image].patches.ptr<uchar>(reference->keypoint),
-        image.patches.ptr<uchar>(static_cast<int>(k)));
+    const Observation target{index, static_cast<int>(k)};
+    auto shift = align_patch(patch_of(*reference), patch_of(target));
+    if (!shift)
+      shift = align_through_neighbour(image.point_of[k], *reference, target);
     if (!shift) continue;
     image.keypoints[k] += *shift;
     image.refined_keypoints.emplace_back(static_cast<int>(k),
                                          image.keypoints[k]);
   }
+}
+
+const uchar* IncrementalMapper::patch_of(const Observation& obs) const {
+  return scene_.images[obs.image].patches.ptr<uchar>(obs.keypoint);
+}
+
+// A keypoint seen too differently from its track's reference for their
+// patches to align (most often far along a long track) aligns instead to
+// the track's observations seen most like it, through that observation's
+// own alignment to the reference: the reference's spot lies at that shift
+// on its patch. One step only, so no error adds up along a chain.
+std::optional<Eigen::Vector2d> IncrementalMapper::align_through_neighbour(
+    int64_t point, const Observation& reference,
+    const Observation& target) const {
+  constexpr size_t kNeighboursTried = 2;
+  const Eigen::Vector3d& xyz = scene_.points.at(point).xyz;
+  const auto ray = [&](int image) {
+    return (scene_.images[image].centre() - xyz).normalized();
+  };
+  const Eigen::Vector3d target_ray = ray(target.image);
+  std::vector<std::pair<double, Observation>> neighbours;
+  for (const Observation& obs : scene_.points.at(point).track) {
+    const SceneImage& image = scene_.images[obs.image];
+    if (obs.image == target.image || obs.image == reference.image ||
+        !image.registered || image.patches.empty())
+      continue;
+    neighbours.emplace_back(-ray(obs.image).dot(target_ray), obs);
+  }
+  const size_t tried = std::min(kNeighboursTried, neighbours.size());
+  std::partial_sort(
+      neighbours.begin(), neighbours.begin() + tried, neighbours.end(),
+      [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (size_t i = 0; i < tried; ++i) {
+    const Observation& neighbour = neighbours[i].second;
+    const auto onto_reference =
+        align_patch(patch_of(reference), patch_of(neighbour));
+    if (!onto_reference) continue;
+    if (auto shift =
+            align_patch(patch_of(neighbour), patch_of(target), *onto_reference))
+      return shift;
+  }
+  return std::nullopt;
 }
 
 // The observation of `point` the others align to: the one in the earliest

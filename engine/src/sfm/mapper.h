@@ -54,6 +54,12 @@ class IncrementalMapper {
   // Merges the components that registered photos link (sfm/
   // component_merge.cpp); returns the merges made.
   int sweep_merges(const std::function<bool()>& stop);
+  // Joins the verified matches whose two keypoints the model holds as two
+  // points, or one as none, wherever one position explains both (as COLMAP
+  // completes and merges tracks after a global adjustment); refine() runs
+  // it after each round. Returns the matches joined. `stop` (may be empty)
+  // is asked every 64 pairs; what was joined before it said so stays.
+  int join_tracks(const std::function<bool()>& stop);
   // Components merged by this mapper's update() calls.
   int components_merged() const { return components_merged_; }
   // 2D-3D correspondences an image has with one component's points
@@ -139,6 +145,10 @@ class IncrementalMapper {
   std::vector<Eigen::Vector3d> registered_centres() const;
   double largest_move(const std::vector<Eigen::Vector3d>& before) const;
   std::optional<Observation> track_reference(int64_t point, int image) const;
+  const uchar* patch_of(const Observation& obs) const;
+  std::optional<Eigen::Vector2d> align_through_neighbour(
+      int64_t point, const Observation& reference,
+      const Observation& target) const;
   void extend_track(int64_t point, Observation obs);
   void merge_tracks(int64_t a, int64_t b);
   bool triangulate_pair_match(Observation first, Observation second);

@@ -234,6 +234,10 @@ struct RefineResult {
   // the model was placed on its fixes, which moves it as a whole), in the
   // model's units.
   double largest_move = 0;
+  // Matches the round joined into tracks after its adjustment (two points
+  // of one place merged, or an observation added); when many, another
+  // round is due.
+  int tracks_joined = 0;
   // Waiting captures this call registered (ids, in order); when any, the
   // call did only that, and the global adjustment is due next.
   std::vector<std::string> registered;
