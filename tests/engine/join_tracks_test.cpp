@@ -40,12 +40,18 @@ int cut_tracks_at(Scene& scene, int seam) {
   return cut;
 }
 
-TEST(JoinTracks, PointsCutAtASeamBecomeOneAgain) {
-  std::mt19937 rng(17);
+// `images` registered at their true poses, keypoints 0.3 px off, full
+// tracks (synthetic_scene.h).
+Scene registered_scene(int images, unsigned seed) {
+  std::mt19937 rng(seed);
   synthetic::Layout layout;
-  layout.images = 8;
+  layout.images = images;
   const synthetic::Truth truth = synthetic::make_truth(layout, rng);
-  Scene scene = synthetic::make_scene(truth, 0.3, 0, rng);
+  return synthetic::make_scene(truth, 0.3, 0, rng);
+}
+
+TEST(JoinTracks, PointsCutAtASeamBecomeOneAgain) {
+  Scene scene = registered_scene(8, 17);
   const size_t points_before = scene.points.size();
   const int cut = cut_tracks_at(scene, 4);
   ASSERT_GT(cut, 100);
@@ -82,11 +88,7 @@ void drop_observations(Scene& scene, int64_t point, int first, int last) {
 // position explains both tracks. An observation the model lost (filtered
 // as an outlier earlier) comes back through its match when it fits.
 TEST(JoinTracks, AFalseMatchStaysApartALostObservationComesBack) {
-  std::mt19937 rng(23);
-  synthetic::Layout layout;
-  layout.images = 6;
-  const synthetic::Truth truth = synthetic::make_truth(layout, rng);
-  Scene scene = synthetic::make_scene(truth, 0.3, 0, rng);
+  Scene scene = registered_scene(6, 23);
   // Two points every image sees, 3 m or more apart: p kept in images 0-2,
   // q in images 3-5, and a false match between p in image 2 and q in 3.
   int64_t p = -1, q = -1;
