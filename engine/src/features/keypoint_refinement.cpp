@@ -79,17 +79,29 @@ struct Windows {
   std::array<Eigen::Vector3d, kWindow> target{};
 };
 
-Windows sample_windows(const Patch& reference, const Eigen::Vector2d& offset,
-                       const Patch& target, const Eigen::Vector2d& shift) {
+// The reference window, centred `offset` off the patch's centre: sampled
+// once per alignment (bilinear sampling at whole pixels gives the stored
+// values exactly).
+Windows reference_window(const Patch& reference,
+                         const Eigen::Vector2d& offset) {
   Windows w;
   int i = 0;
   for (int v = -kHalfWindow; v <= kHalfWindow; ++v) {
     for (int u = -kHalfWindow; u <= kHalfWindow; ++u, ++i) {
-      w.reference[i] = offset.isZero() ? reference.at(kCentre + u, kCentre + v)
-                                       : reference
-                                             .sample(kCentre + u + offset.x(),
-                                                     kCentre + v + offset.y())
-                                             .x();
+      w.reference[i] =
+          reference.sample(kCentre + u + offset.x(), kCentre + v + offset.y())
+              .x();
+    }
+  }
+  return w;
+}
+
+// `w` with the target's samples at `shift`.
+const Windows& sample_target(Windows& w, const Patch& target,
+                             const Eigen::Vector2d& shift) {
+  int i = 0;
+  for (int v = -kHalfWindow; v <= kHalfWindow; ++v) {
+    for (int u = -kHalfWindow; u <= kHalfWindow; ++u, ++i) {
       w.target[i] =
           target.sample(kCentre + u + shift.x(), kCentre + v + shift.y());
     }
@@ -155,20 +167,19 @@ std::optional<Eigen::Vector2d> align_patch(
   if (reference_offset.norm() > kMaxShift) return std::nullopt;
   const Patch ref(reference);
   const Patch tgt(target);
+  Windows windows = reference_window(ref, reference_offset);
   Eigen::Vector4d params(0, 0, 1, 0);  // shift x, shift y, gain, bias
   bool converged = false;
   for (int it = 0; it < kIterations && !converged; ++it) {
     const Eigen::Vector2d before = params.head<2>();
-    if (!gauss_newton_step(sample_windows(ref, reference_offset, tgt, before),
-                           params))
+    if (!gauss_newton_step(sample_target(windows, tgt, before), params))
       return std::nullopt;
     if (params.head<2>().norm() > kMaxSearch) return std::nullopt;
     converged = (params.head<2>() - before).norm() < kConverged;
   }
   const Eigen::Vector2d shift = params.head<2>();
   if (!converged || shift.norm() > kMaxShift ||
-      correlation(sample_windows(ref, reference_offset, tgt, shift)) <
-          kMinCorrelation) {
+      correlation(sample_target(windows, tgt, shift)) < kMinCorrelation) {
     return std::nullopt;
   }
   return shift;

@@ -854,6 +854,9 @@ std::optional<Eigen::Vector2d> IncrementalMapper::align_through_neighbour(
       [](const auto& a, const auto& b) { return a.first < b.first; });
   for (size_t i = 0; i < tried; ++i) {
     const Observation& neighbour = neighbours[i].second;
+    // Aligned again rather than read from its refined position: that
+    // position is its shift onto the reference the track had then, which
+    // a merge of tracks may since have changed.
     const auto onto_reference =
         align_patch(patch_of(reference), patch_of(neighbour));
     if (!onto_reference) continue;
