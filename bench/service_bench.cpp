@@ -8,6 +8,7 @@
 //                 [--split] [--toward] [--db URL] [--no-dense]
 //                 [--per-capture] [--dense-new-coverage S]
 //                 [--dense-long-side PX] [--site-radius M] [--settle S]
+//                 [--max-features N]
 //
 // DIR holds images/*.jpg, images/K.txt and gps.csv: a Strecha scene
 // (fountain-P11 by default) or a rendered block walk (`arscout render-site
@@ -93,6 +94,7 @@ struct Options {
   double site_radius_m = 50;
   double new_coverage = 0;  // DenseOptions::new_coverage_share
   int dense_long_side = arscout::engine::DenseOptions{}.long_side;
+  int max_features = arscout::engine::ReconstructionOptions{}.max_features;
   // DenseOptions::sweep_budget and refuse_budget_sweeping (0 and -1: the
   // service's lane defaults).
   int sweep_budget = 0;
@@ -460,6 +462,7 @@ void run(const Options& o) {
   options.site_radius_m = o.site_radius_m;
   options.dense_options.new_coverage_share = o.new_coverage;
   options.dense_options.long_side = o.dense_long_side;
+  options.reconstruction.max_features = o.max_features;
   options.dense_options.sweep_budget = o.sweep_budget;
   options.dense_options.refuse_budget_sweeping = o.refuse_budget_sweeping;
   options.dense_options.catch_up_backlog = o.catch_up_backlog;
@@ -532,6 +535,10 @@ int main(int argc, char** argv) {
   app.add_option("--dense-new-coverage", o.new_coverage,
                  "as arscout serve's (0: off)")
       ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--max-features", o.max_features,
+                 "as arscout serve's: Harris corners per photo")
+      ->capture_default_str()
+      ->check(CLI::Range(100, 50000));
   app.add_option("--dense-long-side", o.dense_long_side,
                  "as arscout serve's: dense working resolution, long side in "
                  "px")

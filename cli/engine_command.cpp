@@ -60,6 +60,12 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
                   "(docs/service.md, \"One increment\")")
       ->capture_default_str()
       ->check(CLI::Range(1, 1000));
+  cmd->add_option("--max-features", o->reconstruction.max_features,
+                  "Harris corners per photo: twice the default halves a "
+                  "long walk's bend but doubles the cost of a photo "
+                  "(docs/engine.md, \"How many corners\")")
+      ->capture_default_str()
+      ->check(CLI::Range(100, 50000));
   cmd->add_flag("!--no-dense", o->dense, "sparse models only");
   cmd->add_option("--dense-long-side", o->dense_options.long_side,
                   "dense working resolution, long side in px")

@@ -10,7 +10,6 @@
 #include <spdlog/spdlog.h>
 
 #include "arscout/db/path.h"
-#include "arscout/util/sha256.h"
 #include "backends.h"
 #include "store_core.h"
 
@@ -142,20 +141,6 @@ WriteResult Store::remove(const std::string& path,
 // kUnknownBlob and is retried.
 std::string Store::put_blob(std::string_view bytes) {
   return put_blobs({bytes}).front();
-}
-
-std::vector<std::string> Store::put_blobs(
-    const std::vector<std::string_view>& blobs) {
-  std::vector<std::string> shas;
-  shas.reserve(blobs.size());
-  for (std::string_view bytes : blobs) {
-    shas.push_back(util::sha256_hex(bytes));
-    if (blob_info(shas.back())) continue;
-    internal::ViewBuffer buffer(bytes);
-    std::istream in(&buffer);
-    put_blob(in);
-  }
-  return shas;
 }
 
 std::string Store::get_blob(std::string_view sha256) {

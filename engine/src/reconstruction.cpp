@@ -743,9 +743,14 @@ std::vector<std::string> Reconstruction::captures_with_features() const {
   return ids;
 }
 
+bool Reconstruction::has_features(const std::string& capture) const {
+  const int index = impl_->scene.find_image(capture);
+  return index >= 0 && !impl_->scene.images[index].keypoints.empty();
+}
+
 std::string Reconstruction::capture_features(const std::string& capture) const {
   const int index = impl_->scene.find_image(capture);
-  if (index < 0 || impl_->scene.images[index].keypoints.empty())
+  if (!has_features(capture))
     throw std::invalid_argument("no features of capture " + capture);
   return serialize_features(impl_->scene.images[index]);
 }

@@ -367,11 +367,8 @@ size_t SiteJob::add_state_ops(const Model& model,
 void SiteJob::start_feature_writes(const IncrementReport& report) {
   for (const std::string& capture : report.withdrawn)
     feature_writes_.erase(capture);
-  if (report.added.empty()) return;
-  const std::vector<std::string> ids = sparse_->captures_with_features();
-  const std::set<std::string> with_features(ids.begin(), ids.end());
   for (const std::string& capture : report.added) {
-    if (with_features.count(capture))
+    if (sparse_->has_features(capture))
       feature_writes_[capture] =
           feature_writer_.put(sparse_->capture_features(capture));
   }

@@ -539,10 +539,7 @@ struct SampsonCost {
     const T q_inverse[4] = {q[3], -q[0], -q[1], -q[2]};
     T Etx2[3];
     ceres::QuaternionRotatePoint(q_inverse, t_cross_p2, Etx2);
-    const T epipolar = p2[0] * Ex1[0] + p2[1] * Ex1[1] + p2[2] * Ex1[2];
-    const T norm2 = Ex1[0] * Ex1[0] + Ex1[1] * Ex1[1] + Etx2[0] * Etx2[0] +
-                    Etx2[1] * Etx2[1];
-    residual[0] = epipolar / sqrt(norm2 + T(1e-30));
+    residual[0] = sampson_distance(Ex1, Etx2, p2);
     return true;
   }
 

@@ -3,6 +3,7 @@
 // angles-ish: pixels divided by the focal length.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <optional>
@@ -29,6 +30,21 @@ struct RelativePose {
 std::optional<RelativePose> estimate_relative_pose(
     const std::vector<Eigen::Vector2d>& x1,
     const std::vector<Eigen::Vector2d>& x2, double threshold, int min_inliers);
+
+// The first-order (Sampson) distance of a correspondence x1 <-> x2 to an
+// essential matrix E, from E x1, E^T x2 and x2 (homogeneous, last entry
+// 1): the epipolar error over the norm of its gradient, as OpenCV's
+// essential-matrix RANSAC measures it. One formula for the inlier test and
+// the two-view refinement (templated for Ceres' Jets); the sign is that of
+// x2^T E x1, and only its square means anything.
+template <typename T>
+T sampson_distance(const T* e_x1, const T* et_x2, const T* x2) {
+  using std::sqrt;
+  const T epipolar = x2[0] * e_x1[0] + x2[1] * e_x1[1] + x2[2] * e_x1[2];
+  const T norm2 = e_x1[0] * e_x1[0] + e_x1[1] * e_x1[1] + et_x2[0] * et_x2[0] +
+                  et_x2[1] * et_x2[1];
+  return epipolar / sqrt(norm2 + T(1e-30));
+}
 
 // --- Absolute pose (P3P in RANSAC, then refinement on the inliers) ---------
 struct AbsolutePose {

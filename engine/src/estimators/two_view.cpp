@@ -58,11 +58,8 @@ cv::Mat sampson_inliers(const cv::Mat& essential, const PointList& p1,
   for (size_t i = 0; i < p1.size(); ++i) {
     const Eigen::Vector3d a(p1[i].x, p1[i].y, 1), b(p2[i].x, p2[i].y, 1);
     const Eigen::Vector3d Ea = E * a, Etb = E.transpose() * b;
-    const double e = b.dot(Ea);
-    const double d2 =
-        e * e /
-        (Ea.head<2>().squaredNorm() + Etb.head<2>().squaredNorm() + 1e-30);
-    mask.at<uchar>(static_cast<int>(i)) = d2 <= threshold * threshold;
+    const double d = sampson_distance(Ea.data(), Etb.data(), b.data());
+    mask.at<uchar>(static_cast<int>(i)) = d * d <= threshold * threshold;
   }
   return mask;
 }

@@ -147,7 +147,7 @@ class Store {
   // blob, each byte once (the engine saves its state as a few hundred
   // parts). A failure may leave some of them stored, never half of one.
   virtual std::vector<std::string> put_blobs(
-      const std::vector<std::string_view>& blobs);
+      const std::vector<std::string_view>& blobs) = 0;
   virtual std::optional<BlobInfo> blob_info(std::string_view sha256) = 0;
   // Writes length bytes (all remaining when negative) starting at offset to
   // `out`, a chunk at a time. Throws kUnknownBlob, or kInvalidArgument for a

@@ -359,6 +359,9 @@ class Reconstruction {
   std::string serialize(bool features_apart = false) const;
   // The captures whose features serialize(true) leaves out.
   std::vector<std::string> captures_with_features() const;
+  // Whether `capture` is one of them (no list built: asked per new capture
+  // of every increment).
+  bool has_features(const std::string& capture) const;
   // One such capture's features as bytes; throws std::invalid_argument for
   // a capture without features here.
   std::string capture_features(const std::string& capture) const;
