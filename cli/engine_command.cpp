@@ -62,8 +62,8 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
       ->check(CLI::Range(1, 1000));
   cmd->add_option("--max-features", o->reconstruction.max_features,
                   "Harris corners per photo: twice the default halves a "
-                  "long walk's bend but doubles the cost of a photo "
-                  "(docs/engine.md, \"How many corners\")")
+                  "long walk's bend but makes a photo about three times as "
+                  "costly (docs/engine.md, \"How many corners\")")
       ->capture_default_str()
       ->check(CLI::Range(100, 50000));
   cmd->add_flag("!--no-dense", o->dense, "sparse models only");
