@@ -95,6 +95,7 @@ struct Options {
   double new_coverage = 0;  // DenseOptions::new_coverage_share
   int dense_long_side = arscout::engine::DenseOptions{}.long_side;
   int max_features = arscout::engine::ReconstructionOptions{}.max_features;
+  int match_features = arscout::engine::ReconstructionOptions{}.match_features;
   // DenseOptions::sweep_budget and refuse_budget_sweeping (0 and -1: the
   // service's lane defaults).
   int sweep_budget = 0;
@@ -463,6 +464,7 @@ void run(const Options& o) {
   options.dense_options.new_coverage_share = o.new_coverage;
   options.dense_options.long_side = o.dense_long_side;
   options.reconstruction.max_features = o.max_features;
+  options.reconstruction.match_features = o.match_features;
   options.dense_options.sweep_budget = o.sweep_budget;
   options.dense_options.refuse_budget_sweeping = o.refuse_budget_sweeping;
   options.dense_options.catch_up_backlog = o.catch_up_backlog;
@@ -537,6 +539,11 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--max-features", o.max_features,
                  "as arscout serve's: Harris corners per photo")
+      ->capture_default_str()
+      ->check(CLI::Range(100, 50000));
+  app.add_option("--match-features", o.match_features,
+                 "as arscout serve's: of those, the strongest an increment "
+                 "matches")
       ->capture_default_str()
       ->check(CLI::Range(100, 50000));
   app.add_option("--dense-long-side", o.dense_long_side,

@@ -61,9 +61,14 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
       ->capture_default_str()
       ->check(CLI::Range(1, 1000));
   cmd->add_option("--max-features", o->reconstruction.max_features,
-                  "Harris corners per photo: twice the default halves a "
-                  "long walk's bend but makes a photo about three times as "
-                  "costly (docs/engine.md, \"How many corners\")")
+                  "Harris corners per photo; more make a long walk straighter "
+                  "(docs/engine.md, \"How many corners\")")
+      ->capture_default_str()
+      ->check(CLI::Range(100, 50000));
+  cmd->add_option("--match-features", o->reconstruction.match_features,
+                  "of those, the strongest that a photo's increment matches "
+                  "(its cost grows faster than this); the refinement matches "
+                  "the rest along epipolar lines, off the latency path")
       ->capture_default_str()
       ->check(CLI::Range(100, 50000));
   cmd->add_flag("!--no-dense", o->dense, "sparse models only");

@@ -204,7 +204,8 @@ void print_refine(const engine::RefineResult& r) {
             << std::setprecision(3) << r.pixel_sigma << " px, loss "
             << r.loss_scale_px << " px, cameras moved up to "
             << std::setprecision(4) << r.largest_move << std::setprecision(2)
-            << ", " << r.tracks_joined << " matches joined"
+            << ", " << r.tracks_joined << " matches joined, "
+            << r.corners_matched << " weak corners matched"
             << (r.converged ? "" : " (given way)") << std::endl;
 }
 
@@ -370,6 +371,11 @@ void add_reconstruct_command(CLI::App& app) {
       ->check(CLI::Range(200, 10000));
   cmd->add_option("--max-features", args.options.max_features,
                   "Harris corners per image")
+      ->capture_default_str()
+      ->check(CLI::Range(100, 50000));
+  cmd->add_option("--match-features", args.options.match_features,
+                  "of those, the strongest that each increment matches; the "
+                  "refinement matches the rest along epipolar lines")
       ->capture_default_str()
       ->check(CLI::Range(100, 50000));
   cmd->add_option("--gps-neighbours", args.options.gps_neighbours,

@@ -127,6 +127,7 @@ struct Reconstruction::Impl {
       const std::set<int>& chosen) const;
   std::vector<Candidate> neighbours(int index) const;
   std::vector<int> covisible_with(const std::set<int>& images) const;
+  cv::Mat matched_descriptors(int index) const;
   int overlap(int index, int other) const;
   std::vector<int> overlaps(int index, const std::vector<int>& others) const;
   std::pair<int, int> best_rotation(int index, int other) const;
@@ -357,11 +358,17 @@ std::vector<Candidate> Reconstruction::Impl::neighbours(int index) const {
   return result;
 }
 
+// The rows of the strongest `match_features` corners: the only ones an
+// increment matches (the weaker ones are the refinement's, sfm/densify.cpp).
+cv::Mat Reconstruction::Impl::matched_descriptors(int index) const {
+  const cv::Mat& all = scene.images[index].descriptors;
+  return all.rowRange(0, std::min(all.rows, options.match_features));
+}
+
 // How many sampled descriptors of `index` match `other` upright.
 int Reconstruction::Impl::overlap(int index, int other) const {
-  return overlap_score(scene.images[index].descriptors,
-                       scene.images[other].descriptors, options.ratio,
-                       kScreenSamples);
+  return overlap_score(matched_descriptors(index), matched_descriptors(other),
+                       options.ratio, kScreenSamples);
 }
 
 // overlap() of `index` with each of `others`, several at once on up to
@@ -402,8 +409,8 @@ std::vector<int> Reconstruction::Impl::covisible_with(
 // screen's score; upright first, turned only when upright finds little.
 std::pair<int, int> Reconstruction::Impl::best_rotation(int index,
                                                         int other) const {
-  const cv::Mat& mine = scene.images[index].descriptors;
-  const cv::Mat& theirs = scene.images[other].descriptors;
+  const cv::Mat mine = matched_descriptors(index);
+  const cv::Mat theirs = matched_descriptors(other);
   std::pair<int, int> best{
       0, overlap_score(mine, theirs, options.ratio, kScreenSamples)};
   if (best.second >= kScreenMinimum) return best;
@@ -477,7 +484,8 @@ std::optional<ImagePair> Reconstruction::Impl::verified_pair(
   const SceneImage& other = scene.images[task.other];
   const SceneCamera& other_camera = scene.cameras[other.camera];
   const auto matches = match_descriptors(
-      other.descriptors, rotate_descriptors(image.descriptors, task.turns),
+      matched_descriptors(task.other),
+      rotate_descriptors(matched_descriptors(task.index), task.turns),
       options.ratio, threads);
   std::vector<Eigen::Vector2d> x1, x2;
   for (const auto& [a, b] : matches) {

@@ -506,7 +506,8 @@ Increment SiteJob::run_refine(const std::function<bool()>& stop) {
     summary << "global refinement of " << refined.images << " key views, "
             << refined.iterations << " iterations, cameras moved up to "
             << refined.largest_move << " (keypoints " << refined.pixel_sigma
-            << " px), " << refined.tracks_joined << " matches joined";
+            << " px), " << refined.tracks_joined << " matches joined, "
+            << refined.corners_matched << " weak corners matched";
   } else {
     summary << "registered " << refined.registered.size()
             << " waiting captures";

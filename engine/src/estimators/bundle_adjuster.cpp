@@ -250,8 +250,9 @@ class ProblemBuilder {
     // The free images' points, found through their keypoints: O(window),
     // not O(model).
     for (int i : free_) {
-      for (int64_t id : scene_.images[i].point_of) {
-        if (id >= 0) points_.insert(id);
+      const std::vector<int64_t>& point_of = scene_.images[i].point_of;
+      for (size_t k = 0; k < point_of.size() && strong(k); ++k) {
+        if (point_of[k] >= 0) points_.insert(point_of[k]);
       }
     }
     choose_fixed_images();
@@ -399,7 +400,8 @@ class ProblemBuilder {
     std::map<int, int> shared;
     for (int64_t id : points_) {
       for (const Observation& obs : scene_.points.at(id).track) {
-        if (!free_.count(obs.image)) ++shared[obs.image];
+        if (!free_.count(obs.image) && strong(obs.keypoint))
+          ++shared[obs.image];
       }
     }
     std::vector<std::pair<int, int>> ranked;
@@ -420,7 +422,7 @@ class ProblemBuilder {
     if (global_) return global_observations(point);
     std::vector<Observation> kept;
     for (const Observation& obs : point.track) {
-      if (free_.count(obs.image)) kept.push_back(obs);
+      if (free_.count(obs.image) && strong(obs.keypoint)) kept.push_back(obs);
     }
     if (options_.points_fixed) return kept;  // the others add nothing
     const size_t cap =
@@ -429,12 +431,20 @@ class ProblemBuilder {
             : point.track.size();
     for (const Observation& obs : point.track) {
       if (kept.size() >= cap) break;
-      if (free_.count(obs.image)) continue;
+      if (free_.count(obs.image) || !strong(obs.keypoint)) continue;
       if (limit_fixed_ && !fixed_.count(obs.image)) continue;
       kept.push_back(obs);
     }
     if (kept.size() < 2) kept.clear();
     return kept;
+  }
+
+  bool strong(size_t keypoint) const {
+    return options_.strong_keypoints <= 0 ||
+           keypoint < static_cast<size_t>(options_.strong_keypoints);
+  }
+  bool strong(int keypoint) const {
+    return strong(static_cast<size_t>(keypoint));
   }
 
   std::vector<Observation> global_observations(const ScenePoint& point) const {

@@ -45,6 +45,10 @@ struct BundleOptions {
   // (0: no limit). This bounds the problem whatever the model's size.
   int max_fixed_images = 0;
   int max_track_observations = 0;
+  // Local adjustments only, > 0: observations of keypoints at or past this
+  // index (the weaker corners, which the refinement adds: sfm/densify.cpp)
+  // are left out, so a window costs what the increments' own corners do.
+  int strong_keypoints = 0;
   // Global adjustments only: when set, the problem holds these registered
   // images alone (the others' observations are left out, their poses
   // untouched), and points with more than `max_track_observations` of them

@@ -219,6 +219,9 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   }
   if (!refinement_due()) return result;  // the backlog was all it had
   result.ran = true;
+  // Before the adjustment, which then places the new points; pairs left
+  // when `stop` ends it are the next round's.
+  result.corners_matched = densify_tracks(stop);
   BundleOptions ba = bundle_options(kGlobalIterations);
   ba.function_tolerance = kRefineTolerance;
   ba.loss_scale_sigmas = kRefineLossSigmas;
@@ -781,19 +784,25 @@ void IncrementalMapper::triangulate_image(int index) {
   for (const auto& [other, pair] : scene_.pairs_of(index)) {
     const SceneImage& partner = scene_.images[other];
     if (!partner.registered || partner.component != component) continue;
-    for (const auto& [mine, theirs] : oriented_matches(index, other, *pair)) {
-      const int64_t p_mine = scene_.images[index].point_of[mine];
-      const int64_t p_theirs = scene_.images[other].point_of[theirs];
-      if (p_mine >= 0 && p_theirs >= 0) {
-        merge_tracks(p_mine, p_theirs);
-      } else if (p_theirs >= 0) {
-        extend_track(p_theirs, {index, mine});
-      } else if (p_mine >= 0) {
-        extend_track(p_mine, {other, theirs});
-      } else {
-        triangulate_pair_match({index, mine}, {other, theirs});
-      }
-    }
+    for (const auto& [mine, theirs] : oriented_matches(index, other, *pair))
+      link_match({index, mine}, {other, theirs});
+  }
+}
+
+// One verified match into the tracks: two points merged, a track extended,
+// or a new point, wherever one position explains both keypoints.
+void IncrementalMapper::link_match(Observation first, Observation second) {
+  const int64_t p_first = scene_.images[first.image].point_of[first.keypoint];
+  const int64_t p_second =
+      scene_.images[second.image].point_of[second.keypoint];
+  if (p_first >= 0 && p_second >= 0) {
+    merge_tracks(p_first, p_second);
+  } else if (p_second >= 0) {
+    extend_track(p_second, first);
+  } else if (p_first >= 0) {
+    extend_track(p_first, second);
+  } else {
+    triangulate_pair_match(first, second);
   }
 }
 
@@ -961,6 +970,7 @@ void IncrementalMapper::adjust_local(int index) {
   ba.function_tolerance = kLocalTolerance;
   ba.max_fixed_images = options_.local_ba_fixed;
   ba.max_track_observations = options_.local_ba_track;
+  ba.strong_keypoints = options_.match_features;
   // Aligning to the priors moves every camera: cheap, but O(model), so only
   // while the model is small; later the global refinement keeps it aligned.
   if (global_inline()) align_to_priors(ba);

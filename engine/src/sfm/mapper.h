@@ -60,6 +60,13 @@ class IncrementalMapper {
   // it after each round. Returns the matches joined. `stop` (may be empty)
   // is asked every 64 pairs; what was joined before it said so stays.
   int join_tracks(const std::function<bool()>& stop);
+  // The weaker corners the increments leave out (past
+  // ReconstructionOptions::match_features) matched along the epipolar lines
+  // of each registered pair not done yet, and the matches linked into
+  // tracks (sfm/densify.cpp); refine() runs it before its adjustment.
+  // Returns the matches that joined a track or made a point; stops early
+  // when `stop` says so.
+  int densify_tracks(const std::function<bool()>& stop);
   // Components merged by this mapper's update() calls.
   int components_merged() const { return components_merged_; }
   // 2D-3D correspondences an image has with one component's points
@@ -152,6 +159,10 @@ class IncrementalMapper {
   void extend_track(int64_t point, Observation obs);
   void merge_tracks(int64_t a, int64_t b);
   bool triangulate_pair_match(Observation first, Observation second);
+  void link_match(Observation first, Observation second);
+  int densify_pair(const std::pair<int, int>& key, ImagePair& pair);
+  bool align_to_track(Observation obs);
+  void drop_observation(Observation obs);
   std::optional<Eigen::Vector3d> triangulated(const SceneImage& a,
                                               Observation first,
                                               const SceneImage& b,

@@ -129,6 +129,10 @@ struct Scene {
   // every increment does not try them again (not serialized: a restored
   // scene tries once more).
   std::set<std::pair<int, int>> failed_component_pairs;
+  // Registered pairs whose weaker corners the refinement has matched
+  // (sfm/densify.cpp; not serialized: a restored scene looks again, and
+  // finds the corners it matched already in the pair's matches).
+  std::set<std::pair<int, int>> densified_pairs;
   // Components may have become mergeable since the last look (a photo
   // registered or a component started; a restored scene looks once).
   bool merge_sweep_due = true;

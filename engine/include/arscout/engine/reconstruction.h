@@ -42,8 +42,14 @@
 namespace arscout::engine {
 
 struct ReconstructionOptions {
-  int long_side = 1600;       // working resolution (long side, pixels)
-  int max_features = 3000;    // Harris corners per image (the strongest)
+  int long_side = 1600;     // working resolution (long side, pixels)
+  int max_features = 3000;  // Harris corners per image (the strongest)
+  // Of those, the strongest `match_features` are what an increment matches
+  // and registers by; any weaker rest (max_features above this) is matched
+  // along the epipolar lines of registered pairs by the refinement, off the
+  // latency path, to stiffen the model (docs/engine.md, "How many
+  // corners").
+  int match_features = 3000;
   int gps_neighbours = 6;     // k nearest captures by GPS to match against
   double gps_radius_m = 150;  // ... within this distance
   int recent_neighbours = 3;  // and its scout's captures added just before
@@ -238,6 +244,10 @@ struct RefineResult {
   // of one place merged, or an observation added); when many, another
   // round is due.
   int tracks_joined = 0;
+  // Weaker corners (past ReconstructionOptions::match_features) the round
+  // matched along registered pairs' epipolar lines and linked into tracks
+  // before its adjustment (docs/engine.md, "How many corners").
+  int corners_matched = 0;
   // Waiting captures this call registered (ids, in order); when any, the
   // call did only that, and the global adjustment is due next.
   std::vector<std::string> registered;
