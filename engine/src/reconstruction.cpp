@@ -686,14 +686,8 @@ bool Reconstruction::remove_capture(const std::string& id) {
   const int index = scene.find_image(id);
   if (index < 0) return false;
   SceneImage& image = scene.images[index];
-  for (size_t k = 0; k < image.point_of.size(); ++k) {
-    const int64_t point_id = image.point_of[k];
-    if (point_id < 0) continue;
-    ScenePoint& point = scene.points.at(point_id);
-    std::erase(point.track, Observation{index, static_cast<int>(k)});
-    image.point_of[k] = -1;
-    if (point.track.size() < 2) scene.remove_point(point_id);
-  }
+  for (size_t k = 0; k < image.point_of.size(); ++k)
+    scene.remove_observation({index, static_cast<int>(k)});
   std::erase_if(scene.pairs, [index](const auto& entry) {
     return entry.first.first == index || entry.first.second == index;
   });

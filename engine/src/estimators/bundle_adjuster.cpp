@@ -251,7 +251,8 @@ class ProblemBuilder {
     // not O(model).
     for (int i : free_) {
       const std::vector<int64_t>& point_of = scene_.images[i].point_of;
-      for (size_t k = 0; k < point_of.size() && strong(k); ++k) {
+      for (size_t k = 0; k < point_of.size() && strong(static_cast<int>(k));
+           ++k) {
         if (point_of[k] >= 0) points_.insert(point_of[k]);
       }
     }
@@ -439,12 +440,9 @@ class ProblemBuilder {
     return kept;
   }
 
-  bool strong(size_t keypoint) const {
-    return options_.strong_keypoints <= 0 ||
-           keypoint < static_cast<size_t>(options_.strong_keypoints);
-  }
   bool strong(int keypoint) const {
-    return strong(static_cast<size_t>(keypoint));
+    return options_.strong_keypoints <= 0 ||
+           keypoint < options_.strong_keypoints;
   }
 
   std::vector<Observation> global_observations(const ScenePoint& point) const {

@@ -100,8 +100,8 @@ int IncrementalMapper::densify_pair(const std::pair<int, int>& key,
         pa >= 0 || refined_a.count(ka) || align_to_track({key.first, ka});
     const bool fits_b =
         pb >= 0 || refined_b.count(kb) || align_to_track({key.second, kb});
-    if (!fits_a) drop_observation({key.first, ka});
-    if (!fits_b) drop_observation({key.second, kb});
+    if (!fits_a) scene_.remove_observation({key.first, ka});
+    if (!fits_b) scene_.remove_observation({key.second, kb});
     linked += fits_a && fits_b;
   }
   return linked;
@@ -125,18 +125,6 @@ bool IncrementalMapper::align_to_track(Observation obs) {
   image.refined_keypoints.emplace_back(obs.keypoint,
                                        image.keypoints[obs.keypoint]);
   return true;
-}
-
-// Takes `obs` out of its track, and the point out once fewer than two
-// observations are left.
-void IncrementalMapper::drop_observation(Observation obs) {
-  int64_t& point_of = scene_.images[obs.image].point_of[obs.keypoint];
-  const int64_t point = point_of;
-  if (point < 0) return;
-  point_of = -1;
-  std::vector<Observation>& track = scene_.points.at(point).track;
-  std::erase(track, obs);
-  if (track.size() < 2) scene_.remove_point(point);
 }
 
 }  // namespace arscout::engine

@@ -162,7 +162,6 @@ class IncrementalMapper {
   void link_match(Observation first, Observation second);
   int densify_pair(const std::pair<int, int>& key, ImagePair& pair);
   bool align_to_track(Observation obs);
-  void drop_observation(Observation obs);
   std::optional<Eigen::Vector3d> triangulated(const SceneImage& a,
                                               Observation first,
                                               const SceneImage& b,

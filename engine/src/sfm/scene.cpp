@@ -77,6 +77,16 @@ void Scene::add_observation(int64_t point, Observation obs) {
   images[obs.image].point_of[obs.keypoint] = point;
 }
 
+void Scene::remove_observation(Observation obs) {
+  int64_t& point_of = images[obs.image].point_of[obs.keypoint];
+  const int64_t id = point_of;
+  if (id < 0) return;
+  point_of = -1;
+  std::vector<Observation>& track = points.at(id).track;
+  std::erase(track, obs);
+  if (track.size() < 2) remove_point(id);
+}
+
 int64_t Scene::add_point(const Eigen::Vector3d& xyz,
                          const std::vector<Observation>& track) {
   const int64_t id = next_point_id++;

@@ -151,6 +151,9 @@ struct Scene {
   // Moves every observation of `gone` to `keep`, which moves to `xyz`.
   void merge_points(int64_t keep, int64_t gone, const Eigen::Vector3d& xyz);
   void add_observation(int64_t point, Observation obs);
+  // Takes `obs` out of its point's track (none if its keypoint holds no
+  // point), and the point out once fewer than two observations are left.
+  void remove_observation(Observation obs);
   int64_t add_point(const Eigen::Vector3d& xyz,
                     const std::vector<Observation>& track);
 };
