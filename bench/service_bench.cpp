@@ -12,7 +12,10 @@
 //
 // DIR holds images/*.jpg, images/K.txt and gps.csv: a Strecha scene
 // (fountain-P11 by default) or a rendered block walk (`arscout render-site
-// --scene block`). The photos, in name order, are dealt round-robin to
+// --scene block`); without gps.csv each photo's fix is its EXIF GPS, and
+// without K.txt the engine takes the camera from the EXIF focal length, as
+// for a phone's uploads (opensfm/lund). The photos, in name order, are dealt
+// round-robin to
 // --scouts scouts; each scout stores one every --interval seconds, the
 // scouts evenly staggered, so the engine sees the walk in order at
 // scouts / interval photos per second (two scouts covering both sides of
@@ -55,6 +58,7 @@
 #include <Eigen/Geometry>
 
 #include "arscout/db/store.h"
+#include "arscout/documents/capture.h"
 #include "arscout/documents/model.h"
 #include "arscout/engine/camera.h"
 #include "arscout/engine/image_size.h"
@@ -172,6 +176,34 @@ std::vector<Photo> walk_photos(const Options& o) {
   return photos;
 }
 
+// Where the photos' fixes and camera come from: gps.csv and images/K.txt
+// when the scene has them (a Strecha or rendered scene), else each photo's
+// EXIF, as the API reads an upload's (a phone walk such as opensfm/lund):
+// its GPS, and its focal length for the engine's intrinsics.
+struct SceneMetadata {
+  bool has_camera = false;  // images/K.txt, stored as /cameras/bench
+  std::map<std::string, arscout::ingest::GpsFix> fixes;  // by file name
+};
+
+SceneMetadata read_metadata(const Options& o,
+                            const std::vector<Photo>& photos) {
+  SceneMetadata meta;
+  meta.has_camera = fs::exists(o.scene + "/images/K.txt");
+  if (fs::exists(o.scene + "/gps.csv")) {
+    meta.fixes = arscout::ingest::read_gps_csv(o.scene + "/gps.csv");
+    return meta;
+  }
+  for (const Photo& photo : photos) {
+    const auto exif = arscout::ingest::read_exif_file(photo.path.string());
+    if (!exif.gps)
+      throw std::runtime_error(photo.path.string() +
+                               ": no gps.csv in the scene and no GPS in the "
+                               "photo's EXIF");
+    meta.fixes[photo.path.filename().string()] = *exif.gps;
+  }
+  return meta;
+}
+
 void put_camera(arscout::db::Store& store, const Options& o,
                 const Photo& first) {
   const auto size = arscout::engine::read_image_size(read_file(first.path));
@@ -215,17 +247,25 @@ void on_model(arscout::db::Store& store, const arscout::db::Change& change,
   }
 }
 
+// The capture document as the API writes one (documents::Capture), with
+// the camera stored for the scene or, without one, the photo's EXIF.
 void store_photo(arscout::db::Store& store, const Photo& photo,
-                 const std::map<std::string, arscout::ingest::GpsFix>& fixes,
-                 Observed& seen) {
-  const auto& fix = fixes.at(photo.path.filename().string());
-  arscout::db::WriteOp op = arscout::db::WriteOp::put(
-      "/captures/" + photo.id, "capture",
-      Json{{"scout", "scout-" + std::to_string(photo.scout + 1)},
-           {"camera", "bench"},
-           {"gps", arscout::ingest::to_json(fix)},
-           {"status", "stored"}},
-      0);
+                 const SceneMetadata& meta, Observed& seen) {
+  arscout::documents::Capture capture;
+  capture.scout = "scout-" + std::to_string(photo.scout + 1);
+  capture.format = "jpeg";
+  capture.status = arscout::documents::kStatusStored;
+  capture.gps = meta.fixes.at(photo.path.filename().string());
+  capture.filename = photo.path.filename().string();
+  if (meta.has_camera) {
+    capture.camera = "bench";
+  } else {
+    const auto exif = arscout::ingest::read_exif_file(photo.path.string());
+    capture.exif = {exif.focal_35mm, exif.focal_mm, exif.make, exif.model};
+  }
+  arscout::db::WriteOp op =
+      arscout::db::WriteOp::put("/captures/" + photo.id, "capture",
+                                arscout::documents::to_json(capture), 0);
   op.blobs =
       arscout::db::BlobRefs{{"image", store.put_blob(read_file(photo.path))}};
   store.batch({op});
@@ -450,8 +490,8 @@ void run(const Options& o) {
   if (photos.empty())
     throw std::runtime_error("no photos in " + o.scene + "/images");
   auto store = arscout::db::Store::open(o.url);
-  put_camera(*store, o, photos.front());
-  const auto fixes = arscout::ingest::read_gps_csv(o.scene + "/gps.csv");
+  const SceneMetadata meta = read_metadata(o, photos);
+  if (meta.has_camera) put_camera(*store, o, photos.front());
   Observed seen;
   auto models = store->subscribe(
       "/sites/*/model", store->last_seq(),
@@ -477,7 +517,7 @@ void run(const Options& o) {
   for (const Photo& photo : photos) {
     std::this_thread::sleep_until(
         start + std::chrono::milliseconds(static_cast<int>(1000 * photo.at_s)));
-    store_photo(*store, photo, fixes, seen);
+    store_photo(*store, photo, meta, seen);
     std::fprintf(stderr, "stored %s (scout %d)\n", photo.id.c_str(),
                  photo.scout + 1);
   }
@@ -497,7 +537,9 @@ int main(int argc, char** argv) {
   CLI::App app{"Insert-to-model latency of the engine service"};
   Options o;
   app.add_option("--db", o.url, "store URL (default: a fresh SQLite file)");
-  app.add_option("--scene", o.scene, "images/*.jpg, images/K.txt, gps.csv");
+  app.add_option("--scene", o.scene,
+                 "images/*.jpg with images/K.txt and gps.csv, or with EXIF GPS "
+                 "and focal length");
   app.add_option("--interval", o.interval_s,
                  "seconds between one scout's "
                  "photos")

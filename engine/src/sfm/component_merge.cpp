@@ -82,13 +82,21 @@ void IncrementalMapper::merge_through(int index) {
   for (const auto& [other, corr] : reached) {
     const int mine = scene_.images[index].component;
     if (other == mine || !scene_.component_sizes().count(other)) continue;
-    const bool poses =
-        static_cast<int>(corr.size()) >= options_.min_pose_inliers;
-    if (!poses && static_cast<int>(common_points(scene_, mine, other).size()) <
-                      options_.min_pose_inliers)
-      continue;
+    if (!worth_merging(mine, other, corr.size())) continue;
     if (merge_components(mine, other, index)) ++components_merged_;
   }
+}
+
+// Whether two components are linked enough to try a merge: a photo with
+// `correspondences` 2D-3D matches to the other would be posed there, the
+// verified pairs between them hold enough common points, or one of those
+// pairs could fix the similarity alone (sfm/pair_bridge.cpp).
+bool IncrementalMapper::worth_merging(int a, int b,
+                                      size_t correspondences) const {
+  const size_t enough = static_cast<size_t>(options_.min_pose_inliers);
+  return correspondences >= enough ||
+         common_points(scene_, a, b).size() >= enough ||
+         !pairs_across(a, b).empty();
 }
 
 // Components that registered photos link, merged while the site is idle:
@@ -113,13 +121,17 @@ int IncrementalMapper::sweep_merges(const std::function<bool()>& stop) {
           best = {corr.size(), static_cast<int>(i)};
       }
     }
+    // Components that only verified pairs link (no photo matches a point
+    // of the other yet): the pair bridge may still merge them.
+    for (const auto& [key, pair] : scene_.pairs) {
+      const SceneImage& x = scene_.images[key.first];
+      const SceneImage& y = scene_.images[key.second];
+      if (x.registered && y.registered && x.component != y.component)
+        bridges.try_emplace({x.component, y.component}, 0, key.first);
+    }
     for (const auto& [key, bridge] : bridges) {
       const auto [mine, other] = key;
-      if (mine == other || bridge.first == 0) continue;
-      if (static_cast<int>(bridge.first) < options_.min_pose_inliers &&
-          static_cast<int>(common_points(scene_, mine, other).size()) <
-              options_.min_pose_inliers)
-        continue;
+      if (mine == other || !worth_merging(mine, other, bridge.first)) continue;
       if (merge_components(mine, other, bridge.second)) {
         ++merged;
         again = true;  // the ids and the bridges changed
@@ -214,6 +226,8 @@ bool IncrementalMapper::merge_components(int a, int b, int via) {
     for (const Hinge& hinge : posed) seam.push_back(hinge.image);
     sim = hinge_similarity(posed);
   }
+  std::pair<int, int> bridge;
+  if (!sim) sim = pair_similarity(keep, gone, &bridge);
   if (!sim || !merge_agrees_with_fixes(scene_, keep, gone, *sim)) return false;
   // The photos with verified pairs across the seam: once one component,
   // their matches there become tracks that tie the two sides together.

@@ -252,6 +252,11 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   filter_points(all);
   // A round that gave way joins at the end of the one that continues it.
   if (!report.stopped) result.tracks_joined = join_tracks(stop);
+  // Points this round made or joined may give a photo enough matches to
+  // pose it in another component (a walk's two ends meeting): the next
+  // call sweeps again. Bounded: the joins die out as the rounds settle.
+  if (result.tracks_joined > 0 || result.corners_matched > 0)
+    scene_.merge_sweep_due = true;
   result.largest_move = largest_move(centres_before);
   // A round that used up its iterations is continued by the next call, up
   // to kRefineRounds rounds in a row on the same model: a solve that never

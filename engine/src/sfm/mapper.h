@@ -93,6 +93,7 @@ class IncrementalMapper {
   void retire_stalled_components();
   void merge_through(int index);
   bool merge_components(int a, int b, int via);
+  bool worth_merging(int a, int b, size_t correspondences) const;
   std::map<int, Eigen::Vector3d> bridge_points(int via, const SceneImage& posed,
                                                int component) const;
   void common_positions(int keep, int gone, int via,
@@ -113,6 +114,21 @@ class IncrementalMapper {
   std::optional<Similarity> hinge_similarity(
       const std::vector<Hinge>& hinges) const;
   std::optional<AbsolutePose> pose_in(int index, int component) const;
+  // Verified pairs of registered photos, one in component a and one in b,
+  // most matches first (sfm/pair_bridge.cpp).
+  std::vector<std::pair<int, int>> pairs_across(int a, int b) const;
+  std::optional<Similarity> similarity_through_pair(
+      const std::pair<int, int>& key) const;
+  std::optional<Similarity> similarity_by_baseline(
+      const std::pair<int, int>& key) const;
+  std::optional<Similarity> similarity_by_rotation(
+      const std::pair<int, int>& key) const;
+  bool bridge_reprojects(const std::pair<int, int>& key,
+                         const Similarity& sim) const;
+  // gone's frame to keep's through the first pair across them that fixes
+  // it; the pair in `bridge`.
+  std::optional<Similarity> pair_similarity(int keep, int gone,
+                                            std::pair<int, int>* bridge) const;
   void weld_seam(int component, const std::vector<int>& bridges,
                  const std::vector<std::pair<int64_t, int64_t>>& same_points);
   void register_by_points(std::vector<int>& registered, int limit,
