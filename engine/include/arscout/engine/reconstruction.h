@@ -43,7 +43,7 @@ namespace arscout::engine {
 
 struct ReconstructionOptions {
   int long_side = 1600;     // working resolution (long side, pixels)
-  int max_features = 3000;  // Harris corners per image (the strongest)
+  int max_features = 4500;  // Harris corners per image (the strongest)
   // Of those, the strongest `match_features` are what an increment matches
   // and registers by; any weaker rest (max_features above this) is matched
   // along the epipolar lines of registered pairs by the refinement, off the
