@@ -104,8 +104,15 @@ TEST(ReplayRegression, LundSessionDrivesTheEngineToTheExpectedModel) {
        replay::median_horizontal_distance(positions,
                                           replay::capture_fixes(*r.store)),
        0, 6},
-      // Measured: 1651 sparse, 81 815 dense points, the same on every
-      // deterministic replay; 10% as for the fountain. (1657 and 87 611
+      // Measured: 1789 sparse, 65 860 dense points, the same on every
+      // deterministic replay (4500 corners, 3000 matched, the refinement's
+      // loss at half a keypoint deviation; 81 815 at 3000 corners and 1.5
+      // deviations, 67 122 and 66 091 with either change alone). Over the
+      // model changes below the count has stood at two levels, 64-67k and
+      // 79-88k, with the same registered walk: the voxel edge follows the
+      // scale the fixes give, and is adopted anew only when it moves by
+      // more than a tenth (docs/dense.md). The band takes both levels, 10%
+      // beyond them. (Earlier: 1651 and 81 815; 1657 and 87 611
       // before the homography's poses were scored against RANSAC's,
       // docs/engine.md, "Planar scenes": the model-GPS distance moved from
       // 3.35 to 3.43 m and the voxel edge with the scale; 65 843 before the
@@ -121,7 +128,7 @@ TEST(ReplayRegression, LundSessionDrivesTheEngineToTheExpectedModel) {
       // give, changed with it; 79 426 while the voxel edge kept the scale
       // of the first model, docs/dense.md.)
       {"sparse points", stats.value("sparse_points", 0.0), 1520, 1860},
-      {"dense points", replay::dense_point_count(*r.store, *r.model), 73600,
+      {"dense points", replay::dense_point_count(*r.store, *r.model), 59000,
        90000},
   });
 }
