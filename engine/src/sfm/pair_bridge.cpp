@@ -53,18 +53,6 @@ std::optional<double> agreed_ratio(std::vector<double> ratios) {
   return std::exp(log_sum / agreeing);
 }
 
-// Distances between consecutive positions on one side over those on the
-// other: each one the scale between the sides.
-std::vector<double> spread_ratios(const std::vector<Eigen::Vector3d>& a,
-                                  const std::vector<Eigen::Vector3d>& b) {
-  std::vector<double> ratios;
-  for (size_t i = 0; i + 1 < a.size(); ++i) {
-    const double other = (b[i + 1] - b[i]).norm();
-    if (other > 0) ratios.push_back((a[i + 1] - a[i]).norm() / other);
-  }
-  return ratios;
-}
-
 // The per-axis median.
 Eigen::Vector3d median_position(std::vector<Eigen::Vector3d> positions) {
   Eigen::Vector3d result;
@@ -180,15 +168,23 @@ std::optional<Similarity> IncrementalMapper::similarity_by_rotation(
   Similarity sim;
   sim.R = (pair.R * first.q.toRotationMatrix()).transpose() *
           second.q.toRotationMatrix();
+  // From one spot a place is as far from both cameras: the ratio of its
+  // distances on the two sides is the scale.
   std::vector<Eigen::Vector3d> here, there;  // first's frame, rotated second's
+  std::vector<double> ratios;
   for (const auto& [kf, ks] : pair.matches) {
     const int64_t pf = first.point_of[kf];
     const int64_t ps = second.point_of[ks];
     if (pf < 0 || ps < 0) continue;
-    here.push_back(scene_.points.at(pf).xyz);
-    there.push_back(sim.R * scene_.points.at(ps).xyz);
+    const Eigen::Vector3d& p = scene_.points.at(pf).xyz;
+    const Eigen::Vector3d& q = scene_.points.at(ps).xyz;
+    const double far_there = (second.q * q + second.t).norm();
+    if (!(far_there > 0)) continue;
+    ratios.push_back((first.q * p + first.t).norm() / far_there);
+    here.push_back(p);
+    there.push_back(sim.R * q);
   }
-  const auto scale = agreed_ratio(spread_ratios(here, there));
+  const auto scale = agreed_ratio(ratios);
   if (!scale) return std::nullopt;
   sim.scale = *scale;
   std::vector<Eigen::Vector3d> offsets;
