@@ -31,14 +31,6 @@ void apply_similarity(Scene& scene, const Similarity& sim) {
   }
 }
 
-Similarity inverse(const Similarity& sim) {
-  Similarity inv;
-  inv.scale = 1 / sim.scale;
-  inv.R = sim.R.transpose();
-  inv.t = -inv.scale * (inv.R * sim.t);
-  return inv;
-}
-
 // Turns each image (but `keep`) by `angle_deg` about a random axis and
 // moves its centre by `move_m` per axis; moves each point by `point_m`.
 void perturb(Scene& scene, int keep, double angle_deg, double move_m,
@@ -499,7 +491,7 @@ TEST(BundleAdjusterTest, FitModelToPriorsRecoversKnownSimilarity) {
   }
   // The model sits in its own frame, 'to_enu' away from the fixes'.
   const Similarity to_enu = wrong_frame();
-  apply_similarity(scene, inverse(to_enu));
+  apply_similarity(scene, to_enu.inverse());
 
   const auto fitted = fit_model_to_priors(scene, gps_options(), 0);
   ASSERT_TRUE(fitted.has_value());
@@ -574,7 +566,7 @@ TEST(BundleAdjusterTest, FitModelToPriorsFromTheRobustPlacementTurnsAModel) {
   to_enu.R = Eigen::AngleAxisd(178 * M_PI / 180, Eigen::Vector3d::UnitZ())
                  .toRotationMatrix();
   to_enu.t = {30, -20, 0};
-  apply_similarity(scene, inverse(to_enu));
+  apply_similarity(scene, to_enu.inverse());
   for (const SceneImage& image : scene.images) {
     centres.push_back(image.centre());
     fixes.push_back(image.gps_enu);

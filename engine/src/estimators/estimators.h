@@ -94,6 +94,14 @@ struct Similarity {
   Eigen::Vector3d apply(const Eigen::Vector3d& x) const {
     return scale * (R * x) + t;
   }
+  // The similarity that undoes this one.
+  Similarity inverse() const {
+    Similarity result;
+    result.scale = 1 / scale;
+    result.R = R.transpose();
+    result.t = -result.scale * (result.R * t);
+    return result;
+  }
 };
 // Least-squares similarity from >= 3 point pairs (Umeyama, 1991).
 std::optional<Similarity> fit_similarity(

@@ -73,30 +73,20 @@ double spread(const std::vector<Eigen::Vector3d>& points) {
 }  // namespace
 
 // A newly registered photo whose matches reach another component merges
-// the two: when its own 2D-3D matches there would pose it, or when the
-// verified pairs between the two components' photos hold enough common
-// points (a break in a walk: the photos on either side of a corner share
-// few points each, but together enough).
+// the two where a similarity holds: from its own 2D-3D matches there, from
+// the common points of the verified pairs between the two components'
+// photos (a break in a walk: the photos on either side of a corner share
+// few points each, but together enough), from hinges, or from one pair.
 void IncrementalMapper::merge_through(int index) {
   const auto reached = correspondences_by_component(index);
   for (const auto& [other, corr] : reached) {
     const int mine = scene_.images[index].component;
     if (other == mine || !scene_.component_sizes().count(other)) continue;
-    if (!worth_merging(mine, other, corr.size())) continue;
+    // Every component a photo reaches is worth a try: its matches there
+    // come through a verified pair, which may fix the similarity alone
+    // when too few of them reach points (sfm/pair_bridge.cpp).
     if (merge_components(mine, other, index)) ++components_merged_;
   }
-}
-
-// Whether two components are linked enough to try a merge: a photo with
-// `correspondences` 2D-3D matches to the other would be posed there, the
-// verified pairs between them hold enough common points, or one of those
-// pairs could fix the similarity alone (sfm/pair_bridge.cpp).
-bool IncrementalMapper::worth_merging(int a, int b,
-                                      size_t correspondences) const {
-  const size_t enough = static_cast<size_t>(options_.min_pose_inliers);
-  return correspondences >= enough ||
-         common_points(scene_, a, b).size() >= enough ||
-         !pairs_across(a, b).empty();
 }
 
 // Components that registered photos link, merged while the site is idle:
@@ -116,9 +106,9 @@ int IncrementalMapper::sweep_merges(const std::function<bool()>& stop) {
       if (!image.registered) continue;
       for (const auto& [other, corr] :
            correspondences_by_component(static_cast<int>(i))) {
+        if (other == image.component || corr.empty()) continue;
         auto& best = bridges[{image.component, other}];
-        if (other != image.component && corr.size() > best.first)
-          best = {corr.size(), static_cast<int>(i)};
+        if (corr.size() > best.first) best = {corr.size(), static_cast<int>(i)};
       }
     }
     // Components that only verified pairs link (no photo matches a point
@@ -131,7 +121,6 @@ int IncrementalMapper::sweep_merges(const std::function<bool()>& stop) {
     }
     for (const auto& [key, bridge] : bridges) {
       const auto [mine, other] = key;
-      if (mine == other || !worth_merging(mine, other, bridge.first)) continue;
       if (merge_components(mine, other, bridge.second)) {
         ++merged;
         again = true;  // the ids and the bridges changed
@@ -226,8 +215,7 @@ bool IncrementalMapper::merge_components(int a, int b, int via) {
     for (const Hinge& hinge : posed) seam.push_back(hinge.image);
     sim = hinge_similarity(posed);
   }
-  std::pair<int, int> bridge;
-  if (!sim) sim = pair_similarity(keep, gone, &bridge);
+  if (!sim) sim = pair_similarity(keep, gone);
   if (!sim || !merge_agrees_with_fixes(scene_, keep, gone, *sim)) return false;
   // The photos with verified pairs across the seam: once one component,
   // their matches there become tracks that tie the two sides together.

@@ -93,7 +93,6 @@ class IncrementalMapper {
   void retire_stalled_components();
   void merge_through(int index);
   bool merge_components(int a, int b, int via);
-  bool worth_merging(int a, int b, size_t correspondences) const;
   std::map<int, Eigen::Vector3d> bridge_points(int via, const SceneImage& posed,
                                                int component) const;
   void common_positions(int keep, int gone, int via,
@@ -126,9 +125,8 @@ class IncrementalMapper {
   bool bridge_reprojects(const std::pair<int, int>& key,
                          const Similarity& sim) const;
   // gone's frame to keep's through the first pair across them that fixes
-  // it; the pair in `bridge`.
-  std::optional<Similarity> pair_similarity(int keep, int gone,
-                                            std::pair<int, int>* bridge) const;
+  // it (the seam's photos include every pair across anyway).
+  std::optional<Similarity> pair_similarity(int keep, int gone) const;
   void weld_seam(int component, const std::vector<int>& bridges,
                  const std::vector<std::pair<int64_t, int64_t>>& same_points);
   void register_by_points(std::vector<int>& registered, int limit,

@@ -66,14 +66,6 @@ Eigen::Vector3d median_position(std::vector<Eigen::Vector3d> positions) {
   return result;
 }
 
-Similarity inverse(const Similarity& sim) {
-  Similarity result;
-  result.scale = 1 / sim.scale;
-  result.R = sim.R.transpose();
-  result.t = -result.scale * (result.R * sim.t);
-  return result;
-}
-
 }  // namespace
 
 std::vector<std::pair<int, int>> IncrementalMapper::pairs_across(int a,
@@ -218,15 +210,14 @@ bool IncrementalMapper::bridge_reprojects(const std::pair<int, int>& key,
   return landed >= kMinScaleSamples && 3 * landed >= 2 * tried;
 }
 
-std::optional<Similarity> IncrementalMapper::pair_similarity(
-    int keep, int gone, std::pair<int, int>* bridge) const {
+std::optional<Similarity> IncrementalMapper::pair_similarity(int keep,
+                                                             int gone) const {
   for (const auto& key : pairs_across(keep, gone)) {
     const auto second_to_first = similarity_through_pair(key);
     if (!second_to_first) continue;
-    *bridge = key;
     return scene_.images[key.first].component == keep
                ? *second_to_first
-               : inverse(*second_to_first);
+               : second_to_first->inverse();
   }
   return std::nullopt;
 }
