@@ -60,6 +60,7 @@
 #include "arscout/db/store.h"
 #include "arscout/documents/capture.h"
 #include "arscout/documents/model.h"
+#include "arscout/documents/site.h"
 #include "arscout/engine/camera.h"
 #include "arscout/engine/image_size.h"
 #include "arscout/engine/service.h"
@@ -379,8 +380,9 @@ void print_scouts(const Options& o, const std::vector<Photo>& photos,
 }
 
 // When each site's component count changed (a new one, or a merge), and
-// the sites with models at the end.
-void print_components(const Observed& seen) {
+// at the end the sites with models, a site taken into another (its
+// document's merged_into) named as merged, not as a site.
+void print_components(arscout::db::Store& store, const Observed& seen) {
   std::map<std::string, size_t> last;
   std::printf("\ncomponents over time (s since the first photo):");
   for (const ComponentsSeen& c : seen.components) {
@@ -391,15 +393,28 @@ void print_components(const Observed& seen) {
         it != last.end() && it->second > c.components ? " (merged)" : "");
     last[c.site] = c.components;
   }
-  std::printf("\nat the end: %zu site(s) with a model:", last.size());
-  for (const auto& [site, components] : last)
-    std::printf(" %s (%zu component%s)", site.c_str(), components,
-                components == 1 ? "" : "s");
-  std::printf("\n");
+  std::map<std::string, std::string> merged;  // site -> the one it joined
+  for (const auto& doc : store.list_children("/sites")) {
+    const std::string id = doc.path.substr(doc.path.rfind('/') + 1);
+    const auto site = arscout::documents::site_from_json(doc.attrs, id);
+    if (!site.merged_into.empty()) merged[id] = site.merged_into;
+  }
+  std::string sites, joined;
+  size_t live = 0;
+  for (const auto& [site, components] : last) {
+    if (merged.count(site)) {
+      joined += " " + site + " into " + merged.at(site);
+      continue;
+    }
+    ++live;
+    sites += " " + site + " (" + std::to_string(components) + " component" +
+             (components == 1 ? ")" : "s)");
+  }
+  std::printf("\nat the end: %zu site(s) with a model:%s\n", live,
+              sites.c_str());
+  if (!joined.empty()) std::printf("merged sites:%s\n", joined.c_str());
 }
 
-// Each live site's cameras against the scene's exact truth (a rendered
-// scene's gt_dense_cameras), after a similarity fit; nothing without one.
 void print_accuracy(arscout::db::Store& store, const Options& o) {
   const std::string truth_dir = o.scene + "/gt_dense_cameras";
   if (!fs::is_directory(truth_dir)) return;
@@ -470,7 +485,7 @@ void print_report(arscout::db::Store& store, const Options& o,
       o.new_coverage);
   print_latency("to a model registering it", registered);
   print_scouts(o, photos, registered);
-  print_components(seen);
+  print_components(store, seen);
   if (!o.no_dense) {
     print_latency("to its dense cloud", dense);
     print_latency("to a model with dense_state current (the earlier rule)",

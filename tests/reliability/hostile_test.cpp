@@ -322,7 +322,9 @@ TEST_F(HostileClients, DecodesStayWithinTheBudgetWhateverTheMetadataSays) {
             << " MB)" << std::endl;
   // AddressSanitizer keeps freed memory in quarantine (256 MB) and adds
   // its shadow: there the figure is printed but not held to the bound.
-  if (!kSanitized) EXPECT_LT(thumb_peak_mb, bound_mb);
+  if (!kSanitized) {
+    EXPECT_LT(thumb_peak_mb, bound_mb);
+  }
 }
 
 // Defect 5: a scout or planner following the feed with pattern /auth/**
@@ -531,7 +533,9 @@ TEST_F(HostileClients, ConnectionsAreCappedAndSlowBodiesCutOff) {
             << (reply.empty() ? "closed" : reply.substr(0, 12)) << ")"
             << std::endl;
   EXPECT_LT(cut, 25.0);
-  if (!reply.empty()) EXPECT_EQ(reply.rfind("HTTP/1.1 408", 0), 0u) << reply;
+  if (!reply.empty()) {
+    EXPECT_EQ(reply.rfind("HTTP/1.1 408", 0), 0u) << reply;
+  }
 }
 
 }  // namespace

@@ -124,6 +124,8 @@ class IncrementalMapper {
       const std::pair<int, int>& key) const;
   bool bridge_reprojects(const std::pair<int, int>& key,
                          const Similarity& sim) const;
+  std::optional<Eigen::Vector3d> centre_at_rotation(
+      const std::pair<int, int>& key, const Eigen::Matrix3d& R) const;
   // gone's frame to keep's through the first pair across them that fixes
   // it (the seam's photos include every pair across anyway).
   std::optional<Similarity> pair_similarity(int keep, int gone) const;

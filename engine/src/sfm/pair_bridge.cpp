@@ -31,6 +31,9 @@ constexpr double kScaleAgreement = 0.1;
 constexpr double kMinBridgeAngleDeg = 2.0;
 // The similarity's scale, either way, at most this factor.
 constexpr double kBridgeScaleRange = 5;
+// Keypoints of the other side's points tried two by two for a camera
+// centre: a pair bridge names a few dozen at most.
+constexpr size_t kMaxCentreSamples = 40;
 
 // The geometric mean of the ratios within kScaleAgreement of their median,
 // when at least kMinScaleSamples and two thirds of them agree.
@@ -53,17 +56,27 @@ std::optional<double> agreed_ratio(std::vector<double> ratios) {
   return std::exp(log_sum / agreeing);
 }
 
-// The per-axis median.
-Eigen::Vector3d median_position(std::vector<Eigen::Vector3d> positions) {
-  Eigen::Vector3d result;
-  for (int axis = 0; axis < 3; ++axis) {
-    std::vector<double> values;
-    for (const Eigen::Vector3d& p : positions) values.push_back(p[axis]);
-    std::nth_element(values.begin(), values.begin() + values.size() / 2,
-                     values.end());
-    result[axis] = values[values.size() / 2];
+// The camera centre c that puts each chosen point where its ray says,
+// the camera's rotation R (world to camera) given: R (X - c) is parallel to
+// (x, y, 1), two linear equations in c a point, solved in least squares.
+std::optional<Eigen::Vector3d> centre_from_rays(
+    const Eigen::Matrix3d& R, const std::vector<Eigen::Vector2d>& rays,
+    const std::vector<Eigen::Vector3d>& points,
+    const std::vector<size_t>& chosen) {
+  Eigen::MatrixXd A(2 * chosen.size(), 3);
+  Eigen::VectorXd b(2 * chosen.size());
+  for (size_t row = 0; row < chosen.size(); ++row) {
+    const Eigen::Vector2d& x = rays[chosen[row]];
+    const Eigen::Vector3d v = R * points[chosen[row]];
+    // With w = R c: (v - w) x (x, y, 1) = 0, its first two rows.
+    A.row(2 * row) << 1, 0, -x.x();
+    A.row(2 * row + 1) << 0, 1, -x.y();
+    b(2 * row) = v.x() - x.x() * v.z();
+    b(2 * row + 1) = v.y() - x.y() * v.z();
   }
-  return result;
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
+  if (qr.rank() < 3) return std::nullopt;
+  return R.transpose() * Eigen::Vector3d(qr.solve(b));
 }
 
 }  // namespace
@@ -149,41 +162,95 @@ std::optional<Similarity> IncrementalMapper::similarity_by_baseline(
 
 // A pair with too little parallax to fix its baseline's direction (two
 // photos from about one spot, as where a scout turns) still fixes the
-// rotation between the frames. Scale and translation then come from the
-// matches whose keypoints hold a point on both sides: two positions of one
-// place, gone's taken through the rotation.
+// rotation between the frames; there the essential matrix's rotation is
+// loose too, so the turn is fitted to the rays themselves where most of
+// them agree with one. Scale comes from the matches whose keypoints hold a
+// point on both sides: from one spot a place is as far from both cameras.
+// The first camera's centre in the second's frame then comes from its
+// keypoints of the second's points at that rotation (centre_at_rotation):
+// the places' own offsets would carry their depth errors, metres for a
+// young component's points, where the keypoints fix the centre to
+// centimetres.
 std::optional<Similarity> IncrementalMapper::similarity_by_rotation(
     const std::pair<int, int>& key) const {
   const ImagePair& pair = scene_.pairs.at(key);
   const SceneImage& first = scene_.images[key.first];
   const SceneImage& second = scene_.images[key.second];
-  Similarity sim;
-  sim.R = (pair.R * first.q.toRotationMatrix()).transpose() *
-          second.q.toRotationMatrix();
-  // From one spot a place is as far from both cameras: the ratio of its
-  // distances on the two sides is the scale.
-  std::vector<Eigen::Vector3d> here, there;  // first's frame, rotated second's
+  const auto turn = turn_rotation(key.second, key.first, pair);
+  // World of the second's component to the first camera.
+  const Eigen::Matrix3d first_there =
+      (turn ? *turn : pair.R).transpose() * second.q.toRotationMatrix();
   std::vector<double> ratios;
   for (const auto& [kf, ks] : pair.matches) {
     const int64_t pf = first.point_of[kf];
     const int64_t ps = second.point_of[ks];
     if (pf < 0 || ps < 0) continue;
-    const Eigen::Vector3d& p = scene_.points.at(pf).xyz;
-    const Eigen::Vector3d& q = scene_.points.at(ps).xyz;
-    const double far_there = (second.q * q + second.t).norm();
-    if (!(far_there > 0)) continue;
-    ratios.push_back((first.q * p + first.t).norm() / far_there);
-    here.push_back(p);
-    there.push_back(sim.R * q);
+    const double far_there =
+        (second.q * scene_.points.at(ps).xyz + second.t).norm();
+    if (far_there > 0)
+      ratios.push_back(
+          (first.q * scene_.points.at(pf).xyz + first.t).norm() / far_there);
   }
   const auto scale = agreed_ratio(ratios);
-  if (!scale) return std::nullopt;
+  const auto centre_there = centre_at_rotation(key, first_there);
+  if (!scale || !centre_there) return std::nullopt;
+  Similarity sim;
   sim.scale = *scale;
-  std::vector<Eigen::Vector3d> offsets;
-  for (size_t i = 0; i < here.size(); ++i)
-    offsets.push_back(here[i] - sim.scale * there[i]);
-  sim.t = median_position(offsets);
+  sim.R = first.q.toRotationMatrix().transpose() * first_there;
+  sim.t = first.centre() - sim.scale * (sim.R * *centre_there);
   return sim;
+}
+
+// Where the first photo of the pair stands in the second's component, its
+// rotation there given: the centre that the most of its keypoints of the
+// second's points agree on within the model's reprojection limit (each two
+// of them fix one, linearly), refitted to those. None with fewer than two.
+std::optional<Eigen::Vector3d> IncrementalMapper::centre_at_rotation(
+    const std::pair<int, int>& key, const Eigen::Matrix3d& R) const {
+  const ImagePair& pair = scene_.pairs.at(key);
+  const SceneImage& first = scene_.images[key.first];
+  const SceneImage& second = scene_.images[key.second];
+  const SceneCamera& camera = scene_.cameras[first.camera];
+  std::vector<Eigen::Vector2d> pixels, rays;
+  std::vector<Eigen::Vector3d> points;
+  for (const auto& [kf, ks] : pair.matches) {
+    if (second.point_of[ks] < 0) continue;
+    pixels.push_back(first.keypoints[kf]);
+    rays.push_back(normalize(camera, first.keypoints[kf]));
+    points.push_back(scene_.points.at(second.point_of[ks]).xyz);
+  }
+  const auto agreeing = [&](const Eigen::Vector3d& centre) {
+    SceneImage trial;
+    trial.q = Eigen::Quaterniond(R).normalized();
+    trial.t = -(trial.q * centre);
+    std::vector<size_t> result;
+    for (size_t i = 0; i < points.size(); ++i) {
+      Eigen::Vector2d pixel;
+      if (project(camera, trial, points[i], &pixel) &&
+          (pixel - pixels[i]).norm() <= options_.max_reprojection_px)
+        result.push_back(i);
+    }
+    return result;
+  };
+  std::optional<Eigen::Vector3d> best;
+  std::vector<size_t> best_agreeing;
+  const size_t n = std::min<size_t>(points.size(), kMaxCentreSamples);
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t j = i + 1; j < n; ++j) {
+      const auto centre = centre_from_rays(R, rays, points, {i, j});
+      if (!centre) continue;
+      auto explained = agreeing(*centre);
+      if (explained.size() > best_agreeing.size()) {
+        best = centre;
+        best_agreeing = std::move(explained);
+      }
+    }
+  }
+  if (best_agreeing.size() < 2) return std::nullopt;
+  const auto refitted = centre_from_rays(R, rays, points, best_agreeing);
+  return refitted && agreeing(*refitted).size() >= best_agreeing.size()
+             ? refitted
+             : best;
 }
 
 // Whether the second photo's points that the pair's matches name, moved by
