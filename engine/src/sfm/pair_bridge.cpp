@@ -188,8 +188,8 @@ std::optional<Similarity> IncrementalMapper::similarity_by_rotation(
     const double far_there =
         (second.q * scene_.points.at(ps).xyz + second.t).norm();
     if (far_there > 0)
-      ratios.push_back(
-          (first.q * scene_.points.at(pf).xyz + first.t).norm() / far_there);
+      ratios.push_back((first.q * scene_.points.at(pf).xyz + first.t).norm() /
+                       far_there);
   }
   const auto scale = agreed_ratio(ratios);
   const auto centre_there = centre_at_rotation(key, first_there);
