@@ -718,6 +718,12 @@ bool Reconstruction::refinement_due() const {
   return mapper.refinement_due();
 }
 
+bool Reconstruction::refinement_urgent() const {
+  StageTimings timings;
+  IncrementalMapper mapper(impl_->scene, impl_->options, timings);
+  return mapper.refinement_urgent();
+}
+
 std::vector<CaptureState> Reconstruction::captures() const {
   std::vector<CaptureState> states;
   for (const SceneImage& image : impl_->scene.images) {

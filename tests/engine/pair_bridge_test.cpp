@@ -212,6 +212,25 @@ TEST(PairBridge, APhotoTurnedOnTheSpotJoinsTheOtherSide) {
   EXPECT_LT(noisy, 0.10) << "metres";
 }
 
+TEST(PairBridge, AMergeMakesTheRefinementUrgentUntilARoundRunsThrough) {
+  SplitScene split = split_scene({.noise_px = 0.3});
+  ReconstructionOptions options;
+  // As a large model: a small one adjusts globally inside the merge.
+  options.inline_global_ba_images = 0;
+  StageTimings timings;
+  IncrementalMapper mapper(split.scene, options, timings);
+  EXPECT_FALSE(mapper.refinement_urgent()) << "before the merge";
+  ASSERT_EQ(mapper.sweep_merges({}), 1);
+  EXPECT_TRUE(mapper.refinement_urgent());
+  // A round that gives way at once leaves it urgent; one that runs to its
+  // end does not.
+  mapper.refine([] { return true; });
+  EXPECT_TRUE(mapper.refinement_urgent()) << "after a round that gave way";
+  const RefineResult round = mapper.refine({});
+  ASSERT_TRUE(round.ran);
+  EXPECT_FALSE(mapper.refinement_urgent()) << "after a whole round";
+}
+
 TEST(PairBridge, APairWhoseRotationIsOffMergesNothing) {
   // With parallax the pair's rotation is all there is to tie the frames:
   // 3 degrees off, the other side's points miss their keypoints.

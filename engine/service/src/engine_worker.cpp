@@ -804,10 +804,10 @@ struct EngineWorker::Impl {
 
   // The site's global refinement while it has no work waiting: it gives
   // way (after the solver iteration under way) as soon as work arrives or
-  // the dense lane has work (dense_busy), and publishes what it reached as a
-  // model version. Deterministic runs let it finish, so that a replay
-  // gives the same models however fast it arrives. Called and returns with
-  // the lock held.
+  // the dense lane has work (dense_busy), unless a merge or a loop closure
+  // made it urgent, and publishes what it reached as a model version.
+  // Deterministic runs let it finish, so that a replay gives the same models
+  // however fast it arrives. Called and returns with the lock held.
   void run_refinement(const std::string& site, service::SiteJob& job,
                       SiteQueue& q, std::unique_lock<std::mutex>& lock) {
     const bool give_way = !options.reconstruction.deterministic;
@@ -815,7 +815,8 @@ struct EngineWorker::Impl {
     bool dense_due = false;
     try {
       std::lock_guard publication(job.publication());
-      if (!job.refinement_due() || dense_busy(q)) {
+      const bool urgent = job.refinement_urgent();
+      if (!job.refinement_due() || (!urgent && dense_busy(q))) {
         lock.lock();
         return;
       }
@@ -830,7 +831,8 @@ struct EngineWorker::Impl {
           return job.run_refine([&] {
             std::lock_guard guard(mutex);
             return stopping ||
-                   (give_way && (!q.pending.empty() || dense_busy_locked(q)));
+                   (give_way &&
+                    (!q.pending.empty() || (!urgent && dense_busy_locked(q))));
           });
         });
         phases.refine.observe(refined.seconds);
@@ -880,6 +882,10 @@ struct EngineWorker::Impl {
   // would not move again, and the model stayed unrefined meanwhile (two
   // scouts on seed 31's block: one round in 420 s; bench/RESULTS.md,
   // "Issue 35, fourth stop"). That lane waits for the round instead.
+  // Nor after a merge or a loop closure (SiteJob::refinement_urgent):
+  // the cameras across the seam may be decimetres off, and the lane
+  // sweeping new views after four scouts' walk kept the merged model
+  // unrefined for ten minutes (seed 53; "Issue 35, nineteenth stop").
   bool dense_busy(const SiteQueue& q) {
     std::lock_guard guard(mutex);
     return dense_busy_locked(q);

@@ -469,6 +469,10 @@ bool SiteJob::refinement_due() const {
   return loaded_ && sparse_ && sparse_->refinement_due();
 }
 
+bool SiteJob::refinement_urgent() const {
+  return loaded_ && sparse_ && sparse_->refinement_urgent();
+}
+
 Increment SiteJob::run_refine(const std::function<bool()>& stop) {
   Increment increment;
   if (!refinement_due()) return increment;

@@ -388,6 +388,7 @@ void IncrementalMapper::weld_seam(
   }
   scene_.registered_at_last_global_ba = 0;  // refine() is due
   scene_.unsettled_refine_rounds = 0;
+  scene_.refinement_urgent = true;
   // The union placed by its fixes at once: by the inline global adjustment
   // while the model is small, else as after a registration (the global
   // refinement that would do it may wait long on a busy site).

@@ -176,6 +176,7 @@ void IncrementalMapper::close_loops(int index) {
   triangulate_image(index);
   scene_.registered_at_last_global_ba = 0;  // refine() is due
   scene_.unsettled_refine_rounds = 0;       // in full, for a changed model
+  scene_.refinement_urgent = true;
   if (global_inline()) adjust_global();
 }
 
@@ -190,6 +191,10 @@ bool IncrementalMapper::refinement_due() const {
          (scene_.registration_backlog ||
           scene_.registered_count() != scene_.registered_at_last_global_ba ||
           (scene_.merge_sweep_due && scene_.component_sizes().size() > 1));
+}
+
+bool IncrementalMapper::refinement_urgent() const {
+  return scene_.refinement_urgent && refinement_due();
 }
 
 // The captures add_capture left waiting at its limit, registered between
@@ -241,6 +246,8 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   result.pixel_sigma = report.pixel_sigma;
   result.loss_scale_px = report.loss_scale_px;
   result.converged = !report.stopped;
+  if (result.converged && report.iterations > 0)
+    scene_.refinement_urgent = false;
   // Stopped before its first iteration: no pose moved, nothing to follow.
   if (report.iterations == 0) {
     result.seconds = seconds_since(start);
@@ -1005,6 +1012,7 @@ void IncrementalMapper::adjust_global() {
   if (scene_.points.size() + before / 50 < before)
     adjust_bundle(scene_, {}, true, ba);
   scene_.registered_at_last_global_ba = scene_.registered_count();
+  scene_.refinement_urgent = false;  // the whole model adjusted
   scene_.global_ba_deferred = false;
 }
 

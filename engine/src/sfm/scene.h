@@ -136,6 +136,11 @@ struct Scene {
   // Components may have become mergeable since the last look (a photo
   // registered or a component started; a restored scene looks once).
   bool merge_sweep_due = true;
+  // A merge moved a component onto another, or a loop closure bent the
+  // chain, since the last refinement round that ran to its end: cameras
+  // may be off by decimetres where the seam's bounded adjustment did not
+  // reach (not serialized: a restored scene refines in its turn).
+  bool refinement_urgent = false;
 
   int registered_count() const;
   // Registered images per component id.

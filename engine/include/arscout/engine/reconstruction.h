@@ -352,6 +352,11 @@ class Reconstruction {
   RefineResult refine(const std::function<bool()>& stop = {});
   // True when refine() has work to do.
   bool refinement_due() const;
+  // True when refine() has work and a merge of components or a loop
+  // closure moved cameras since its last round that ran to its end: the
+  // cameras may be off by decimetres across the seam, and work that uses
+  // the poses (the dense phase) should wait for one round.
+  bool refinement_urgent() const;
 
   Model model() const;
   // The mean reprojection error over the whole model, working pixels (a
