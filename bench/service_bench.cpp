@@ -415,6 +415,8 @@ void print_components(arscout::db::Store& store, const Observed& seen) {
   if (!joined.empty()) std::printf("merged sites:%s\n", joined.c_str());
 }
 
+// Each live site's cameras against the scene's exact truth (a rendered
+// scene's gt_dense_cameras), after a similarity fit; nothing without one.
 void print_accuracy(arscout::db::Store& store, const Options& o) {
   const std::string truth_dir = o.scene + "/gt_dense_cameras";
   if (!fs::is_directory(truth_dir)) return;

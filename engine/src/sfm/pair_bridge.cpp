@@ -56,18 +56,17 @@ std::optional<double> agreed_ratio(std::vector<double> ratios) {
   return std::exp(log_sum / agreeing);
 }
 
-// The camera centre c that puts each chosen point where its ray says,
-// the camera's rotation R (world to camera) given: R (X - c) is parallel to
+// The camera centre c that puts each point where its ray says, the
+// camera's rotation R (world to camera) given: R (X - c) is parallel to
 // (x, y, 1), two linear equations in c a point, solved in least squares.
 std::optional<Eigen::Vector3d> centre_from_rays(
-    const Eigen::Matrix3d& R, const std::vector<Eigen::Vector2d>& rays,
-    const std::vector<Eigen::Vector3d>& points,
-    const std::vector<size_t>& chosen) {
-  Eigen::MatrixXd A(2 * chosen.size(), 3);
-  Eigen::VectorXd b(2 * chosen.size());
-  for (size_t row = 0; row < chosen.size(); ++row) {
-    const Eigen::Vector2d& x = rays[chosen[row]];
-    const Eigen::Vector3d v = R * points[chosen[row]];
+    const Eigen::Matrix3d& R,
+    const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector3d>>& rays) {
+  Eigen::MatrixXd A(2 * rays.size(), 3);
+  Eigen::VectorXd b(2 * rays.size());
+  for (size_t row = 0; row < rays.size(); ++row) {
+    const Eigen::Vector2d& x = rays[row].first;
+    const Eigen::Vector3d v = R * rays[row].second;
     // With w = R c: (v - w) x (x, y, 1) = 0, its first two rows.
     A.row(2 * row) << 1, 0, -x.x();
     A.row(2 * row + 1) << 0, 1, -x.y();
@@ -211,35 +210,25 @@ std::optional<Eigen::Vector3d> IncrementalMapper::centre_at_rotation(
   const SceneImage& first = scene_.images[key.first];
   const SceneImage& second = scene_.images[key.second];
   const SceneCamera& camera = scene_.cameras[first.camera];
-  std::vector<Eigen::Vector2d> pixels, rays;
-  std::vector<Eigen::Vector3d> points;
-  for (const auto& [kf, ks] : pair.matches) {
-    if (second.point_of[ks] < 0) continue;
-    pixels.push_back(first.keypoints[kf]);
-    rays.push_back(normalize(camera, first.keypoints[kf]));
-    points.push_back(scene_.points.at(second.point_of[ks]).xyz);
-  }
-  const auto agreeing = [&](const Eigen::Vector3d& centre) {
-    SceneImage trial;
-    trial.q = Eigen::Quaterniond(R).normalized();
-    trial.t = -(trial.q * centre);
-    std::vector<size_t> result;
-    for (size_t i = 0; i < points.size(); ++i) {
-      Eigen::Vector2d pixel;
-      if (project(camera, trial, points[i], &pixel) &&
-          (pixel - pixels[i]).norm() <= options_.max_reprojection_px)
-        result.push_back(i);
-    }
-    return result;
+  std::vector<std::pair<int, int64_t>> corr;  // first's keypoint, point
+  for (const auto& [kf, ks] : pair.matches)
+    if (second.point_of[ks] >= 0) corr.emplace_back(kf, second.point_of[ks]);
+  const auto rays_of = [&](const std::vector<std::pair<int, int64_t>>& some) {
+    std::vector<std::pair<Eigen::Vector2d, Eigen::Vector3d>> rays;
+    for (const auto& [keypoint, point] : some)
+      rays.emplace_back(normalize(camera, first.keypoints[keypoint]),
+                        scene_.points.at(point).xyz);
+    return rays;
   };
+  const Eigen::Quaterniond q = Eigen::Quaterniond(R).normalized();
   std::optional<Eigen::Vector3d> best;
-  std::vector<size_t> best_agreeing;
-  const size_t n = std::min<size_t>(points.size(), kMaxCentreSamples);
+  std::vector<std::pair<int, int64_t>> best_agreeing;
+  const size_t n = std::min(corr.size(), kMaxCentreSamples);
   for (size_t i = 0; i < n; ++i) {
     for (size_t j = i + 1; j < n; ++j) {
-      const auto centre = centre_from_rays(R, rays, points, {i, j});
+      const auto centre = centre_from_rays(R, rays_of({corr[i], corr[j]}));
       if (!centre) continue;
-      auto explained = agreeing(*centre);
+      auto explained = agreeing_matches(key.first, q, *centre, corr);
       if (explained.size() > best_agreeing.size()) {
         best = centre;
         best_agreeing = std::move(explained);
@@ -247,8 +236,9 @@ std::optional<Eigen::Vector3d> IncrementalMapper::centre_at_rotation(
     }
   }
   if (best_agreeing.size() < 2) return std::nullopt;
-  const auto refitted = centre_from_rays(R, rays, points, best_agreeing);
-  return refitted && agreeing(*refitted).size() >= best_agreeing.size()
+  const auto refitted = centre_from_rays(R, rays_of(best_agreeing));
+  return refitted && agreeing_matches(key.first, q, *refitted, corr).size() >=
+                         best_agreeing.size()
              ? refitted
              : best;
 }
