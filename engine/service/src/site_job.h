@@ -153,9 +153,9 @@ class SiteJob {
   // True when the site's global refinement has work (Reconstruction::
   // refinement_due): the worker runs it while no work is waiting.
   bool refinement_due() const;
-  // Due, and a merge or a loop closure moved cameras since its last whole
-  // round (Reconstruction::refinement_urgent): it goes before the dense
-  // lane then.
+  // Due, and a merge or a loop closure moved cameras since it last settled
+  // (Reconstruction::refinement_urgent): it goes before the dense lane
+  // then.
   bool refinement_urgent() const;
   // The global refinement between increments: `stop` is asked after every
   // solver iteration and ends it early (the progress stands). Returns the

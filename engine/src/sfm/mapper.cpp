@@ -246,8 +246,6 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   result.pixel_sigma = report.pixel_sigma;
   result.loss_scale_px = report.loss_scale_px;
   result.converged = !report.stopped;
-  if (result.converged && report.iterations > 0)
-    scene_.refinement_urgent = false;
   // Stopped before its first iteration: no pose moved, nothing to follow.
   if (report.iterations == 0) {
     result.seconds = seconds_since(start);
@@ -284,9 +282,14 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   const bool settled =
       result.converged && ((report.converged && !joined_many) ||
                            ++scene_.unsettled_refine_rounds >= kRefineRounds);
+  // A merge stays urgent until the refinement settles, not for one round
+  // only: seed 53's four-scout walk moved cameras 0.69 m in its first
+  // round after the walk and was left at 11 cm when the dense lane took
+  // over (bench/RESULTS.md, "Issue 35, twentieth stop").
   if (settled) {
     scene_.registered_at_last_global_ba = scene_.registered_count();
     scene_.unsettled_refine_rounds = 0;
+    scene_.refinement_urgent = false;
   }
   result.seconds = seconds_since(start);
   return result;

@@ -44,8 +44,8 @@ class IncrementalMapper {
   // Reconstruction::refine).
   RefineResult refine(const std::function<bool()>& stop);
   bool refinement_due() const;
-  // Due, and a merge or a loop closure moved cameras since the last round
-  // that ran to its end (Reconstruction::refinement_urgent).
+  // Due, and a merge or a loop closure moved cameras since the refinement
+  // last settled (Reconstruction::refinement_urgent).
   bool refinement_urgent() const;
   // Loops closed by this mapper's update() calls.
   int loops_closed() const { return loops_closed_; }

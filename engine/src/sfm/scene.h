@@ -137,7 +137,7 @@ struct Scene {
   // registered or a component started; a restored scene looks once).
   bool merge_sweep_due = true;
   // A merge moved a component onto another, or a loop closure bent the
-  // chain, since the last refinement round that ran to its end: cameras
+  // chain, since the refinement last settled on the model: cameras
   // may be off by decimetres where the seam's bounded adjustment did not
   // reach (not serialized: a restored scene refines in its turn).
   bool refinement_urgent = false;

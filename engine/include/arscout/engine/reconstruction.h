@@ -353,9 +353,10 @@ class Reconstruction {
   // True when refine() has work to do.
   bool refinement_due() const;
   // True when refine() has work and a merge of components or a loop
-  // closure moved cameras since its last round that ran to its end: the
-  // cameras may be off by decimetres across the seam, and work that uses
-  // the poses (the dense phase) should wait for one round.
+  // closure moved cameras since it last settled (a round met its tolerance,
+  // or the bounded number of rounds on one model ran): the cameras may be
+  // off by decimetres across the seam, and work that uses the poses (the
+  // dense phase) should wait for the refinement.
   bool refinement_urgent() const;
 
   Model model() const;
