@@ -511,7 +511,9 @@ Increment SiteJob::run_refine(const std::function<bool()>& stop) {
             << refined.iterations << " iterations, cameras moved up to "
             << refined.largest_move << " (keypoints " << refined.pixel_sigma
             << " px), " << refined.tracks_joined << " matches joined, "
-            << refined.corners_matched << " weak corners matched";
+            << refined.corners_matched << " weak corners matched, "
+            << refined.loose_links << " loose-pair matches linked ("
+            << refined.strained_links << " strained)";
   } else {
     summary << "registered " << refined.registered.size()
             << " waiting captures";

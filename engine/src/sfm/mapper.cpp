@@ -44,6 +44,9 @@ constexpr double kRefineTolerance = 1e-10;
 constexpr double kLocalTolerance = 1e-4;
 constexpr double kInlineGlobalTolerance = 1e-5;
 constexpr int kRefineRounds = 6;
+// Strained points of loose pairs (tie_loose_pairs) that make a round weigh
+// residuals up to the reprojection limit: a seam's, not a stray match's.
+constexpr int kStrainedForWideLoss = 10;
 // A round that joined more than one point's worth in this many (tracks
 // merged or extended) leaves the refinement due for another.
 constexpr int64_t kJoinedForAnotherRound = 1000;
@@ -231,9 +234,19 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   // Before the adjustment, which then places the new points; pairs left
   // when `stop` ends it are the next round's.
   result.corners_matched = densify_tracks(stop);
+  const LooseTies ties = tie_loose_pairs(stop);
+  result.loose_links = ties.linked;
+  result.strained_links = ties.strained;
+  const bool strained = ties.strained >= kStrainedForWideLoss;
   BundleOptions ba = bundle_options(kGlobalIterations);
   ba.function_tolerance = kRefineTolerance;
   ba.loss_scale_sigmas = kRefineLossSigmas;
+  // Under the keypoints' loss a seam's strained points, pixels off, would
+  // weigh nothing: this round weighs them up to the reprojection limit.
+  if (strained) {
+    ba.loss_scale_sigmas = 0;
+    ba.loss_scale_px = options_.max_reprojection_px;
+  }
   ba.stop = stop;
   ba.max_track_observations = kGlobalTrack;
   const std::vector<int> keys = key_views();
@@ -280,7 +293,7 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   const bool joined_many = result.tracks_joined * kJoinedForAnotherRound >
                            static_cast<int64_t>(scene_.points.size());
   const bool settled =
-      result.converged && ((report.converged && !joined_many) ||
+      result.converged && ((report.converged && !joined_many && !strained) ||
                            ++scene_.unsettled_refine_rounds >= kRefineRounds);
   // A merge stays urgent until the refinement settles, not for one round
   // only: seed 53's four-scout walk moved cameras 0.69 m in its first
@@ -449,7 +462,7 @@ size_t IncrementalMapper::place_pair(int a, int b, const ImagePair& pair,
   StageClock clock(timings_.triangulation_s);
   const size_t before = scene_.points.size();
   for (const auto& [ka, kb] : pair.matches)
-    triangulate_pair_match({a, ka}, {b, kb});
+    triangulate_pair_match({a, ka}, {b, kb}, options_.max_reprojection_px);
   return scene_.points.size() - before;
 }
 
@@ -718,6 +731,10 @@ std::vector<std::pair<int, int64_t>> IncrementalMapper::agreeing_matches(
 // every observation of both, which links the chain of photos into longer
 // tracks (and closes loops).
 void IncrementalMapper::merge_tracks(int64_t a, int64_t b) {
+  merge_tracks(a, b, options_.max_reprojection_px);
+}
+
+void IncrementalMapper::merge_tracks(int64_t a, int64_t b, double max_px) {
   if (a == b) return;
   const ScenePoint& pa = scene_.points.at(a);
   const ScenePoint& pb = scene_.points.at(b);
@@ -732,8 +749,7 @@ void IncrementalMapper::merge_tracks(int64_t a, int64_t b) {
       const SceneImage& image = scene_.images[obs.image];
       Eigen::Vector2d projected;
       if (!project(scene_.cameras[image.camera], image, merged, &projected) ||
-          (projected - image.keypoints[obs.keypoint]).norm() >
-              options_.max_reprojection_px) {
+          (projected - image.keypoints[obs.keypoint]).norm() > max_px) {
         return;
       }
     }
@@ -746,25 +762,35 @@ void IncrementalMapper::merge_tracks(int64_t a, int64_t b) {
 }
 
 void IncrementalMapper::extend_track(int64_t point_id, Observation obs) {
+  extend_track(point_id, obs, options_.max_reprojection_px);
+}
+
+void IncrementalMapper::extend_track(int64_t point_id, Observation obs,
+                                     double max_px) {
   ScenePoint& point = scene_.points.at(point_id);
   if (has_observation_in(point, obs.image)) return;
   const SceneImage& image = scene_.images[obs.image];
   Eigen::Vector2d projected;
   if (!project(scene_.cameras[image.camera], image, point.xyz, &projected))
     return;
-  if ((projected - image.keypoints[obs.keypoint]).norm() >
-      options_.max_reprojection_px)
-    return;
+  if ((projected - image.keypoints[obs.keypoint]).norm() > max_px) return;
   scene_.add_observation(point_id, obs);
 }
 
 bool IncrementalMapper::triangulate_pair_match(Observation first,
-                                               Observation second) {
+                                               Observation second,
+                                               double max_px) {
   const auto X = triangulated(scene_.images[first.image], first,
-                              scene_.images[second.image], second);
+                              scene_.images[second.image], second, max_px);
   if (!X) return false;
   scene_.add_point(*X, {first, second});
   return true;
+}
+
+std::optional<Eigen::Vector3d> IncrementalMapper::triangulated(
+    const SceneImage& a, Observation first, const SceneImage& b,
+    Observation second) const {
+  return triangulated(a, first, b, second, options_.max_reprojection_px);
 }
 
 // The point two observations see, with `a` and `b` giving their images'
@@ -772,7 +798,7 @@ bool IncrementalMapper::triangulate_pair_match(Observation first,
 // it has the parallax and both reprojections a new point needs.
 std::optional<Eigen::Vector3d> IncrementalMapper::triangulated(
     const SceneImage& a, Observation first, const SceneImage& b,
-    Observation second) const {
+    Observation second, double max_px) const {
   const SceneImage& image_a = scene_.images[first.image];
   const SceneImage& image_b = scene_.images[second.image];
   const SceneCamera& ca = scene_.cameras[image_a.camera];
@@ -790,10 +816,8 @@ std::optional<Eigen::Vector3d> IncrementalMapper::triangulated(
   }
   Eigen::Vector2d pa, pb;
   if (!project(ca, a, *X, &pa) || !project(cb, b, *X, &pb)) return std::nullopt;
-  if ((pa - ka).norm() > options_.max_reprojection_px ||
-      (pb - kb).norm() > options_.max_reprojection_px) {
+  if ((pa - ka).norm() > max_px || (pb - kb).norm() > max_px)
     return std::nullopt;
-  }
   return X;
 }
 
@@ -811,18 +835,26 @@ void IncrementalMapper::triangulate_image(int index) {
 // One verified match into the tracks: two points merged, a track extended,
 // or a new point, wherever one position explains both keypoints.
 void IncrementalMapper::link_match(Observation first, Observation second) {
+  link_match(first, second, options_.max_reprojection_px);
+}
+
+bool IncrementalMapper::link_match(Observation first, Observation second,
+                                   double max_px) {
   const int64_t p_first = scene_.images[first.image].point_of[first.keypoint];
   const int64_t p_second =
       scene_.images[second.image].point_of[second.keypoint];
   if (p_first >= 0 && p_second >= 0) {
-    merge_tracks(p_first, p_second);
+    merge_tracks(p_first, p_second, max_px);
   } else if (p_second >= 0) {
-    extend_track(p_second, first);
+    extend_track(p_second, first, max_px);
   } else if (p_first >= 0) {
-    extend_track(p_first, second);
+    extend_track(p_first, second, max_px);
   } else {
-    triangulate_pair_match(first, second);
+    triangulate_pair_match(first, second, max_px);
   }
+  const int64_t linked = scene_.images[first.image].point_of[first.keypoint];
+  return linked >= 0 &&
+         linked == scene_.images[second.image].point_of[second.keypoint];
 }
 
 // Once registered and triangulated, a new image's keypoints move onto the

@@ -63,6 +63,19 @@ class IncrementalMapper {
   // it after each round. Returns the matches joined. `stop` (may be empty)
   // is asked every 64 pairs; what was joined before it said so stays.
   int join_tracks(const std::function<bool()>& stop);
+  // The verified matches of each loose pair (registered, one component, at
+  // least 15 matches, fewer than one in five on a point both hold: a weak
+  // link of a walk that a ring of merges closed untied) linked into tracks
+  // (two points merged, a track extended, a new point) within
+  // max_reprojection_px, else within ten times it: those are `strained`,
+  // the model's poses there disagree with the pair (sfm/loose_pairs.cpp).
+  // refine() runs it before its adjustment. `stop` (may be empty) is
+  // asked every 64 pairs.
+  struct LooseTies {
+    int linked = 0;
+    int strained = 0;
+  };
+  LooseTies tie_loose_pairs(const std::function<bool()>& stop);
   // The weaker corners the increments leave out (past
   // ReconstructionOptions::match_features) matched along the epipolar lines
   // of each registered pair not done yet, and the matches linked into
@@ -175,16 +188,28 @@ class IncrementalMapper {
   std::optional<Eigen::Vector2d> align_through_neighbour(
       int64_t point, const Observation& reference,
       const Observation& target) const;
+  // The track operations within max_reprojection_px, or `max_px`.
   void extend_track(int64_t point, Observation obs);
+  void extend_track(int64_t point, Observation obs, double max_px);
   void merge_tracks(int64_t a, int64_t b);
-  bool triangulate_pair_match(Observation first, Observation second);
+  void merge_tracks(int64_t a, int64_t b, double max_px);
+  bool triangulate_pair_match(Observation first, Observation second,
+                              double max_px);
   void link_match(Observation first, Observation second);
+  // True when the two keypoints then hold one point.
+  bool link_match(Observation first, Observation second, double max_px);
   int densify_pair(const std::pair<int, int>& key, ImagePair& pair);
   bool align_to_track(Observation obs);
+  // Within max_reprojection_px, or `max_px`.
   std::optional<Eigen::Vector3d> triangulated(const SceneImage& a,
                                               Observation first,
                                               const SceneImage& b,
                                               Observation second) const;
+  std::optional<Eigen::Vector3d> triangulated(const SceneImage& a,
+                                              Observation first,
+                                              const SceneImage& b,
+                                              Observation second,
+                                              double max_px) const;
   void close_loops(int index);
   std::vector<int> key_views() const;
   void adjust_pose(int index);

@@ -248,6 +248,12 @@ struct RefineResult {
   // matched along registered pairs' epipolar lines and linked into tracks
   // before its adjustment (docs/engine.md, "How many corners").
   int corners_matched = 0;
+  // Matches of loose pairs the round linked into tracks before its
+  // adjustment (a walk's weak link closed untied by a ring of merges), and
+  // of those the strained ones, pixels off the model's poses there
+  // (docs/engine.md, "Weak links").
+  int loose_links = 0;
+  int strained_links = 0;
   // Waiting captures this call registered (ids, in order); when any, the
   // call did only that, and the global adjustment is due next.
   std::vector<std::string> registered;

@@ -1,0 +1,73 @@
+// Weak links of a walk tied back into the model. Where a walk passes a
+// building's corner, a photo may share too little with the one before it
+// to register; the next ones start a component, which later merges with
+// the others where they meet. Around a block the components form a ring,
+// and the ring closes with one seam never used for a merge: its two sides
+// share no point, so the whole loop's drift lands there (seed 53's block:
+// 14.8 cm between two photos 1.2 m apart, after six refinement rounds;
+// bench/RESULTS.md, "Issue 35, twentieth stop"). The pair's verified
+// matches are still there. As COLMAP completes and retriangulates
+// under-reconstructed pairs with a looser angular error, they are linked
+// into tracks here with a looser reprojection limit, and the round that
+// follows weighs residuals up to the usual limit (not the keypoints' loss,
+// under which pixels-off points weigh nothing), so that they pull the seam
+// shut.
+#include <vector>
+
+#include "sfm/mapper.h"
+#include "stopwatch.h"
+
+namespace arscout::engine {
+namespace {
+
+// A pair with fewer verified matches says too little to tie anything
+// (COLMAP's two-view minimum).
+constexpr size_t kLoosePairMatches = 15;
+// A pair is loose when fewer than one match in this many lies on a point
+// both images hold (COLMAP's re_min_ratio, 0.2).
+constexpr size_t kLooseShare = 5;
+// The looser limit, in multiples of max_reprojection_px.
+constexpr double kLooseReprojection = 10;
+// Pairs looked at between two looks at `stop`.
+constexpr int kPairsPerStopCheck = 64;
+
+bool loose(const SceneImage& a, const SceneImage& b, const ImagePair& pair) {
+  if (pair.matches.size() < kLoosePairMatches) return false;
+  size_t shared = 0;
+  for (const auto& [first, second] : pair.matches)
+    shared += a.point_of[first] >= 0 && a.point_of[first] == b.point_of[second];
+  return shared * kLooseShare < pair.matches.size();
+}
+
+}  // namespace
+
+IncrementalMapper::LooseTies IncrementalMapper::tie_loose_pairs(
+    const std::function<bool()>& stop) {
+  StageClock clock(timings_.triangulation_s);
+  const double limit = options_.max_reprojection_px * kLooseReprojection;
+  LooseTies ties;
+  int checked = 0;
+  for (const auto& [key, pair] : scene_.pairs) {
+    if (stop && ++checked % kPairsPerStopCheck == 0 && stop()) break;
+    const SceneImage& a = scene_.images[key.first];
+    const SceneImage& b = scene_.images[key.second];
+    if (!a.registered || !b.registered || a.component != b.component ||
+        !loose(a, b, pair))
+      continue;
+    for (const auto& [first, second] : pair.matches) {
+      const int64_t held = a.point_of[first];
+      if (held >= 0 && held == b.point_of[second]) continue;
+      const Observation in_a{key.first, first};
+      const Observation in_b{key.second, second};
+      if (link_match(in_a, in_b, options_.max_reprojection_px)) {
+        ++ties.linked;
+      } else if (link_match(in_a, in_b, limit)) {
+        ++ties.linked;
+        ++ties.strained;
+      }
+    }
+  }
+  return ties;
+}
+
+}  // namespace arscout::engine
