@@ -124,6 +124,9 @@ class ReprojectionCost final : public ceres::SizedCostFunction<2, 4, 3, 3, 6> {
 // of the priors"). Robust fixes in both let a small component placed far
 // from its fixes stay there (the fit then ran off to scales of e^13775).
 constexpr double kUprightLossSigmas = 3.0;
+// How far fit_model_to_priors may take the scale from its start: a factor
+// of 100 either way (the start is a closed-form fit to the same fixes).
+constexpr double kLogScaleRange = 4.6;
 
 // A camera centre against its ENU fix, in units of the fix's standard
 // deviation per axis (zero weight where the axis is unknown): the one
@@ -633,6 +636,12 @@ std::optional<Similarity> fit_model_to_priors(const Scene& scene,
   }
   if (fixes < 3) return std::nullopt;
   problem.SetManifold(q.coeffs().data(), new ceres::EigenQuaternionManifold);
+  // A component whose centres nearly coincide (photos turned on the spot)
+  // leaves the scale almost free: a trial step once reached a log scale of
+  // 10500, whose cost is infinite (Ceres rejects it, but logs the whole
+  // block to stderr). The fit only refines the start's scale.
+  problem.SetParameterLowerBound(&log_scale, 0, log_scale - kLogScaleRange);
+  problem.SetParameterUpperBound(&log_scale, 0, log_scale + kLogScaleRange);
   ceres::Solver::Options solver;
   solver.linear_solver_type = ceres::DENSE_QR;
   solver.max_num_iterations = 100;

@@ -108,7 +108,7 @@ bool evaluate_reprojection(const double* q, const double* t,
 // A local solve from `start`: from a model turned more than a right angle
 // from its fixes it shrinks the model instead of turning it, so start it
 // near the answer (the fixes' robust placement, IncrementalMapper::
-// fit_to_priors).
+// fit_to_priors). Its scale stays within a factor of 100 of start's.
 std::optional<Similarity> fit_model_to_priors(const Scene& scene,
                                               const BundleOptions& options,
                                               int component,
