@@ -28,6 +28,11 @@ constexpr size_t kLoosePairMatches = 15;
 constexpr size_t kLooseShare = 5;
 // The looser limit, in multiples of max_reprojection_px.
 constexpr double kLooseReprojection = 10;
+// Rounds that may find one pair strained. A seam's links hold once the
+// round they weigh in pulls it shut (seed 53's closed in one); a pair
+// whose matches are false stays strained, and each try costs a round at
+// the wider loss.
+constexpr int kStrainedTries = 2;
 // Pairs looked at between two looks at `stop`.
 constexpr int kPairsPerStopCheck = 64;
 
@@ -37,6 +42,11 @@ bool loose(const SceneImage& a, const SceneImage& b, const ImagePair& pair) {
   for (const auto& [first, second] : pair.matches)
     shared += a.point_of[first] >= 0 && a.point_of[first] == b.point_of[second];
   return shared * kLooseShare < pair.matches.size();
+}
+
+bool tried_out(const Scene& scene, const std::pair<int, int>& key) {
+  const auto tries = scene.strained_tries.find(key);
+  return tries != scene.strained_tries.end() && tries->second >= kStrainedTries;
 }
 
 }  // namespace
@@ -52,8 +62,9 @@ IncrementalMapper::LooseTies IncrementalMapper::tie_loose_pairs(
     const SceneImage& a = scene_.images[key.first];
     const SceneImage& b = scene_.images[key.second];
     if (!a.registered || !b.registered || a.component != b.component ||
-        !loose(a, b, pair))
+        tried_out(scene_, key) || !loose(a, b, pair))
       continue;
+    const int strained_before = ties.strained;
     for (const auto& [first, second] : pair.matches) {
       const int64_t held = a.point_of[first];
       if (held >= 0 && held == b.point_of[second]) continue;
@@ -66,6 +77,7 @@ IncrementalMapper::LooseTies IncrementalMapper::tie_loose_pairs(
         ++ties.strained;
       }
     }
+    if (ties.strained > strained_before) ++scene_.strained_tries[key];
   }
   return ties;
 }

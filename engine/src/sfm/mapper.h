@@ -69,6 +69,7 @@ class IncrementalMapper {
   // (two points merged, a track extended, a new point) within
   // max_reprojection_px, else within ten times it: those are `strained`,
   // the model's poses there disagree with the pair (sfm/loose_pairs.cpp).
+  // A pair found strained in two rounds is not tried again.
   // refine() runs it before its adjustment. `stop` (may be empty) is
   // asked every 64 pairs.
   struct LooseTies {

@@ -133,6 +133,9 @@ struct Scene {
   // (sfm/densify.cpp; not serialized: a restored scene looks again, and
   // finds the corners it matched already in the pair's matches).
   std::set<std::pair<int, int>> densified_pairs;
+  // Loose pairs and the rounds that found their links strained
+  // (sfm/loose_pairs.cpp; not serialized: a restored scene tries again).
+  std::map<std::pair<int, int>, int> strained_tries;
   // Components may have become mergeable since the last look (a photo
   // registered or a component started; a restored scene looks once).
   bool merge_sweep_due = true;
