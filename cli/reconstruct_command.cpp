@@ -205,10 +205,9 @@ void print_refine(const engine::RefineResult& r) {
             << r.loss_scale_px << " px, cameras moved up to "
             << std::setprecision(4) << r.largest_move << std::setprecision(2)
             << ", " << r.tracks_joined << " matches joined, "
-            << r.corners_matched << " weak corners matched, "
-            << r.loose_links << " loose-pair matches linked ("
-            << r.strained_links << " strained)"
-            << (r.converged ? "" : " (given way)") << std::endl;
+            << r.corners_matched << " weak corners matched, " << r.loose_links
+            << " loose-pair matches linked (" << r.strained_links
+            << " strained)" << (r.converged ? "" : " (given way)") << std::endl;
 }
 
 // The global adjustment in the gap before the next photo, as the service

@@ -238,20 +238,7 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   result.loose_links = ties.linked;
   result.strained_links = ties.strained;
   const bool strained = ties.strained >= kStrainedForWideLoss;
-  BundleOptions ba = bundle_options(kGlobalIterations);
-  ba.function_tolerance = kRefineTolerance;
-  ba.loss_scale_sigmas = kRefineLossSigmas;
-  // Under the keypoints' loss a seam's strained points, pixels off, would
-  // weigh nothing: this round weighs them up to the reprojection limit.
-  if (strained) {
-    ba.loss_scale_sigmas = 0;
-    ba.loss_scale_px = options_.max_reprojection_px;
-  }
-  ba.stop = stop;
-  ba.max_track_observations = kGlobalTrack;
-  const std::vector<int> keys = key_views();
-  ba.global_images.insert(keys.begin(), keys.end());
-  align_to_priors(ba);
+  BundleOptions ba = refinement_options(stop, strained);
   const std::vector<Eigen::Vector3d> centres_before = registered_centres();
   const BundleReport report = adjust_bundle(scene_, {}, true, ba);
   result.iterations = report.iterations;
@@ -306,6 +293,24 @@ RefineResult IncrementalMapper::refine(const std::function<bool()>& stop) {
   }
   result.seconds = seconds_since(start);
   return result;
+}
+
+// A refinement round's adjustment: every key view free, placed on the
+// fixes first. Under the keypoints' loss a seam's strained links, pixels
+// off, would weigh nothing: a `strained` round weighs residuals up to the
+// reprojection limit.
+BundleOptions IncrementalMapper::refinement_options(
+    const std::function<bool()>& stop, bool strained) {
+  BundleOptions ba = bundle_options(kGlobalIterations);
+  ba.function_tolerance = kRefineTolerance;
+  ba.loss_scale_sigmas = strained ? 0 : kRefineLossSigmas;
+  if (strained) ba.loss_scale_px = options_.max_reprojection_px;
+  ba.stop = stop;
+  ba.max_track_observations = kGlobalTrack;
+  const std::vector<int> keys = key_views();
+  ba.global_images.insert(keys.begin(), keys.end());
+  align_to_priors(ba);
+  return ba;
 }
 
 // Verified matches whose keypoints the model still holds as two points,

@@ -212,6 +212,8 @@ class IncrementalMapper {
                                               Observation second,
                                               double max_px) const;
   void close_loops(int index);
+  BundleOptions refinement_options(const std::function<bool()>& stop,
+                                   bool strained);
   std::vector<int> key_views() const;
   void adjust_pose(int index);
   void adjust_local(int index);
