@@ -190,8 +190,8 @@ class IncrementalMapper {
       int64_t point, const Observation& reference,
       const Observation& target) const;
   // The track operations within max_reprojection_px, or `max_px`.
-  void extend_track(int64_t point, Observation obs);
-  void extend_track(int64_t point, Observation obs, double max_px);
+  void extend_track(int64_t point_id, Observation obs);
+  void extend_track(int64_t point_id, Observation obs, double max_px);
   void merge_tracks(int64_t a, int64_t b);
   void merge_tracks(int64_t a, int64_t b, double max_px);
   bool triangulate_pair_match(Observation first, Observation second,
