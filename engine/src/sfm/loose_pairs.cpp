@@ -33,8 +33,6 @@ constexpr double kLooseReprojection = 10;
 // whose matches are false stays strained, and each try costs a round at
 // the wider loss.
 constexpr int kStrainedTries = 2;
-// Pairs looked at between two looks at `stop`.
-constexpr int kPairsPerStopCheck = 64;
 
 bool loose(const SceneImage& a, const SceneImage& b, const ImagePair& pair) {
   if (pair.matches.size() < kLoosePairMatches) return false;
@@ -56,29 +54,26 @@ IncrementalMapper::LooseTies IncrementalMapper::tie_loose_pairs(
   StageClock clock(timings_.triangulation_s);
   const double limit = options_.max_reprojection_px * kLooseReprojection;
   LooseTies ties;
-  int checked = 0;
-  for (const auto& [key, pair] : scene_.pairs) {
-    if (stop && ++checked % kPairsPerStopCheck == 0 && stop()) break;
-    const SceneImage& a = scene_.images[key.first];
-    const SceneImage& b = scene_.images[key.second];
-    if (!a.registered || !b.registered || a.component != b.component ||
-        tried_out(scene_, key) || !loose(a, b, pair))
-      continue;
-    const int strained_before = ties.strained;
-    for (const auto& [first, second] : pair.matches) {
-      const int64_t held = a.point_of[first];
-      if (held >= 0 && held == b.point_of[second]) continue;
-      const Observation in_a{key.first, first};
-      const Observation in_b{key.second, second};
-      if (link_match(in_a, in_b, options_.max_reprojection_px)) {
-        ++ties.linked;
-      } else if (link_match(in_a, in_b, limit)) {
-        ++ties.linked;
-        ++ties.strained;
-      }
-    }
-    if (ties.strained > strained_before) ++scene_.strained_tries[key];
-  }
+  visit_linked_pairs(
+      stop, [&](const std::pair<int, int>& key, const ImagePair& pair) {
+        const SceneImage& a = scene_.images[key.first];
+        const SceneImage& b = scene_.images[key.second];
+        if (tried_out(scene_, key) || !loose(a, b, pair)) return;
+        const int strained_before = ties.strained;
+        for (const auto& [first, second] : pair.matches) {
+          const int64_t held = a.point_of[first];
+          if (held >= 0 && held == b.point_of[second]) continue;
+          const Observation in_a{key.first, first};
+          const Observation in_b{key.second, second};
+          if (link_match(in_a, in_b, options_.max_reprojection_px)) {
+            ++ties.linked;
+          } else if (link_match(in_a, in_b, limit)) {
+            ++ties.linked;
+            ++ties.strained;
+          }
+        }
+        if (ties.strained > strained_before) ++scene_.strained_tries[key];
+      });
   return ties;
 }
 

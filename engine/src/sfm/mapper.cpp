@@ -47,6 +47,9 @@ constexpr int kRefineRounds = 6;
 // Strained points of loose pairs (tie_loose_pairs) that make a round weigh
 // residuals up to the reprojection limit: a seam's, not a stray match's.
 constexpr int kStrainedForWideLoss = 10;
+// Pairs the passes over the registered pairs look at between two looks at
+// their `stop`.
+constexpr int kPairsPerStopCheck = 64;
 // A round that joined more than one point's worth in this many (tracks
 // merged or extended) leaves the refinement due for another.
 constexpr int64_t kJoinedForAnotherRound = 1000;
@@ -323,29 +326,32 @@ BundleOptions IncrementalMapper::refinement_options(
 int IncrementalMapper::join_tracks(const std::function<bool()>& stop) {
   StageClock clock(timings_.triangulation_s);
   int joined = 0;
+  visit_linked_pairs(
+      stop, [&](const std::pair<int, int>& key, const ImagePair& pair) {
+        const SceneImage& a = scene_.images[key.first];
+        const SceneImage& b = scene_.images[key.second];
+        for (const auto& [first, second] : pair.matches) {
+          // One point already, or neither triangulated (not this pass's work).
+          if (a.point_of[first] == b.point_of[second]) continue;
+          joined += link_match({key.first, first}, {key.second, second},
+                               options_.max_reprojection_px);
+        }
+      });
+  return joined;
+}
+
+void IncrementalMapper::visit_linked_pairs(
+    const std::function<bool()>& stop,
+    const std::function<void(const std::pair<int, int>&, const ImagePair&)>&
+        visit) {
   int checked_pairs = 0;
   for (const auto& [key, pair] : scene_.pairs) {
-    if (stop && ++checked_pairs % 64 == 0 && stop()) break;
+    if (stop && ++checked_pairs % kPairsPerStopCheck == 0 && stop()) return;
     const SceneImage& a = scene_.images[key.first];
     const SceneImage& b = scene_.images[key.second];
-    if (!a.registered || !b.registered || a.component != b.component) continue;
-    for (const auto& [first, second] : pair.matches) {
-      const int64_t pa = a.point_of[first];
-      const int64_t pb = b.point_of[second];
-      if (pa == pb) continue;  // one point, or neither triangulated
-      if (pa >= 0 && pb >= 0) {
-        merge_tracks(pa, pb);
-        joined += scene_.points.count(pa) == 0 || scene_.points.count(pb) == 0;
-      } else if (pa >= 0) {
-        extend_track(pa, {key.second, second});
-        joined += b.point_of[second] == pa;
-      } else {
-        extend_track(pb, {key.first, first});
-        joined += a.point_of[first] == pb;
-      }
-    }
+    if (a.registered && b.registered && a.component == b.component)
+      visit(key, pair);
   }
-  return joined;
 }
 
 std::vector<Eigen::Vector3d> IncrementalMapper::registered_centres() const {

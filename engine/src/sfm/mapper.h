@@ -212,6 +212,11 @@ class IncrementalMapper {
                                               Observation second,
                                               double max_px) const;
   void close_loops(int index);
+  // Calls `visit` for each pair of registered images of one component,
+  // asking `stop` (may be empty) every 64 pairs; it ends when that says so.
+  void visit_linked_pairs(const std::function<bool()>& stop,
+                          const std::function<void(const std::pair<int, int>&,
+                                                   const ImagePair&)>& visit);
   BundleOptions refinement_options(const std::function<bool()>& stop,
                                    bool strained);
   std::vector<int> key_views() const;
