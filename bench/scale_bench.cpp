@@ -27,14 +27,9 @@
 // With --check it exits 1 when a seed misses a target. Percentiles
 // interpolate linearly (eval::percentile). Below 220 photos the windows
 // shrink: photos 21..min(120, N/2) and the last min(100, N/2).
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -45,16 +40,14 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
-#include <system_error>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 
 #include "bench_support.h"
+#include "child_process.h"
 #include "model_eval.h"
 #include "progress_log.h"
-
-extern char** environ;
 
 namespace {
 
@@ -85,112 +78,10 @@ struct Row {
   double refine_s = kNaN, wall_s = kNaN, peak_rss_mib = kNaN;
 };
 
-struct ChildResult {
-  int status = -1;       // wait status
-  double wall_s = 0;     // from spawn to exit
-  long max_rss_kib = 0;  // of this child alone
-};
-
-// Runs `exe args...` with stdout and stderr to `log` (truncated) and waits.
-ChildResult run_child(const std::string& exe, std::vector<std::string> args,
-                      const std::string& log) {
-  args.insert(args.begin(), exe);
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(),
-                                   O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
-  const auto start = bench::Clock::now();
-  pid_t pid = -1;
-  const int rc =
-      posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (rc != 0)
-    throw std::system_error(rc, std::generic_category(), "spawning " + exe);
-  ChildResult result;
-  rusage usage{};
-  while (wait4(pid, &result.status, 0, &usage) < 0) {
-    if (errno != EINTR)
-      throw std::system_error(errno, std::generic_category(), "wait4");
-  }
-  result.wall_s = bench::seconds_since(start);
-  result.max_rss_kib = usage.ru_maxrss;  // KiB on Linux
-  return result;
-}
-
-bool exited_ok(const ChildResult& r) {
-  return WIFEXITED(r.status) && WEXITSTATUS(r.status) == 0;
-}
-
-std::string last_lines(const std::string& path, int count) {
-  std::ifstream in(path);
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(in, line);) lines.push_back(line);
-  std::string text;
-  const auto from = lines.size() > static_cast<std::size_t>(count)
-                        ? lines.size() - static_cast<std::size_t>(count)
-                        : 0;
-  for (auto i = from; i < lines.size(); ++i) text += lines[i] + "\n";
-  return text;
-}
-
-std::vector<std::string> render_args(const Options& o, int seed,
-                                     const std::string& site) {
-  return {"render-site",
-          "--scene",
-          "block",
-          "--views",
-          std::to_string(o.views),
-          "--seed",
-          std::to_string(seed),
-          "--width",
-          std::to_string(o.width),
-          "--height",
-          std::to_string(o.height),
-          "--out",
-          site};
-}
-
-std::string joined(const std::vector<std::string>& words) {
-  std::string text;
-  for (const auto& w : words) text += (text.empty() ? "" : " ") + w;
-  return text;
-}
-
-// The rendering in `site` is reused when its stamp (the render-site
-// arguments that made it) matches and it holds --views photos.
-bool rendering_reusable(const Options& o, int seed, const fs::path& site) {
-  std::ifstream stamp(site / "render-args.txt");
-  std::string made_by;
-  if (!std::getline(stamp, made_by) ||
-      made_by != joined(render_args(o, seed, site.string())))
-    return false;
-  int photos = 0;
-  for (const auto& entry : fs::directory_iterator(site / "images"))
-    photos += entry.path().extension() == ".jpg";
-  return photos == o.views && fs::exists(site / "gt_dense_cameras") &&
-         fs::exists(site / "gps.csv") && fs::exists(site / "gps_truth.csv");
-}
-
 void render_site(const Options& o, int seed, const fs::path& dir) {
-  const fs::path site = dir / "site";
-  if (fs::exists(site / "images") && rendering_reusable(o, seed, site)) {
-    std::cerr << "seed " << seed << ": reusing " << site << std::endl;
-    return;
-  }
-  fs::remove_all(site);
-  std::cerr << "seed " << seed << ": rendering " << o.views << " photos"
-            << std::endl;
-  const auto args = render_args(o, seed, site.string());
-  const std::string log = (dir / "render.log").string();
-  const ChildResult r = run_child(o.arscout, args, log);
-  if (!exited_ok(r))
-    throw std::runtime_error("render-site failed (see " + log + "):\n" +
-                             last_lines(log, 5));
-  std::ofstream(site / "render-args.txt") << joined(args) << "\n";
+  bench::render_block_walk(
+      o.arscout, {o.views, seed, o.width, o.height}, (dir / "site").string(),
+      (dir / "render.log").string(), "seed " + std::to_string(seed));
 }
 
 std::vector<std::string> reconstruct_args(const Options& o,
@@ -262,14 +153,15 @@ Row measure_seed(const Options& o, int seed) {
   fs::remove_all(dir / "out");
   std::cerr << "seed " << seed << ": reconstructing" << std::endl;
   const std::string log = (dir / "reconstruct.log").string();
-  const ChildResult r = run_child(o.arscout, reconstruct_args(o, dir), log);
+  const bench::ChildResult r =
+      bench::run_child(o.arscout, reconstruct_args(o, dir), log);
   Row row;
   row.label = "seed " + std::to_string(seed);
   row.wall_s = r.wall_s;
   row.peak_rss_mib = static_cast<double>(r.max_rss_kib) / 1024.0;
-  if (!exited_ok(r)) {
+  if (!bench::exited_ok(r)) {
     row.error = "reconstruct failed (see " + log + ")";
-    std::cerr << row.error << ":\n" << last_lines(log, 5);
+    std::cerr << row.error << ":\n" << bench::last_lines(log, 5);
     return row;
   }
   try {

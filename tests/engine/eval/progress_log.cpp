@@ -111,6 +111,19 @@ double ProgressLog::refine_seconds() const {
   return sum;
 }
 
+double ProgressLog::dense_seconds() const {
+  double sum = 0;
+  for (const DenseProgress& d : dense) sum += d.seconds();
+  return sum;
+}
+
+std::vector<std::string> ProgressLog::depth_map_ids() const {
+  std::vector<std::string> ids;
+  for (const DenseProgress& d : dense)
+    ids.insert(ids.end(), d.new_depth_maps.begin(), d.new_depth_maps.end());
+  return ids;
+}
+
 std::optional<PhotoProgress> parse_photo_line(const std::string& line) {
   PhotoProgress p;
   std::size_t rest = 0;
@@ -132,6 +145,29 @@ std::optional<RefineProgress> parse_refine_line(const std::string& line) {
   return r;
 }
 
+std::optional<DenseProgress> parse_dense_line(const std::string& line) {
+  const std::string text = trim(line);
+  if (!starts_with(text, "dense: ")) return std::nullopt;
+  DenseProgress d;
+  std::istringstream words(text.substr(7));
+  int count = 0;
+  std::string word;
+  if (!(words >> count >> word >> word >> word) || count < 0)
+    throw std::runtime_error("bad dense count");
+  for (int i = 0; i < count && words >> word; ++i)
+    d.new_depth_maps.push_back(word);
+  if (static_cast<int>(d.new_depth_maps.size()) != count)
+    throw std::runtime_error("too few depth map ids");
+  const auto points_at = text.find("  points ");
+  const auto times_at = text.find("| sweep ");
+  if (points_at == std::string::npos || times_at == std::string::npos ||
+      std::sscanf(text.c_str() + points_at, "  points %ld", &d.points) != 1 ||
+      std::sscanf(text.c_str() + times_at, "| sweep %lf filter %lf fusion %lf",
+                  &d.sweep_s, &d.filter_s, &d.fusion_s) != 3)
+    throw std::runtime_error("bad dense figures");
+  return d;
+}
+
 ProgressLog parse_progress_log(std::istream& in, const std::string& path) {
   ProgressLog log;
   std::string line;
@@ -142,6 +178,8 @@ ProgressLog parse_progress_log(std::istream& in, const std::string& path) {
       } else if (auto refine = parse_refine_line(line)) {
         refine->after_photo = log.photos.empty() ? 0 : log.photos.back().number;
         log.refines.push_back(*refine);
+      } else if (auto dense = parse_dense_line(line)) {
+        log.dense.push_back(std::move(*dense));
       } else if (const std::string text = trim(line);
                  starts_with(text, "waiting registered: ")) {
         int count = 0;

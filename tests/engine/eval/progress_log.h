@@ -14,6 +14,12 @@
 //
 //         waiting registered: 2 (a.jpg b.jpg), 0.41 s
 //
+// and with --dense, after a photo, what its dense update did:
+//
+//       dense: 2 new depth maps a.jpg b.jpg  (waiting: 1)  points 81234
+//         (re-fused)  | sweep 1.52 filter 0.10 fusion 0.05 s
+//
+// (one line; the parentheses are optional and may name other counts).
 // A photo's "sparse increment" is the `total` of its line; the refinement
 // is not part of it. The scale bench and the block walk test judge how the
 // increments grow along a walk with these.
@@ -61,14 +67,27 @@ struct RefineProgress {
   int after_photo = 0;    // number of the photo line before it, 0 if none
 };
 
+struct DenseProgress {
+  std::vector<std::string> new_depth_maps;  // their captures' ids
+  long points = 0;                          // the cloud after the update
+  double sweep_s = 0, filter_s = 0, fusion_s = 0;
+
+  double seconds() const { return sweep_s + filter_s + fusion_s; }
+};
+
 struct ProgressLog {
   std::vector<PhotoProgress> photos;  // in log order
   std::vector<RefineProgress> refines;
+  std::vector<DenseProgress> dense;
   int registered = -1;         // from the final "registered N images" line; -1
   int waiting_registered = 0;  // summed over "waiting registered:" lines
   int components_merged = 0;   // summed over "components merged:" lines
 
   double refine_seconds() const;
+  // Summed over the dense lines.
+  double dense_seconds() const;
+  // Every capture that got a depth map, in the order they were swept.
+  std::vector<std::string> depth_map_ids() const;
 };
 
 // One photo line; nullopt for any other line. Throws std::runtime_error for
@@ -76,6 +95,9 @@ struct ProgressLog {
 std::optional<PhotoProgress> parse_photo_line(const std::string& line);
 // One "refine:" line; nullopt for any other line.
 std::optional<RefineProgress> parse_refine_line(const std::string& line);
+// One "dense:" line; nullopt for any other line. Throws std::runtime_error
+// for a dense line whose count, ids or times do not parse.
+std::optional<DenseProgress> parse_dense_line(const std::string& line);
 
 // Every photo and refine line of a log; other lines are skipped. Errors
 // name the line: "PATH:LINE: what" (the path is "log" for a stream).

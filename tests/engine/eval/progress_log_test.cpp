@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -91,6 +92,37 @@ TEST(ProgressLog, ReadsRefineLines) {
   EXPECT_FALSE(
       ev::parse_photo_line("      refine: 60 images, 7 iterations, "
                            "0.40 s"));
+}
+
+TEST(ProgressLog, ReadsDenseLines) {
+  const auto two = ev::parse_dense_line(
+      "      dense: 2 new depth maps 0003.jpg 0004.jpg  (waiting: 1)  "
+      "(covered by the key views: 1)  points 81234 (2 moved re-fused)  | "
+      "sweep 1.52 filter 0.10 fusion 0.05 s");
+  ASSERT_TRUE(two);
+  EXPECT_EQ(two->new_depth_maps,
+            (std::vector<std::string>{"0003.jpg", "0004.jpg"}));
+  EXPECT_EQ(two->points, 81234);
+  EXPECT_NEAR(two->seconds(), 1.67, 1e-12);
+  const auto none = ev::parse_dense_line(
+      "      dense: 0 new depth maps  points 900 (re-fused)  | sweep 0.00 "
+      "filter 0.02 fusion 0.30 s");
+  ASSERT_TRUE(none);
+  EXPECT_TRUE(none->new_depth_maps.empty());
+  EXPECT_DOUBLE_EQ(none->fusion_s, 0.30);
+  EXPECT_FALSE(ev::parse_dense_line(kRegistered));
+  EXPECT_THROW(ev::parse_dense_line("      dense: 2 new depth maps a.jpg"),
+               std::runtime_error);
+  std::istringstream log(
+      "[1/2] 0000.jpg  pending (no pair yet)  features 10\n"
+      "      dense: 1 new depth map 0000.jpg  points 10  | sweep 1.00 "
+      "filter 0.25 fusion 0.25 s\n"
+      "      dense: 1 new depth map 0001.jpg  points 20  | sweep 2.00 "
+      "filter 0.00 fusion 0.50 s\n");
+  const ev::ProgressLog parsed = ev::parse_progress_log(log);
+  EXPECT_DOUBLE_EQ(parsed.dense_seconds(), 4.0);
+  EXPECT_EQ(parsed.depth_map_ids(),
+            (std::vector<std::string>{"0000.jpg", "0001.jpg"}));
 }
 
 TEST(ProgressLog, OtherLinesAreNotPhotoLines) {

@@ -1,0 +1,385 @@
+// dense_quality: how clean and how complete the dense cloud is, on scenes
+// with an exact truth and on real photos.
+//
+//   dense_quality [--seeds 31,47,53] [--views 120] [--width 1024]
+//                 [--height 768] [--real DIR]... [--no-real]
+//                 [--dense-long-side 640] [--work /tmp/arscout-dense-quality]
+//                 [--arscout PATH] [--reconstruct-args "..."] [--check]
+//
+// Each scene goes through `arscout reconstruct --dense` as a child process
+// (its log and outputs in WORK/NAME/). For each seed, a block walk is
+// rendered first (`render-site --scene block`, reused while its stamp
+// matches); the model's camera centres are fitted to the true ones (7-DoF
+// similarity) and the cloud is moved with them, then:
+//
+//   - accuracy: each point's distance to the nearest true surface (the
+//     scene's quads, exactly): median and 90th percentile;
+//   - completeness at 5 cm: the true surfaces sampled every 5 cm; a sample
+//     counts when at least 2 key views (the captures that got a depth map,
+//     at their true poses) see it unhidden and resolve it (a pixel of the
+//     dense working resolution covers at most 5 cm of it there); the share
+//     of those with a point within 5 cm.
+//
+// Every scene (the real ones by default: ../shared/data/opensfm/lund and
+// strecha/fountain-P11) also gets the implausible share: points more than
+// 40 m from their nearest camera horizontally, more than 30 m above or 6 m
+// below it, or sky-coloured (tests/engine/eval/dense_eval.h), and points and
+// dense seconds per photo (the dense lines' sweep, filter and fusion
+// seconds, summed, over the photos).
+//
+// Targets (issue 36): block p90 <= 5 cm and completeness >= 80 %; lund
+// implausible <= 5 %, fountain-P11 <= 3 %. With --check it exits 1 when a
+// scene misses one.
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <Eigen/Core>
+
+#include "arscout/engine/ply.h"
+#include "arscout/engine/synthetic_site.h"
+#include "bench_support.h"
+#include "child_process.h"
+#include "dense_eval.h"
+#include "model_eval.h"
+#include "progress_log.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+namespace ev = arscout::eval;
+namespace syn = arscout::engine::synthetic;
+namespace bench = arscout::bench;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// The truth's depth images are rendered this wide (the height in
+// proportion): a sample's visibility needs no finer picture.
+constexpr int kTruthDepthWidth = 256;
+
+struct Options {
+  std::vector<int> seeds = {31, 47, 53};
+  int views = 120;
+  int width = 1024;
+  int height = 768;
+  std::vector<std::string> real;
+  bool no_real = false;
+  int dense_long_side = 640;
+  std::string work = "/tmp/arscout-dense-quality";
+  std::string arscout = ARSCOUT_EXE;
+  std::string reconstruct_args;
+  bool check = false;
+};
+
+struct Row {
+  std::string label;
+  std::string error;  // why figures are missing, or ""
+  bool block = false;
+  double max_implausible = kNaN;  // the scene's target, NaN for none
+  int photos = 0, registered = 0, depth_maps = 0;
+  long points = 0;
+  double dense_s_per_photo = kNaN, wall_s = kNaN;
+  ev::AccuracyFigures accuracy;
+  ev::CompletenessFigures completeness;
+  ev::PlausibilityFigures plausibility;
+};
+
+int count_photos(const fs::path& images) {
+  int photos = 0;
+  for (const auto& entry : fs::directory_iterator(images)) {
+    const std::string ext = entry.path().extension().string();
+    photos += ext == ".jpg" || ext == ".JPG" || ext == ".jpeg" || ext == ".png";
+  }
+  return photos;
+}
+
+// `arscout reconstruct --dense` on `scene` (its images/, and gps.csv and
+// images/K.txt where it has them) into dir/out; false, with row.error set,
+// when it fails.
+bool reconstruct(const Options& o, const fs::path& scene, const fs::path& dir,
+                 Row& row) {
+  std::vector<std::string> args = {"reconstruct",
+                                   "--images",
+                                   (scene / "images").string(),
+                                   "--out",
+                                   (dir / "out").string(),
+                                   "--dense",
+                                   "--dense-long-side",
+                                   std::to_string(o.dense_long_side)};
+  if (fs::exists(scene / "gps.csv"))
+    args.insert(args.end(), {"--gps-csv", (scene / "gps.csv").string()});
+  if (fs::exists(scene / "images" / "K.txt"))
+    args.insert(args.end(),
+                {"--camera", (scene / "images" / "K.txt").string()});
+  std::istringstream extra(o.reconstruct_args);
+  for (std::string word; extra >> word;) args.push_back(word);
+  fs::remove_all(dir / "out");
+  std::cerr << row.label << ": reconstructing" << std::endl;
+  const std::string log = (dir / "reconstruct.log").string();
+  const bench::ChildResult r = bench::run_child(o.arscout, args, log);
+  row.wall_s = r.wall_s;
+  if (bench::exited_ok(r)) return true;
+  row.error = "reconstruct failed (see " + log + ")";
+  std::cerr << row.error << ":\n" << bench::last_lines(log, 5);
+  return false;
+}
+
+// What a reconstruct run wrote: the model's poses, the cloud, and the
+// captures that got a depth map (from its log).
+struct Outputs {
+  std::map<std::string, ev::Pose> poses;
+  std::vector<ev::CloudPoint> cloud;
+  std::vector<std::string> key_views;
+};
+
+// Reads the outputs in `dir` and fills the figures every scene gets:
+// counts, dense seconds, plausibility.
+Outputs measure_common(const fs::path& dir, Row& row) {
+  Outputs out;
+  const ev::ProgressLog log =
+      ev::read_progress_log((dir / "reconstruct.log").string());
+  out.key_views = log.depth_map_ids();
+  row.depth_maps = static_cast<int>(out.key_views.size());
+  row.dense_s_per_photo = log.dense_seconds() / std::max(1, row.photos);
+  out.poses =
+      ev::read_colmap_images_txt((dir / "out/sparse/images.txt").string());
+  row.registered = static_cast<int>(out.poses.size());
+  for (const auto& p :
+       arscout::engine::read_ply((dir / "out/dense.ply").string()))
+    out.cloud.push_back({Eigen::Vector3d(p.x, p.y, p.z), p.r, p.g, p.b});
+  row.points = static_cast<long>(out.cloud.size());
+  std::vector<Eigen::Vector3d> centres;
+  for (const auto& [name, pose] : out.poses) centres.push_back(pose.centre());
+  row.plausibility = ev::measure_plausibility(out.cloud, centres);
+  return out;
+}
+
+// The truth's view scaled to `width` pixels across, its exact depth
+// rendered.
+ev::DepthView truth_depth_view(const syn::Site& site,
+                               const syn::PinholeView& view, int width) {
+  const double s = static_cast<double>(width) / view.size.width;
+  syn::PinholeView small = view;
+  small.size = cv::Size(width, static_cast<int>(view.size.height * s));
+  small.K.row(0) *= s;
+  small.K.row(1) *= s;
+  // Pixel centres at integer coordinates: (c + 0.5) s - 0.5.
+  small.K(0, 2) = (view.K(0, 2) + 0.5) * s - 0.5;
+  small.K(1, 2) = (view.K(1, 2) + 0.5) * s - 0.5;
+  const syn::Rendering r = syn::render(site, small, 1);
+  ev::DepthView out{small.K,          small.R,           small.t,
+                    small.size.width, small.size.height, {}};
+  out.depth.assign(r.depth.begin<float>(), r.depth.end<float>());
+  return out;
+}
+
+std::vector<ev::Parallelogram> surfaces_of(const syn::Site& site) {
+  std::vector<ev::Parallelogram> surfaces;
+  for (const syn::Quad& q : site.quads)
+    surfaces.push_back({q.corner, q.edge_u, q.edge_v});
+  return surfaces;
+}
+
+// Accuracy and completeness of the block walk's cloud against its quads.
+void measure_truth(const Options& o, int seed, const fs::path& dir,
+                   const Outputs& out, Row& row) {
+  const syn::BlockScene scene =
+      syn::block_scene(static_cast<uint32_t>(seed), o.views,
+                       cv::Size(o.width, o.height), 0.875 * o.width);
+  const auto truth =
+      ev::read_strecha_ground_truth((dir / "site/gt_dense_cameras").string());
+  const ev::Similarity to_truth =
+      ev::compare_to_ground_truth(out.poses, truth).alignment;
+  std::vector<Eigen::Vector3d> points;
+  for (const ev::CloudPoint& p : out.cloud)
+    points.push_back(to_truth.apply(p.xyz));
+  const auto surfaces = surfaces_of(scene.site);
+  row.accuracy = ev::measure_accuracy(points, ev::SurfaceDistance(surfaces));
+  std::vector<ev::DepthView> key_views;
+  for (const std::string& id : out.key_views) {
+    const int index = std::stoi(id);  // "0042.jpg": view 42 of the walk
+    if (index >= 0 && index < static_cast<int>(scene.views.size()))
+      key_views.push_back(
+          truth_depth_view(scene.site, scene.views[index], kTruthDepthWidth));
+  }
+  ev::CompletenessOptions options;
+  options.footprint_focal_px =
+      0.875 * o.width * o.dense_long_side / std::max(o.width, o.height);
+  row.completeness =
+      ev::measure_completeness(surfaces, key_views, points, options);
+}
+
+Row measure_block(const Options& o, int seed) {
+  Row row;
+  row.label = "block seed " + std::to_string(seed);
+  row.block = true;
+  row.photos = o.views;
+  const fs::path dir = fs::path(o.work) / ("block" + std::to_string(seed));
+  fs::create_directories(dir);
+  bench::render_block_walk(o.arscout, {o.views, seed, o.width, o.height},
+                           (dir / "site").string(),
+                           (dir / "render.log").string(), row.label);
+  if (!reconstruct(o, dir / "site", dir, row)) return row;
+  try {
+    measure_truth(o, seed, dir, measure_common(dir, row), row);
+  } catch (const std::exception& e) {
+    row.error = e.what();
+  }
+  return row;
+}
+
+Row measure_real(const Options& o, const fs::path& scene) {
+  Row row;
+  row.label = scene.filename().string();
+  if (row.label == "lund") row.max_implausible = 0.05;
+  if (row.label == "fountain-P11") row.max_implausible = 0.03;
+  if (!fs::is_directory(scene / "images")) {
+    row.error = "no " + (scene / "images").string();
+    return row;
+  }
+  row.photos = count_photos(scene / "images");
+  const fs::path dir = fs::path(o.work) / row.label;
+  fs::create_directories(dir);
+  if (!reconstruct(o, scene, dir, row)) return row;
+  try {
+    measure_common(dir, row);
+  } catch (const std::exception& e) {
+    row.error = e.what();
+  }
+  return row;
+}
+
+std::string fixed(double v, int digits) {
+  if (std::isnan(v)) return "n/a";
+  char text[64];
+  std::snprintf(text, sizeof text, "%.*f", digits, v);
+  return text;
+}
+
+std::string percent(double share) { return fixed(100 * share, 1) + " %"; }
+
+void print_rows(const std::vector<Row>& rows) {
+  std::cout << "| scene | registered | depth maps | points | points / photo "
+               "| dense s / photo | accuracy median cm | p90 cm | within 5 cm "
+               "| completeness 5 cm | implausible | far | above | below | "
+               "sky |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+               "---|---|\n";
+  for (const Row& r : rows) {
+    const auto& a = r.accuracy;
+    const auto& p = r.plausibility;
+    std::cout << "| " << r.label << " | " << r.registered << "/" << r.photos
+              << " | " << r.depth_maps << " | " << r.points << " | "
+              << fixed(static_cast<double>(r.points) / std::max(1, r.photos), 0)
+              << " | " << fixed(r.dense_s_per_photo, 2) << " | "
+              << (r.block ? fixed(100 * a.median_m, 2) : "-") << " | "
+              << (r.block ? fixed(100 * a.p90_m, 2) : "-") << " | "
+              << (r.block ? percent(a.within_share) : "-") << " | "
+              << (r.block ? percent(r.completeness.share) : "-") << " | "
+              << percent(p.implausible_share) << " | " << percent(p.far_share)
+              << " | " << percent(p.above_share) << " | "
+              << percent(p.below_share) << " | " << percent(p.sky_share)
+              << " |\n";
+  }
+  for (const Row& r : rows)
+    if (!r.error.empty()) std::cout << r.label << ": " << r.error << "\n";
+  std::cout << std::endl;
+}
+
+// The PASS/FAIL lines; true when every scene meets its targets.
+bool print_targets(const std::vector<Row>& rows) {
+  bool all_met = true;
+  auto verdict = [&](const Row& r, const std::string& what, bool met) {
+    std::cout << r.label << ": " << what << (met ? " PASS" : " FAIL") << "\n";
+    all_met = all_met && met;
+  };
+  for (const Row& r : rows) {
+    if (!r.error.empty()) {
+      verdict(r, "ran", false);
+      continue;
+    }
+    if (r.block) {
+      verdict(r, "accuracy p90 <= 5 cm", r.accuracy.p90_m <= 0.05);
+      verdict(r, "completeness >= 80 % at 5 cm", r.completeness.share >= 0.8);
+    }
+    if (!std::isnan(r.max_implausible))
+      verdict(r, "implausible <= " + percent(r.max_implausible),
+              r.plausibility.implausible_share <= r.max_implausible);
+  }
+  std::cout << std::endl;
+  return all_met;
+}
+
+void add_options(CLI::App& app, Options& o) {
+  app.add_option("--seeds", o.seeds, "block seeds, comma-separated")
+      ->delimiter(',');
+  app.add_option("--views", o.views, "photos in each block walk")
+      ->check(CLI::Range(3, 1000));
+  app.add_option("--width", o.width, "block photo width, px");
+  app.add_option("--height", o.height, "block photo height, px");
+  app.add_option("--real", o.real,
+                 "a real scene folder (with images/); repeatable; default "
+                 "../shared/data/opensfm/lund and strecha/fountain-P11");
+  app.add_flag("--no-real", o.no_real, "block walks only");
+  app.add_option("--dense-long-side", o.dense_long_side,
+                 "the dense working resolution, passed to reconstruct");
+  app.add_option("--work", o.work, "work folder: WORK/NAME/{site,out,*.log}");
+  app.add_option("--arscout", o.arscout, "the arscout executable");
+  app.add_option("--reconstruct-args", o.reconstruct_args,
+                 "extra arguments for arscout reconstruct, space-separated");
+  app.add_flag("--check", o.check, "exit 1 when a scene misses a target");
+}
+
+std::vector<std::string> default_real_scenes() {
+  const fs::path data = fs::path(ARSCOUT_SOURCE_DIR) / "../shared/data";
+  std::vector<std::string> scenes;
+  for (const char* name : {"opensfm/lund", "strecha/fountain-P11"})
+    if (fs::is_directory(data / name))
+      scenes.push_back((data / name).lexically_normal().string());
+    else
+      std::cerr << "dense_quality: " << (data / name).string()
+                << " is absent: skipped" << std::endl;
+  return scenes;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "dense_quality: the dense cloud against exact surfaces, and "
+      "its implausible points on real photos"};
+  Options o;
+  add_options(app, o);
+  CLI11_PARSE(app, argc, argv);
+  o.work = fs::absolute(o.work).lexically_normal().string();
+  if (access(o.arscout.c_str(), X_OK) != 0) {
+    std::cerr << o.arscout << ": not executable (build the arscout target "
+              << "or pass --arscout)" << std::endl;
+    return 2;
+  }
+  if (o.real.empty() && !o.no_real) o.real = default_real_scenes();
+  std::cout << "dense_quality: arscout reconstruct --dense, block walks of "
+            << o.views << " photos (" << o.width << " x " << o.height
+            << "), dense long side " << o.dense_long_side << "\n"
+            << bench::machine_summary() << std::endl;
+  std::vector<Row> rows;
+  try {
+    for (int seed : o.seeds) rows.push_back(measure_block(o, seed));
+    for (const std::string& scene : o.real)
+      rows.push_back(measure_real(o, scene));
+  } catch (const std::exception& e) {
+    std::cerr << "dense_quality: " << e.what() << std::endl;
+    return 2;
+  }
+  print_rows(rows);
+  const bool met = print_targets(rows);
+  return o.check && !met ? 1 : 0;
+}
