@@ -436,6 +436,11 @@ void add_reconstruct_command(CLI::App& app) {
                   "already measure this share of (0: off)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--dense-min-agreeing",
+                  args.dense_options.consistency.min_agreeing_maps,
+                  "fuse a depth once this many other depth maps agree with it")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 8));
   cmd->add_flag("--cuda", args.dense_options.sweep.use_cuda,
                 "sweep on the GPU when this build has the CUDA path and a "
                 "device (else the CPU path runs)");

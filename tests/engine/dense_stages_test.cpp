@@ -759,6 +759,44 @@ TEST(DenseStagesReconstruction, WithdrawnMapNoLongerVouches) {
   }
 }
 
+// With min_agreeing_maps 2, a depth is kept only where two other maps agree
+// with it: each pair of maps is counted once, however often the filter
+// meets it (the five views are swept in one update, so each pair is met
+// from both sides).
+TEST(DenseStagesReconstruction, ADepthTwoMapsMustAgreeWithIsKeptOnlyThen) {
+  const SparseTruth truth = sparse_truth(street(), 300, 17);
+  const ImageSource images = street_images();
+  const Model all5 = build_model(street(), truth, {0, 1, 2, 3, 4});
+  DenseOptions one_options = small_dense_options();
+  DenseOptions two_options = one_options;
+  two_options.consistency.min_agreeing_maps = 2;
+  DenseReconstruction one(one_options), two(two_options);
+  one.update(all5, images);
+  two.update(all5, images);
+  const std::vector<DepthMap> kept_one = one.filtered_depth_maps();
+  const std::vector<DepthMap> kept_two = two.filtered_depth_maps();
+  ASSERT_EQ(kept_two.size(), 5u);
+  for (size_t m = 0; m < kept_two.size(); ++m) {
+    const DepthMap& map = kept_two[m];
+    cv::Mat vouching = cv::Mat::zeros(map.depth.size(), CV_8U);
+    for (const DepthMap& other : kept_two) {
+      if (other.id == map.id) continue;
+      cv::add(vouching, 1, vouching,
+              agreement_mask(map, *two.raw_depth_map(other.id), {}));
+    }
+    const int kept = count_where(map.depth > 0);
+    EXPECT_GT(kept, 0) << map.id;
+    // Partners are the best-connected four: all four others here.
+    EXPECT_EQ(count_where((map.depth > 0) & (vouching < 2)), 0) << map.id;
+    EXPECT_EQ(count_where((map.depth <= 0) & (vouching >= 2) &
+                          (two.raw_depth_map(map.id)->depth > 0)),
+              0)
+        << map.id;
+    EXPECT_LT(kept, count_where(kept_one[m].depth > 0)) << map.id;
+  }
+  EXPECT_LT(two.points().size(), one.points().size());
+}
+
 // A second photo from view 2's place (a scout standing still) sees only
 // what the maps of views 1-3, which see the same street, measure already
 // (each of its points observed by 3 of them): no key view, no sweep,

@@ -225,7 +225,7 @@ struct DenseReconstruction::Impl {
   struct Entry {
     DepthMap map;      // as swept; R, t follow the model
     cv::Mat colour;    // the key view's pixels, for the points' colours
-    cv::Mat agreed;    // CV_8U: another map agrees
+    cv::Mat agreed;    // CV_8U: how many other maps agree (saturating)
     MapFusion fusion;  // what it put into the cloud
     // The pose of its last fusion whole; moving away from it re-fuses it.
     Eigen::Vector3d fused_centre = Eigen::Vector3d::Zero();
@@ -252,14 +252,9 @@ struct DenseReconstruction::Impl {
       if (swept_median < 0) swept_median = median_depth(depth_as_swept());
       return swept_median * depth_scale;
     }
-    FusionInput fusion_input() const {
-      return {&depth_as_swept(),
-              depth_scale,
-              &agreed,
-              &colour,
-              map.K,
-              map.R,
-              map.t};
+    FusionInput fusion_input(int min_agreeing) const {
+      return {&depth_as_swept(), depth_scale, &agreed, min_agreeing,
+              &colour,           map.K,       map.R,   map.t};
     }
     void start_fusion() {
       agreed = cv::Mat::zeros(map.depth.size(), CV_8U);
@@ -277,6 +272,13 @@ struct DenseReconstruction::Impl {
   std::unique_ptr<VoxelCloud> cloud;
   // Maps whose agreement grew since they were last fused.
   std::set<std::string> dirty;
+  // The pairs of maps checked against each other since the agreement was
+  // last reset (by id, the smaller first): each pair counts once.
+  std::set<std::pair<std::string, std::string>> checked_pairs;
+  void reset_agreement() {
+    for (auto& [id, entry] : entries) entry.agreed.setTo(0);
+    checked_pairs.clear();
+  }
   // Registered views judged not to be key views (DenseUpdate::covered).
   std::set<std::string> covered;
   // Key views the last update found no neighbour for (DenseUpdate::skipped):
@@ -561,14 +563,13 @@ void DenseReconstruction::Impl::filter(const std::string& id,
     auto other = entries.find(model.images[shared.image].id);
     if (other == entries.end()) continue;
     ++partners;
+    if (!checked_pairs.insert(std::minmax(id, other->first)).second) continue;
     dirty.insert(id);
     dirty.insert(other->first);
-    cv::bitwise_or(entry.agreed,
-                   agreement_mask(entry.map, other->second.map, consistency()),
-                   entry.agreed);
-    cv::bitwise_or(other->second.agreed,
-                   agreement_mask(other->second.map, entry.map, consistency()),
-                   other->second.agreed);
+    cv::add(entry.agreed, 1, entry.agreed,
+            agreement_mask(entry.map, other->second.map, consistency()));
+    cv::add(other->second.agreed, 1, other->second.agreed,
+            agreement_mask(other->second.map, entry.map, consistency()));
   }
 }
 
@@ -624,7 +625,8 @@ bool DenseReconstruction::Impl::fuse(bool rebuild,
     Entry& entry = entries.at(id);
     const bool again = !rebuild && moved.count(id) && !entry.fusion.empty();
     if (!rebuild && !again && !dirty.count(id) && !moved.count(id)) continue;
-    const FusionInput input = entry.fusion_input();
+    const FusionInput input =
+        entry.fusion_input(options.consistency.min_agreeing_maps);
     if (again) {
       entry.fusion.remove(input, cloud.get());
       ++update->refused_maps;
@@ -666,9 +668,7 @@ DenseUpdate DenseReconstruction::update(
   update.sweep_s = seconds_since(start);
   start = Clock::now();
   // A withdrawn map no longer vouches for anyone: check every pair again.
-  if (withdrawn) {
-    for (auto& [id, entry] : impl_->entries) entry.agreed.setTo(0);
-  }
+  if (withdrawn) impl_->reset_agreement();
   for (const std::string& id : withdrawn ? impl_->order : update.new_depth_maps)
     impl_->filter(id, model, index, covisibility);
   update.filter_s = seconds_since(start);
@@ -774,7 +774,7 @@ DenseUpdate DenseReconstruction::restore_depth_maps(
   impl_->follow_poses(model, index, covisibility);
   start = Clock::now();
   // Agreement is not stored: check every pair, as after a withdrawal.
-  for (auto& [id, entry] : impl_->entries) entry.agreed.setTo(0);
+  impl_->reset_agreement();
   for (const std::string& id : impl_->order)
     impl_->filter(id, model, index, covisibility);
   update.filter_s = seconds_since(start);
@@ -821,7 +821,9 @@ std::vector<DepthMap> DenseReconstruction::filtered_depth_maps() const {
     DepthMap map = entry.map;
     // A new buffer: `map` shares the stored one, which must stay as swept.
     map.depth = cv::Mat(entry.map.depth.size(), CV_32F, cv::Scalar(0));
-    entry.map.depth.copyTo(map.depth, entry.agreed);
+    entry.map.depth.copyTo(
+        map.depth,
+        entry.agreed >= impl_->options.consistency.min_agreeing_maps);
     maps.push_back(std::move(map));
   }
   return maps;

@@ -37,7 +37,7 @@ size_t MapFusion::add(const FusionInput& in, VoxelCloud* cloud) {
     const cv::Vec3b* bgr = in.bgr->ptr<cv::Vec3b>(y);
     uint8_t* batch_of = batch_of_.ptr<uint8_t>(y);
     for (int x = 0; x < in.swept_depth->cols; ++x) {
-      if (!agreed[x] || batch_of[x] || depth[x] <= 0) continue;
+      if (agreed[x] < in.min_agreeing || batch_of[x] || depth[x] <= 0) continue;
       const float z = fused_depth(depth[x], batch.scale);
       cloud->add(z * (batch.A * Eigen::Vector3d(x, y, 1)) + batch.b,
                  rgb_of(bgr[x]));

@@ -21,12 +21,14 @@
 namespace arscout::engine {
 
 // A depth map's pixels as fusion sees them: depths as swept (CV_32F, 0 =
-// none) times `scale`, the agreement mask (CV_8U, non-zero = fuse), the key
-// view's colours (CV_8UC3, BGR), all of one size, and the camera.
+// none) times `scale`, how many other maps agree with each pixel (CV_8U;
+// at least `min_agreeing` = fuse), the key view's colours (CV_8UC3, BGR),
+// all of one size, and the camera.
 struct FusionInput {
   const cv::Mat* swept_depth = nullptr;
   double scale = 1;
   const cv::Mat* agreed = nullptr;
+  int min_agreeing = 1;
   const cv::Mat* bgr = nullptr;
   Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();

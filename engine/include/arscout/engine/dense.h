@@ -121,6 +121,10 @@ DepthMap sweep_planes(const DenseView& key,
 struct ConsistencyOptions {
   double max_relative_depth = 0.01;  // |z_other - z_predicted| / z
   double max_reprojection_px = 1.0;  // back in the first map
+  // A pixel's depth is fused once this many other maps agree with it
+  // (each map is checked against its best-connected partners, and later
+  // maps check themselves against it, so the count grows with the site).
+  int min_agreeing_maps = 1;
   bool parallel = true;  // rows over OpenCV's threads (PlaneSweepOptions)
 };
 
