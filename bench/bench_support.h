@@ -17,6 +17,8 @@ double ms_between(Clock::time_point from, Clock::time_point to);
 // Nearest-rank percentile of unsorted samples (q in [0, 1]); 0 when empty.
 double percentile(std::vector<double> v, double q);
 double median(std::vector<double> v);
+// v with `digits` decimals, "n/a" for NaN (a figure a run could not get).
+std::string fixed(double v, int digits);
 bool starts_with(const std::string& s, const std::string& prefix);
 
 // The early and the late window of a walk of `views` photos (1-based photo

@@ -1,9 +1,8 @@
 #include "child_process.h"
 
-#include <fcntl.h>
-#include <spawn.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <filesystem>
@@ -12,9 +11,8 @@
 #include <stdexcept>
 #include <system_error>
 
+#include "arscout/util/process.h"
 #include "bench_support.h"
-
-extern char** environ;
 
 namespace arscout::bench {
 
@@ -23,21 +21,8 @@ namespace fs = std::filesystem;
 ChildResult run_child(const std::string& exe, std::vector<std::string> args,
                       const std::string& log) {
   args.insert(args.begin(), exe);
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(),
-                                   O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
   const auto start = Clock::now();
-  pid_t pid = -1;
-  const int rc =
-      posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (rc != 0)
-    throw std::system_error(rc, std::generic_category(), "spawning " + exe);
+  const pid_t pid = util::spawn_logged(std::move(args), log, /*append=*/false);
   ChildResult result;
   rusage usage{};
   while (wait4(pid, &result.status, 0, &usage) < 0) {
@@ -47,6 +32,13 @@ ChildResult run_child(const std::string& exe, std::vector<std::string> args,
   result.wall_s = seconds_since(start);
   result.max_rss_kib = usage.ru_maxrss;  // KiB on Linux
   return result;
+}
+
+bool arscout_runnable(const std::string& arscout) {
+  if (access(arscout.c_str(), X_OK) == 0) return true;
+  std::cerr << arscout << ": not executable (build the arscout target "
+            << "or pass --arscout)" << std::endl;
+  return false;
 }
 
 bool exited_ok(const ChildResult& r) {

@@ -20,6 +20,10 @@ struct ChildResult {
 ChildResult run_child(const std::string& exe, std::vector<std::string> args,
                       const std::string& log);
 
+// True when `arscout` can be run; else says on stderr that it is not
+// executable (build the arscout target or pass --arscout).
+bool arscout_runnable(const std::string& arscout);
+
 // True when the child exited normally with status 0.
 bool exited_ok(const ChildResult& r);
 

@@ -30,8 +30,6 @@
 // Targets (issue 36): block p90 <= 5 cm and completeness >= 80 %; lund
 // implausible <= 5 %, fountain-P11 <= 3 %. With --check it exits 1 when a
 // scene misses one.
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -60,6 +58,7 @@ namespace fs = std::filesystem;
 namespace ev = arscout::eval;
 namespace syn = arscout::engine::synthetic;
 namespace bench = arscout::bench;
+using bench::fixed;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // The truth's depth images are rendered this wide (the height in
@@ -258,13 +257,6 @@ Row measure_real(const Options& o, const fs::path& scene) {
   return row;
 }
 
-std::string fixed(double v, int digits) {
-  if (std::isnan(v)) return "n/a";
-  char text[64];
-  std::snprintf(text, sizeof text, "%.*f", digits, v);
-  return text;
-}
-
 std::string percent(double share) { return fixed(100 * share, 1) + " %"; }
 
 void print_rows(const std::vector<Row>& rows) {
@@ -360,11 +352,7 @@ int main(int argc, char** argv) {
   add_options(app, o);
   CLI11_PARSE(app, argc, argv);
   o.work = fs::absolute(o.work).lexically_normal().string();
-  if (access(o.arscout.c_str(), X_OK) != 0) {
-    std::cerr << o.arscout << ": not executable (build the arscout target "
-              << "or pass --arscout)" << std::endl;
-    return 2;
-  }
+  if (!bench::arscout_runnable(o.arscout)) return 2;
   if (o.real.empty() && !o.no_real) o.real = default_real_scenes();
   std::cout << "dense_quality: arscout reconstruct --dense, block walks of "
             << o.views << " photos (" << o.width << " x " << o.height

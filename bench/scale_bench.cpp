@@ -27,8 +27,6 @@
 // With --check it exits 1 when a seed misses a target. Percentiles
 // interpolate linearly (eval::percentile). Below 220 photos the windows
 // shrink: photos 21..min(120, N/2) and the last min(100, N/2).
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -54,6 +52,7 @@ namespace {
 namespace fs = std::filesystem;
 namespace ev = arscout::eval;
 namespace bench = arscout::bench;
+using bench::fixed;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -193,13 +192,6 @@ Row median_row(const std::vector<Row>& rows) {
   return m;
 }
 
-std::string fixed(double v, int digits) {
-  if (std::isnan(v)) return "n/a";
-  char text[64];
-  std::snprintf(text, sizeof text, "%.*f", digits, v);
-  return text;
-}
-
 struct Target {
   std::string name;
   bool (*met)(const Row&);
@@ -312,11 +304,7 @@ int main(int argc, char** argv) {
   add_options(app, o);
   CLI11_PARSE(app, argc, argv);
   o.work = fs::absolute(o.work).lexically_normal().string();
-  if (access(o.arscout.c_str(), X_OK) != 0) {
-    std::cerr << o.arscout << ": not executable (build the arscout target "
-              << "or pass --arscout)" << std::endl;
-    return 2;
-  }
+  if (!bench::arscout_runnable(o.arscout)) return 2;
   print_header(o);
   std::vector<Row> rows;
   try {

@@ -1,8 +1,6 @@
 #include "tool_process.h"
 
-#include <fcntl.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -12,27 +10,15 @@
 #include <system_error>
 #include <thread>
 
+#include "arscout/util/process.h"
 #include "test_stores.h"
-
-extern char** environ;
 
 namespace arscout::testing {
 
 ToolProcess::ToolProcess(const std::string& tool, std::vector<std::string> args,
                          const std::string& log) {
   args.insert(args.begin(), tool.front() == '/' ? tool : helper_path(tool));
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(),
-                                   O_WRONLY | O_CREAT | O_APPEND, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
-  int rc = posix_spawn(&pid_, argv[0], &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (rc != 0)
-    throw std::system_error(rc, std::generic_category(), "spawning " + args[0]);
+  pid_ = util::spawn_logged(std::move(args), log, /*append=*/true);
 }
 
 ToolProcess::~ToolProcess() { kill_now(); }
