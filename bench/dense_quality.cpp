@@ -2,7 +2,7 @@
 // with an exact truth and on real photos.
 //
 //   dense_quality [--seeds 31,47,53] [--views 120] [--width 1024]
-//                 [--height 768] [--real DIR]... [--no-real]
+//                 [--height 768] [--real DIR]... [--no-real] [--no-block]
 //                 [--dense-long-side 640] [--work /tmp/arscout-dense-quality]
 //                 [--arscout PATH] [--reconstruct-args "..."] [--check]
 //
@@ -72,6 +72,7 @@ struct Options {
   int height = 768;
   std::vector<std::string> real;
   bool no_real = false;
+  bool no_block = false;
   int dense_long_side = 640;
   std::string work = "/tmp/arscout-dense-quality";
   std::string arscout = ARSCOUT_EXE;
@@ -321,6 +322,7 @@ void add_options(CLI::App& app, Options& o) {
                  "a real scene folder (with images/); repeatable; default "
                  "../shared/data/opensfm/lund and strecha/fountain-P11");
   app.add_flag("--no-real", o.no_real, "block walks only");
+  app.add_flag("--no-block", o.no_block, "real scenes only");
   app.add_option("--dense-long-side", o.dense_long_side,
                  "the dense working resolution, passed to reconstruct");
   app.add_option("--work", o.work, "work folder: WORK/NAME/{site,out,*.log}");
@@ -360,7 +362,8 @@ int main(int argc, char** argv) {
             << bench::machine_summary() << std::endl;
   std::vector<Row> rows;
   try {
-    for (int seed : o.seeds) rows.push_back(measure_block(o, seed));
+    if (!o.no_block)
+      for (int seed : o.seeds) rows.push_back(measure_block(o, seed));
     for (const std::string& scene : o.real)
       rows.push_back(measure_real(o, scene));
   } catch (const std::exception& e) {

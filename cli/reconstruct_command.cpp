@@ -441,6 +441,18 @@ void add_reconstruct_command(CLI::App& app) {
                   "fuse a depth once this many other depth maps agree with it")
       ->capture_default_str()
       ->check(CLI::Range(1, 8));
+  cmd->add_option("--dense-free-space",
+                  args.dense_options.consistency.free_space_margin,
+                  "drop a depth that more depth maps see through (by this "
+                  "share of their depth) than agree with it (0: off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--dense-sky-texture",
+                  args.dense_options.sweep.sky_max_texture,
+                  "give no depth to the smooth region joined to a photo's top "
+                  "row (5 x 5 grey std below this, 0-255; 0: off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 255.0));
   cmd->add_flag("--cuda", args.dense_options.sweep.use_cuda,
                 "sweep on the GPU when this build has the CUDA path and a "
                 "device (else the CPU path runs)");

@@ -29,6 +29,8 @@
 #include "arscout/engine/reconstruction.h"
 #include "arscout/engine/synthetic_site.h"
 #include "dense/consistency.h"
+#include "dense/depth_map_io.h"
+#include "dense/sky_mask.h"
 #include "rendered_street.h"
 
 namespace arscout::engine {
@@ -266,6 +268,207 @@ TEST(DenseStagesAgreement, PixelsLandingOutsideThePartnerDoNotAgree) {
   EXPECT_EQ(count_where(mask(inside)), count_where(a.depth(inside) > 0));
   EXPECT_GT(count_where(mask(inside)), 0);
   EXPECT_EQ(count_where(mask(outside)), 0);
+}
+
+// ---------------------------------------------------------------------------
+// judge_pair: free-space conflicts
+
+// A floating board, 1.5 x 1 m, 3 m in front of the facade (y = 7, x 0.5 to
+// 2, z 2.5 to 3.5): every street view sees it against the facade.
+const syn::Quad& floater() {
+  static const syn::Quad quad{{0.5, 7, 2.5}, {1.5, 0, 0}, {0, 0, 1}};
+  return quad;
+}
+
+// A board sunk 2 m behind the facade (y = 12, x -1.5 to 0, z 2.5 to 3.5):
+// no street view can see it; a map that has it measured past the facade.
+const syn::Quad& sunken() {
+  static const syn::Quad quad{{-1.5, 12, 2.5}, {1.5, 0, 0}, {0, 0, 1}};
+  return quad;
+}
+
+// Draws `q` (a board of constant y) into `map`: where it lies in front of
+// what the map has (a consistent floater, as a wrong match repeated across
+// views makes), or, `through_surfaces`, wherever its ray meets it (a
+// consistent depth measured past the surface). Returns the pixels it
+// covers.
+int inject_board(DepthMap* map, const syn::Quad& q, bool through_surfaces) {
+  const Eigen::Vector3d centre = -map->R.transpose() * map->t;
+  const Eigen::Matrix3d back = map->R.transpose() * map->K.inverse();
+  int covered = 0;
+  for (int y = 0; y < map->depth.rows; ++y) {
+    for (int x = 0; x < map->depth.cols; ++x) {
+      const Eigen::Vector3d ray = back * Eigen::Vector3d(x, y, 1);
+      const double s = (q.corner.y() - centre.y()) / ray.y();
+      const Eigen::Vector3d X = centre + s * ray;
+      const double u = (X.x() - q.corner.x()) / q.edge_u.x();
+      const double v = (X.z() - q.corner.z()) / q.edge_v.z();
+      if (!(s > 0) || u < 0 || u > 1 || v < 0 || v > 1) continue;
+      const float z = static_cast<float>((map->R * X + map->t).z());
+      float& d = map->depth.at<float>(y, x);
+      if (!through_surfaces && d > 0 && d <= z) continue;
+      d = z;
+      ++covered;
+    }
+  }
+  return covered;
+}
+
+int inject_floater(DepthMap* map) {
+  return inject_board(map, floater(), false);
+}
+
+TEST(DenseStagesFreeSpace, APartnerSeesThroughAFloaterInFrontOfTheFacade) {
+  const auto& s = street();
+  DepthMap a = truth_map(s[2], "a");
+  const DepthMap clean = a;
+  a.depth = clean.depth.clone();
+  const int covered = inject_floater(&a);
+  ASSERT_GT(covered, 1000);
+  const cv::Mat on_floater = a.depth != clean.depth;
+  const DepthMap partner = truth_map(s[3], "partner");
+  const PairVerdict verdict = judge_pair(a, partner, {});
+  ASSERT_EQ(verdict.sees_through.type(), CV_8U);
+  // The partner's rays pass the board and meet the facade 3 m behind it.
+  EXPECT_GE(count_where(verdict.sees_through & on_floater), 0.95 * covered);
+  EXPECT_EQ(count_where(verdict.agrees & on_floater), 0);
+  // The true surface: nearly never seen through (only where the nearest
+  // pixel of a depth edge falls on the far side), and it still agrees.
+  const cv::Mat surface = (a.depth > 0) & ~on_floater;
+  EXPECT_LE(count_where(verdict.sees_through & surface),
+            0.01 * count_where(surface));
+  EXPECT_EQ(count_where(verdict.agrees & on_floater) +
+                count_where(verdict.agrees & surface),
+            count_where(agreement_mask(a, partner, {})));
+  // Turned off, nothing is seen through.
+  ConsistencyOptions off;
+  off.free_space_margin = 0;
+  EXPECT_EQ(count_where(judge_pair(a, partner, off).sees_through), 0);
+}
+
+TEST(DenseStagesFreeSpace, ADepthBehindTheSurfaceIsOccludedNotSeenThrough) {
+  // A patch pushed 20 % behind the facade is hidden from the partner by
+  // the facade itself: a nearer surface there is no conflict.
+  const auto& s = street();
+  DepthMap a = truth_map(s[2], "a");
+  const cv::Rect patch(140, 40, 40, 40);  // on the facade
+  cv::Mat behind = a.depth(patch);
+  behind *= 1.2;
+  const PairVerdict verdict = judge_pair(a, truth_map(s[3], "partner"), {});
+  EXPECT_EQ(count_where(verdict.sees_through(patch)), 0);
+  EXPECT_EQ(count_where(verdict.agrees(patch)), 0);
+}
+
+TEST(DenseStagesFreeSpace, ADepthPastTheSurfaceOvershootsThePartnersPoints) {
+  // The other side of the same conflict: the partner's facade points lie on
+  // the sunken board's rays, in front of it. Judging the partner against
+  // the map marks the board's pixels of the map as overshooting.
+  const auto& s = street();
+  DepthMap a = truth_map(s[2], "a");
+  a.depth = a.depth.clone();
+  const int covered = inject_board(&a, sunken(), true);
+  ASSERT_GT(covered, 500);
+  const cv::Mat on_board = a.depth != s[2].image.depth;
+  const DepthMap partner = truth_map(s[3], "partner");
+  const PairVerdict verdict = judge_pair(partner, a, {});
+  ASSERT_EQ(verdict.overshoots.size(), a.depth.size());
+  EXPECT_GE(count_where(verdict.overshoots & on_board), 0.9 * covered);
+  const cv::Mat surface = (a.depth > 0) & ~on_board;
+  EXPECT_LE(count_where(verdict.overshoots & surface),
+            0.01 * count_where(surface));
+  // The partner's own pixels there are the ones a sees through.
+  EXPECT_GT(count_where(verdict.sees_through), 0.5 * covered);
+}
+
+TEST(DenseStagesFreeSpace, AFloaterTwoMapsShareAgreesButIsOutvoted) {
+  const auto& s = street();
+  DepthMap a = truth_map(s[2], "a"), b = truth_map(s[3], "b");
+  inject_floater(&a);
+  inject_floater(&b);
+  const cv::Mat on_floater = a.depth != s[2].image.depth;
+  // The two that share the floater agree on it ...
+  EXPECT_GE(count_where(judge_pair(a, b, {}).agrees & on_floater),
+            0.9 * count_where(on_floater));
+  // ... and each of three clean maps sees through it: fusable() keeps a
+  // pixel only while more maps agree than see through it.
+  int outvoted = 0, kept_surface = 0, surface = 0;
+  std::vector<PairVerdict> verdicts;
+  for (int other : {0, 1, 4})
+    verdicts.push_back(judge_pair(a, truth_map(s[other], "c"), {}));
+  verdicts.push_back(judge_pair(a, b, {}));
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      if (a.depth.at<float>(y, x) <= 0) continue;
+      uint8_t agreed = 0, through = 0;
+      for (const PairVerdict& v : verdicts) {
+        agreed += v.agrees.at<uint8_t>(y, x) != 0;
+        through += v.sees_through.at<uint8_t>(y, x) != 0;
+      }
+      if (on_floater.at<uint8_t>(y, x)) {
+        outvoted += !fusable(agreed, through, 1);
+      } else {
+        ++surface;
+        kept_surface += fusable(agreed, through, 1);
+      }
+    }
+  }
+  EXPECT_GE(outvoted, 0.95 * count_where(on_floater));
+  EXPECT_GE(kept_surface, 0.95 * surface);
+}
+
+// ---------------------------------------------------------------------------
+// sky_mask
+
+// A picture whose top band is smooth sky over a textured facade, with a
+// smooth plaque in the facade that does not reach the top.
+cv::Mat sky_over_facade() {
+  cv::Mat bgr(120, 160, CV_8UC3, cv::Scalar(230, 190, 150));
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> level(40, 200);
+  for (int y = 40; y < bgr.rows; ++y)
+    for (int x = 0; x < bgr.cols; ++x)
+      bgr.at<cv::Vec3b>(y, x) = cv::Vec3b(level(rng), level(rng), level(rng));
+  bgr(cv::Rect(60, 70, 30, 30)).setTo(cv::Scalar(120, 120, 120));
+  return bgr;
+}
+
+TEST(DenseStagesSky, SmoothRegionJoinedToTheTopIsSky) {
+  const cv::Mat sky = sky_mask(sky_over_facade(), 3.0);
+  // Every pixel whose 5 x 5 window lies in the band is sky; none whose
+  // window lies in the facade is.
+  EXPECT_EQ(cv::countNonZero(sky(cv::Rect(0, 0, 160, 37))), 160 * 37);
+  EXPECT_EQ(cv::countNonZero(sky(cv::Rect(0, 43, 160, 77))), 0);
+}
+
+TEST(DenseStagesSky, SmoothRegionAwayFromTheTopIsNotSky) {
+  const cv::Mat sky = sky_mask(sky_over_facade(), 3.0);
+  EXPECT_EQ(cv::countNonZero(sky(cv::Rect(60, 70, 30, 30))), 0);
+}
+
+TEST(DenseStagesSky, TheTopOfAnUndistortedPictureIsUnderItsBlackBorder) {
+  // Undistortion leaves a black border, deeper at the corners; its edge is
+  // textured, yet the sky under it is still joined to the picture's top.
+  cv::Mat bgr = sky_over_facade();
+  for (int x = 0; x < bgr.cols; ++x) {
+    const int depth = 3 + std::abs(x - bgr.cols / 2) / 10;
+    bgr(cv::Rect(x, 0, 1, depth)).setTo(cv::Scalar(0, 0, 0));
+  }
+  bgr(cv::Rect(0, 0, 4, bgr.rows)).setTo(cv::Scalar(0, 0, 0));
+  const cv::Mat sky = sky_mask(bgr, 3.0);
+  EXPECT_EQ(cv::countNonZero(sky(cv::Rect(20, 14, 120, 23))), 120 * 23);
+  EXPECT_EQ(cv::countNonZero(sky(cv::Rect(0, 43, 160, 77))), 0);
+}
+
+TEST(DenseStagesSky, ZeroTextureTurnsTheMaskOff) {
+  EXPECT_EQ(cv::countNonZero(sky_mask(sky_over_facade(), 0.0)), 0);
+}
+
+TEST(DenseStagesSky, ANoisySkyIsKeptAsSurface) {
+  cv::Mat bgr = sky_over_facade();
+  cv::Mat noise(bgr.size(), CV_8UC3);
+  cv::randu(noise, 0, 40);
+  bgr += noise;
+  EXPECT_LT(cv::countNonZero(sky_mask(bgr, 3.0)), 160 * 4);
 }
 
 // ---------------------------------------------------------------------------
@@ -795,6 +998,122 @@ TEST(DenseStagesReconstruction, ADepthTwoMapsMustAgreeWithIsKeptOnlyThen) {
     EXPECT_LT(kept, count_where(kept_one[m].depth > 0)) << map.id;
   }
   EXPECT_LT(two.points().size(), one.points().size());
+}
+
+// The swept maps of `dense`, a board drawn into those of `views`
+// (inject_board).
+std::vector<std::string> maps_with_board(const DenseReconstruction& dense,
+                                         const std::set<std::string>& views,
+                                         const syn::Quad& board,
+                                         bool through_surfaces) {
+  std::vector<std::string> blobs;
+  for (const std::string& id : dense.depth_map_ids()) {
+    std::string blob = dense.serialize_depth_map(id);
+    if (views.count(id)) {
+      SweptDepthMap swept = decode_depth_map(blob);
+      swept.map.depth = swept.map.depth.clone();
+      EXPECT_GT(inject_board(&swept.map, board, through_surfaces), 500) << id;
+      blob = encode_depth_map(swept);
+    }
+    blobs.push_back(blob);
+  }
+  return blobs;
+}
+std::vector<std::string> maps_with_floater(const DenseReconstruction& dense,
+                                           const std::set<std::string>& views) {
+  return maps_with_board(dense, views, floater(), false);
+}
+
+struct CloudCount {
+  int on_floater = 0;  // within 5 cm of the board
+  int on_site = 0;     // on the street's surfaces (2 % of the distance)
+};
+CloudCount count_cloud(const std::vector<ColoredPoint>& cloud,
+                       const syn::Quad& board = floater()) {
+  const Eigen::Vector3d centre = street()[2].view.centre();
+  CloudCount count;
+  for (const ColoredPoint& p : cloud) {
+    const Eigen::Vector3d X(p.x, p.y, p.z);
+    count.on_floater += distance_to_quad(board, X) < 0.05;
+    count.on_site += distance_to_site(X) < 0.02 * (X - centre).norm();
+  }
+  return count;
+}
+
+// A board floating in front of the facade in two of the five maps (the two
+// agree on it) is seen through by the other three: the free-space check
+// keeps it out of the cloud, and keeps the street's surfaces in.
+TEST(DenseStagesReconstruction, AFloaterOtherMapsSeeThroughIsNotFused) {
+  const SparseTruth truth = sparse_truth(street(), 300, 17);
+  const ImageSource images = street_images();
+  const Model all5 = build_model(street(), truth, {0, 1, 2, 3, 4});
+  DenseReconstruction swept(small_dense_options());
+  swept.update(all5, images);
+  const CloudCount clean = count_cloud(swept.points());
+  const std::vector<std::string> blobs =
+      maps_with_floater(swept, {"view1", "view3"});
+
+  DenseOptions no_check = small_dense_options();
+  no_check.consistency.free_space_margin = 0;
+  DenseReconstruction unchecked(no_check), checked(small_dense_options());
+  unchecked.restore_depth_maps(blobs, all5, images);
+  checked.restore_depth_maps(blobs, all5, images);
+  const CloudCount with_floater = count_cloud(unchecked.points());
+  const CloudCount filtered = count_cloud(checked.points());
+  // Without the check the floater is fused: the two maps vouch for it.
+  EXPECT_GT(with_floater.on_floater, 300);
+  EXPECT_LE(filtered.on_floater, 0.02 * with_floater.on_floater);
+  EXPECT_LE(clean.on_floater, 0.02 * with_floater.on_floater);
+  // The surfaces behind it are still measured from the other maps.
+  EXPECT_GE(filtered.on_site, 0.95 * clean.on_site);
+}
+
+// The same board sunk behind the facade in two maps: the other three see
+// the facade in front of it on its rays, and it is not fused.
+TEST(DenseStagesReconstruction, ADepthPastTheSurfaceOtherMapsSeeIsNotFused) {
+  const SparseTruth truth = sparse_truth(street(), 300, 17);
+  const ImageSource images = street_images();
+  const Model all5 = build_model(street(), truth, {0, 1, 2, 3, 4});
+  DenseReconstruction swept(small_dense_options());
+  swept.update(all5, images);
+  const CloudCount clean = count_cloud(swept.points(), sunken());
+  const std::vector<std::string> blobs =
+      maps_with_board(swept, {"view1", "view3"}, sunken(), true);
+
+  DenseOptions no_check = small_dense_options();
+  no_check.consistency.free_space_margin = 0;
+  DenseReconstruction unchecked(no_check), checked(small_dense_options());
+  unchecked.restore_depth_maps(blobs, all5, images);
+  checked.restore_depth_maps(blobs, all5, images);
+  const CloudCount with_board = count_cloud(unchecked.points(), sunken());
+  const CloudCount filtered = count_cloud(checked.points(), sunken());
+  EXPECT_EQ(clean.on_floater, 0);
+  EXPECT_GT(with_board.on_floater, 300);
+  EXPECT_LE(filtered.on_floater, 0.02 * with_board.on_floater);
+  EXPECT_GE(filtered.on_site, 0.95 * clean.on_site);
+}
+
+// Incrementally: the floater is fused while only the two maps that share it
+// are there, and taken out of the cloud when later maps see through it.
+TEST(DenseStagesReconstruction, AFusedFloaterLeavesWhenLaterMapsSeeThrough) {
+  const SparseTruth truth = sparse_truth(street(), 300, 17);
+  const ImageSource images = street_images();
+  const Model two = build_model(street(), truth, {1, 3});
+  DenseReconstruction swept(small_dense_options());
+  swept.update(two, images);
+  DenseReconstruction dense(small_dense_options());
+  dense.restore_depth_maps(maps_with_floater(swept, {"view1", "view3"}), two,
+                           images);
+  const CloudCount before = count_cloud(dense.points());
+  EXPECT_GT(before.on_floater, 300);
+  const DenseUpdate later =
+      dense.update(build_model(street(), truth, {1, 3, 0, 2, 4}), images);
+  EXPECT_EQ(later.new_depth_maps.size(), 3u);
+  EXPECT_FALSE(later.refused);  // taken out pixel by pixel, not rebuilt
+  const CloudCount after = count_cloud(dense.points());
+  EXPECT_LE(after.on_floater, 0.02 * before.on_floater);
+  EXPECT_EQ(later.points, dense.points().size());
+  EXPECT_GT(after.on_site, before.on_site);
 }
 
 // A second photo from view 2's place (a scout standing still) sees only

@@ -3,6 +3,7 @@
 #include "dense/consistency.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include <Eigen/Dense>
@@ -49,6 +50,15 @@ float depth_at(const DepthMap& map, const Eigen::Vector2d& pixel) {
   return map.depth.at<float>(v, u);
 }
 
+// Rows of `map` run on several threads and may land on the same pixel of
+// `other`: the store is atomic (every writer stores the same 255).
+void mark_overshoot(cv::Mat* overshoots, const Eigen::Vector2d& pixel) {
+  const int u = static_cast<int>(std::lround(pixel.x()));
+  const int v = static_cast<int>(std::lround(pixel.y()));
+  std::atomic_ref<uint8_t>(overshoots->at<uint8_t>(v, u))
+      .store(255, std::memory_order_relaxed);
+}
+
 uint64_t voxel_key(const Eigen::Vector3d& xyz, double size) {
   // 21 bits per axis: +-1 million voxels around the origin, far more than a
   // site needs at any sensible voxel size.
@@ -62,32 +72,41 @@ uint64_t voxel_key(const Eigen::Vector3d& xyz, double size) {
 
 }  // namespace
 
-cv::Mat agreement_mask(const DepthMap& map, const DepthMap& other,
+PairVerdict judge_pair(const DepthMap& map, const DepthMap& other,
                        const ConsistencyOptions& options) {
-  cv::Mat agrees = cv::Mat::zeros(map.depth.size(), CV_8U);
+  PairVerdict verdict{cv::Mat::zeros(map.depth.size(), CV_8U),
+                      cv::Mat::zeros(map.depth.size(), CV_8U),
+                      cv::Mat::zeros(other.depth.size(), CV_8U)};
   const double max_px_sq =
       options.max_reprojection_px * options.max_reprojection_px;
+  const double free_space = options.free_space_margin;
   const Reprojection forward(map, other), backward(other, map);
-  // Rows are independent: the mask is the same for any thread count.
+  // Rows are independent: the masks are the same for any thread count.
   auto check_rows = [&](const cv::Range& rows) {
     for (int y = rows.start; y < rows.end; ++y) {
       const float* depth = map.depth.ptr<float>(y);
-      uint8_t* out = agrees.ptr<uint8_t>(y);
+      uint8_t* agrees = verdict.agrees.ptr<uint8_t>(y);
+      uint8_t* through = verdict.sees_through.ptr<uint8_t>(y);
       for (int x = 0; x < map.depth.cols; ++x) {
         if (depth[x] <= 0) continue;
         Eigen::Vector2d pixel, back;
         double predicted = 0, unused = 0;
         if (!forward(x, y, depth[x], &pixel, &predicted)) continue;
         const float seen = depth_at(other, pixel);
-        if (seen <= 0 ||
-            std::abs(seen - predicted) > options.max_relative_depth * seen)
+        if (seen <= 0) continue;
+        if (free_space > 0 && seen - predicted > free_space * seen) {
+          through[x] = 255;
+          mark_overshoot(&verdict.overshoots, pixel);
+          continue;
+        }
+        if (std::abs(seen - predicted) > options.max_relative_depth * seen)
           continue;
         // Backward: the other map's point on the same ray, back in this
         // map (it may land just outside: only the distance matters).
         backward(pixel.x(), pixel.y(), seen, &back, &unused);
         if (unused > 0 &&
             (back - Eigen::Vector2d(x, y)).squaredNorm() <= max_px_sq)
-          out[x] = 255;
+          agrees[x] = 255;
       }
     }
   };
@@ -95,7 +114,14 @@ cv::Mat agreement_mask(const DepthMap& map, const DepthMap& other,
     cv::parallel_for_(cv::Range(0, map.depth.rows), check_rows);
   else
     check_rows(cv::Range(0, map.depth.rows));
-  return agrees;
+  return verdict;
+}
+
+cv::Mat agreement_mask(const DepthMap& map, const DepthMap& other,
+                       const ConsistencyOptions& options) {
+  ConsistencyOptions agreement_only = options;
+  agreement_only.free_space_margin = 0;
+  return judge_pair(map, other, agreement_only).agrees;
 }
 
 DepthAgreement compare_depth_maps(const DepthMap& a, const DepthMap& b) {

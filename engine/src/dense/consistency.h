@@ -31,6 +31,32 @@ namespace arscout::engine {
 cv::Mat agreement_mask(const DepthMap& map, const DepthMap& other,
                        const ConsistencyOptions& options);
 
+// What `other` says of each pixel of `map`, from one pass over it: the
+// pixels it agrees with (agreement_mask), and the free-space conflicts
+// between the two maps. Where a point of `map` lands in `other` and
+// `other` measured a surface farther than the point by more than
+// free_space_margin of its depth, `other`'s ray crossed empty space where
+// the point claims a surface: one of the two depths is wrong. The point's
+// pixel is marked in `sees_through` (on `map`'s grid) and the pixel of
+// `other` it landed on in `overshoots` (on `other`'s grid). An occluded
+// point (a nearer surface in `other`) is neither. All CV_8U, 255 where it
+// holds; the conflict masks are all zero when free_space_margin is 0.
+struct PairVerdict {
+  cv::Mat agrees;        // map's grid
+  cv::Mat sees_through;  // map's grid
+  cv::Mat overshoots;    // other's grid
+};
+PairVerdict judge_pair(const DepthMap& map, const DepthMap& other,
+                       const ConsistencyOptions& options);
+
+// The one rule for whether a pixel is fused, given how many maps agree
+// with it and how many are in free-space conflict with it (either side of
+// PairVerdict): at least min_agreeing_maps agree, and more agree than
+// conflict. Fusion and the filtered maps both ask it.
+inline bool fusable(uint8_t agreed, uint8_t conflicts, int min_agreeing_maps) {
+  return agreed >= min_agreeing_maps && agreed > conflicts;
+}
+
 // Median of |z_a - z_b| / z_b over the pixels of `a` whose points fall on a
 // depth in `b` (no tolerance applied), and how many there were.
 struct DepthAgreement {

@@ -223,9 +223,11 @@ PlaneSweepOptions catch_up_sweep(const PlaneSweepOptions& sweep) {
 
 struct DenseReconstruction::Impl {
   struct Entry {
-    DepthMap map;      // as swept; R, t follow the model
-    cv::Mat colour;    // the key view's pixels, for the points' colours
-    cv::Mat agreed;    // CV_8U: how many other maps agree (saturating)
+    DepthMap map;    // as swept; R, t follow the model
+    cv::Mat colour;  // the key view's pixels, for the points' colours
+    cv::Mat agreed;  // CV_8U: how many other maps agree (saturating)
+    // CV_8U: how many are in free-space conflict with it (saturating)
+    cv::Mat conflicts;
     MapFusion fusion;  // what it put into the cloud
     // The pose of its last fusion whole; moving away from it re-fuses it.
     Eigen::Vector3d fused_centre = Eigen::Vector3d::Zero();
@@ -253,11 +255,29 @@ struct DenseReconstruction::Impl {
       return swept_median * depth_scale;
     }
     FusionInput fusion_input(int min_agreeing) const {
-      return {&depth_as_swept(), depth_scale, &agreed, min_agreeing,
+      return {&depth_as_swept(), depth_scale, &agreed, &conflicts, min_agreeing,
               &colour,           map.K,       map.R,   map.t};
+    }
+    // Adds one other map's word on this one to the counts (saturating):
+    // `mine` is this map judged against it, `theirs` it judged against this
+    // map. A pixel in conflict both ways counts once.
+    void count(const PairVerdict& mine, const PairVerdict& theirs) {
+      cv::add(agreed, 1, agreed, mine.agrees);
+      cv::add(conflicts, 1, conflicts, mine.sees_through | theirs.overshoots);
+    }
+    // CV_8U, 255 where fusable().
+    cv::Mat fusable_mask(int min_agreeing) const {
+      cv::Mat mask = cv::Mat::zeros(agreed.size(), CV_8U);
+      for (int y = 0; y < mask.rows; ++y)
+        for (int x = 0; x < mask.cols; ++x)
+          if (fusable(agreed.at<uint8_t>(y, x), conflicts.at<uint8_t>(y, x),
+                      min_agreeing))
+            mask.at<uint8_t>(y, x) = 255;
+      return mask;
     }
     void start_fusion() {
       agreed = cv::Mat::zeros(map.depth.size(), CV_8U);
+      conflicts = cv::Mat::zeros(map.depth.size(), CV_8U);
       fusion.reset(map.depth.size());
     }
   };
@@ -276,7 +296,10 @@ struct DenseReconstruction::Impl {
   // last reset (by id, the smaller first): each pair counts once.
   std::set<std::pair<std::string, std::string>> checked_pairs;
   void reset_agreement() {
-    for (auto& [id, entry] : entries) entry.agreed.setTo(0);
+    for (auto& [id, entry] : entries) {
+      entry.agreed.setTo(0);
+      entry.conflicts.setTo(0);
+    }
     checked_pairs.clear();
   }
   // Registered views judged not to be key views (DenseUpdate::covered).
@@ -566,10 +589,12 @@ void DenseReconstruction::Impl::filter(const std::string& id,
     if (!checked_pairs.insert(std::minmax(id, other->first)).second) continue;
     dirty.insert(id);
     dirty.insert(other->first);
-    cv::add(entry.agreed, 1, entry.agreed,
-            agreement_mask(entry.map, other->second.map, consistency()));
-    cv::add(other->second.agreed, 1, other->second.agreed,
-            agreement_mask(other->second.map, entry.map, consistency()));
+    const PairVerdict mine =
+        judge_pair(entry.map, other->second.map, consistency());
+    const PairVerdict theirs =
+        judge_pair(other->second.map, entry.map, consistency());
+    entry.count(mine, theirs);
+    other->second.count(theirs, mine);
   }
 }
 
@@ -823,7 +848,7 @@ std::vector<DepthMap> DenseReconstruction::filtered_depth_maps() const {
     map.depth = cv::Mat(entry.map.depth.size(), CV_32F, cv::Scalar(0));
     entry.map.depth.copyTo(
         map.depth,
-        entry.agreed >= impl_->options.consistency.min_agreeing_maps);
+        entry.fusable_mask(impl_->options.consistency.min_agreeing_maps));
     maps.push_back(std::move(map));
   }
   return maps;

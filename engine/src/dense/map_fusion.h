@@ -21,13 +21,15 @@
 namespace arscout::engine {
 
 // A depth map's pixels as fusion sees them: depths as swept (CV_32F, 0 =
-// none) times `scale`, how many other maps agree with each pixel (CV_8U;
-// at least `min_agreeing` = fuse), the key view's colours (CV_8UC3, BGR),
-// all of one size, and the camera.
+// none) times `scale`, how many other maps agree with each pixel and how
+// many are in free-space conflict with it (CV_8U each; fusable() with
+// `min_agreeing` says whether it is fused), the key view's colours (CV_8UC3,
+// BGR), all of one size, and the camera.
 struct FusionInput {
   const cv::Mat* swept_depth = nullptr;
   double scale = 1;
   const cv::Mat* agreed = nullptr;
+  const cv::Mat* conflicts = nullptr;
   int min_agreeing = 1;
   const cv::Mat* bgr = nullptr;
   Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
@@ -41,9 +43,11 @@ class MapFusion {
   void reset(cv::Size size);
   bool empty() const { return batches_.empty(); }
 
-  // Adds the agreeing pixels not added yet as one batch seen from `in`'s
-  // pose; returns how many. Past 255 batches the map is taken out and
-  // added again whole (the batch number is a byte per pixel).
+  // Takes out the pixels added that are no longer fusable (a later map
+  // saw through them), then adds the fusable pixels not added yet as one
+  // batch seen from `in`'s pose; returns how many it added. Past 255
+  // batches the map is taken out and added again whole (the batch number
+  // is a byte per pixel).
   size_t add(const FusionInput& in, VoxelCloud* cloud);
   // Takes every point added out of `cloud` again (the depths and colours
   // must be those given to add(); the pose and scale are the batches').
@@ -55,6 +59,9 @@ class MapFusion {
     Eigen::Vector3d b;
     double scale = 1;
   };
+  void withdraw_unfusable(const FusionInput& in, VoxelCloud* cloud);
+  Eigen::Vector3d point_of(const FusionInput& in, int x, int y) const;
+
   cv::Mat batch_of_;  // CV_8U: 0 = not in the cloud, else 1 + the batch
   std::vector<Batch> batches_;
 };

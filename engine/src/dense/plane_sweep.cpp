@@ -20,6 +20,7 @@
 
 #include "arscout/engine/dense.h"
 #include "dense/plane_sweep_cuda.h"
+#include "dense/sky_mask.h"
 #include "dense/sweep_kernels.h"
 #include "dense/sweep_setup.h"
 
@@ -368,6 +369,13 @@ void check_views(const DenseView& key,
   }
 }
 
+// Sky has no depth, whatever the sweep found there (dense/sky_mask.h).
+void mask_sky(const DenseView& key, const PlaneSweepOptions& options,
+              DepthMap* map) {
+  if (options.sky_max_texture > 0)
+    map->depth.setTo(0, sky_mask(key.bgr, options.sky_max_texture));
+}
+
 }  // namespace
 
 double DepthMap::coverage() const {
@@ -390,6 +398,7 @@ DepthMap sweep_planes(const DenseView& key,
   if (directions.empty() || neighbours.empty()) return map;
   if (options.use_cuda && cuda::available()) {
     cuda::sweep_planes(key, neighbours, directions, options, &map);
+    mask_sky(key, options, &map);
     return map;
   }
   const SweepInputs inputs = sweep_inputs(key, neighbours, options);
@@ -422,6 +431,7 @@ DepthMap sweep_planes(const DenseView& key,
         sweep_strips(range);
     }
   }
+  mask_sky(key, options, &map);
   return map;
 }
 

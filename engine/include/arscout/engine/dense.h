@@ -47,6 +47,10 @@ struct PlaneSweepOptions {
   double occlusion_penalty = 0.2;
   double min_score = 0.35;
   double min_margin = 0.02;
+  // Sky: the smooth region joined to the image's top row (5 x 5 grey
+  // levels varying by less than this, standard deviation 0-255) gets no
+  // depth (dense/sky_mask.h); 0 turns the mask off.
+  double sky_max_texture = 3.0;
   bool use_cuda = false;  // the CUDA path, when built with ARSCOUT_CUDA
   // Strips over OpenCV's worker threads; false keeps the sweep on the
   // calling thread (the same map either way). A caller that sweeps beside
@@ -125,6 +129,12 @@ struct ConsistencyOptions {
   // (each map is checked against its best-connected partners, and later
   // maps check themselves against it, so the count grows with the site).
   int min_agreeing_maps = 1;
+  // Free-space conflicts: a pixel whose point another map sees through
+  // (that map measured a surface farther than the point by more than this
+  // share of its depth) counts against it, and a pixel is fused only while
+  // more maps agree with it than see through it (docs/dense.md). 0 turns
+  // the check off.
+  double free_space_margin = 0.05;
   bool parallel = true;  // rows over OpenCV's threads (PlaneSweepOptions)
 };
 
