@@ -43,9 +43,9 @@ class MapFusion {
   void reset(cv::Size size);
   bool empty() const { return batches_.empty(); }
 
-  // Takes out the pixels added that are no longer fusable (a later map
-  // saw through them), then adds the fusable pixels not added yet as one
-  // batch seen from `in`'s pose; returns how many it added. Past 255
+  // Takes out the pixels added that are no longer fusable (later maps came
+  // into free-space conflict with them), then adds the fusable pixels not added
+  // yet as one batch seen from `in`'s pose; returns how many it added. Past 255
   // batches the map is taken out and added again whole (the batch number
   // is a byte per pixel).
   size_t add(const FusionInput& in, VoxelCloud* cloud);
