@@ -1040,26 +1040,36 @@ CloudCount count_cloud(const std::vector<ColoredPoint>& cloud,
   return count;
 }
 
-// A board floating in front of the facade in two of the five maps (the two
-// agree on it) is seen through by the other three: the free-space check
-// keeps it out of the cloud, and keeps the street's surfaces in.
-TEST(DenseStagesReconstruction, AFloaterOtherMapsSeeThroughIsNotFused) {
+// The five street maps swept, `board` drawn into views 1 and 3
+// (inject_board), and restored with and without the free-space check: the
+// cloud counted clean, unchecked and checked.
+struct BoardClouds {
+  CloudCount clean, unchecked, checked;
+};
+BoardClouds fuse_with_board(const syn::Quad& board, bool through_surfaces) {
   const SparseTruth truth = sparse_truth(street(), 300, 17);
   const ImageSource images = street_images();
   const Model all5 = build_model(street(), truth, {0, 1, 2, 3, 4});
   DenseReconstruction swept(small_dense_options());
   swept.update(all5, images);
-  const CloudCount clean = count_cloud(swept.points());
   const std::vector<std::string> blobs =
-      maps_with_floater(swept, {"view1", "view3"});
-
+      maps_with_board(swept, {"view1", "view3"}, board, through_surfaces);
   DenseOptions no_check = small_dense_options();
   no_check.consistency.free_space_margin = 0;
   DenseReconstruction unchecked(no_check), checked(small_dense_options());
   unchecked.restore_depth_maps(blobs, all5, images);
   checked.restore_depth_maps(blobs, all5, images);
-  const CloudCount with_floater = count_cloud(unchecked.points());
-  const CloudCount filtered = count_cloud(checked.points());
+  return {count_cloud(swept.points(), board),
+          count_cloud(unchecked.points(), board),
+          count_cloud(checked.points(), board)};
+}
+
+// A board floating in front of the facade in two of the five maps (the two
+// agree on it) is seen through by the other three: the free-space check
+// keeps it out of the cloud, and keeps the street's surfaces in.
+TEST(DenseStagesReconstruction, AFloaterOtherMapsSeeThroughIsNotFused) {
+  const auto [clean, with_floater, filtered] =
+      fuse_with_board(floater(), false);
   // Without the check the floater is fused: the two maps vouch for it.
   EXPECT_GT(with_floater.on_floater, 300);
   EXPECT_LE(filtered.on_floater, 0.02 * with_floater.on_floater);
@@ -1071,22 +1081,7 @@ TEST(DenseStagesReconstruction, AFloaterOtherMapsSeeThroughIsNotFused) {
 // The same board sunk behind the facade in two maps: the other three see
 // the facade in front of it on its rays, and it is not fused.
 TEST(DenseStagesReconstruction, ADepthPastTheSurfaceOtherMapsSeeIsNotFused) {
-  const SparseTruth truth = sparse_truth(street(), 300, 17);
-  const ImageSource images = street_images();
-  const Model all5 = build_model(street(), truth, {0, 1, 2, 3, 4});
-  DenseReconstruction swept(small_dense_options());
-  swept.update(all5, images);
-  const CloudCount clean = count_cloud(swept.points(), sunken());
-  const std::vector<std::string> blobs =
-      maps_with_board(swept, {"view1", "view3"}, sunken(), true);
-
-  DenseOptions no_check = small_dense_options();
-  no_check.consistency.free_space_margin = 0;
-  DenseReconstruction unchecked(no_check), checked(small_dense_options());
-  unchecked.restore_depth_maps(blobs, all5, images);
-  checked.restore_depth_maps(blobs, all5, images);
-  const CloudCount with_board = count_cloud(unchecked.points(), sunken());
-  const CloudCount filtered = count_cloud(checked.points(), sunken());
+  const auto [clean, with_board, filtered] = fuse_with_board(sunken(), true);
   EXPECT_EQ(clean.on_floater, 0);
   EXPECT_GT(with_board.on_floater, 300);
   EXPECT_LE(filtered.on_floater, 0.02 * with_board.on_floater);
