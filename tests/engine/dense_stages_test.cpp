@@ -142,6 +142,47 @@ TEST_F(DenseStagesSweepDirections, SceneDirectionAlongTheGround) {
   EXPECT_GT(on_ground, 30);
 }
 
+// With the world's up known, the ground gets a direction even where RANSAC
+// is not asked for one, bracketing the camera's height.
+TEST_F(DenseStagesSweepDirections, GroundDirectionFromTheWorldsUp) {
+  PlaneSweepOptions options;
+  options.max_scene_directions = 0;
+  DenseView key_view = key();
+  EXPECT_EQ(sweep_directions(key_view, neighbours(), options).size(), 1u);
+  key_view.up = Eigen::Vector3d::UnitZ();
+  const auto directions = sweep_directions(key_view, neighbours(), options);
+  ASSERT_EQ(directions.size(), 2u);
+  const SweepDirection& g = directions[1];
+  const Eigen::Vector3d up = key_view.R * Eigen::Vector3d::UnitZ();
+  EXPECT_NEAR(g.normal.dot(up), -1, 1e-9);
+  EXPECT_LT(g.d_near, kCameraHeight);
+  EXPECT_GT(g.d_far, kCameraHeight);
+  // The nearest plane is at least a quarter of the farthest (less the
+  // margin), not at the bottom of a facade just below the camera.
+  EXPECT_GE(g.d_near, g.d_far / 4 * (1 - options.depth_margin) - 1e-9);
+  EXPECT_GE(g.planes, options.min_planes);
+  EXPECT_LE(g.planes, options.max_planes);
+  options.ground_direction = false;
+  EXPECT_EQ(sweep_directions(key_view, neighbours(), options).size(), 1u);
+}
+
+// RANSAC's ground already sweeps the ground: no second one.
+TEST_F(DenseStagesSweepDirections, NoGroundDirectionBesideAParallelOne) {
+  PlaneSweepOptions options;
+  options.max_scene_directions = 2;
+  DenseView key_view = key();
+  const size_t without_up =
+      sweep_directions(key_view, neighbours(), options).size();
+  key_view.up = Eigen::Vector3d::UnitZ();
+  const auto directions = sweep_directions(key_view, neighbours(), options);
+  EXPECT_EQ(directions.size(), without_up);
+  const Eigen::Vector3d up = key_view.R * Eigen::Vector3d::UnitZ();
+  const auto along_up = std::count_if(
+      directions.begin(), directions.end(),
+      [&](const SweepDirection& d) { return std::abs(d.normal.dot(up)) > 0.9; });
+  EXPECT_EQ(along_up, 1);
+}
+
 // Two parallel walls on the right (key frame x = 2 and x = 3, the nearer
 // one larger) and the ground below: the second wall adds no direction of
 // its own, so the ground gets the second scene direction.

@@ -119,6 +119,12 @@ std::vector<int> choose_neighbours(const Covisibility& covisibility, int key,
   return chosen;
 }
 
+// The site's up once the model is in ENU; unknown before.
+Eigen::Vector3d world_up(const Model& model) {
+  if (model.geo_registered) return Eigen::Vector3d::UnitZ();
+  return Eigen::Vector3d::Zero();
+}
+
 DenseView load_view(const Model& model, int index, const ImageSource& images,
                     const Covisibility& covisibility, int long_side) {
   const ModelImage& image = model.images[index];
@@ -134,6 +140,7 @@ DenseView load_view(const Model& model, int index, const ImageSource& images,
     for (int c = 0; c < 3; ++c) view.K(r, c) = k(r, c);
   view.R = rotation_of(image);
   view.t = translation_of(image);
+  view.up = world_up(model);
   for (const ModelPoint* point : covisibility.points_of(index))
     view.sparse_points.emplace_back(point->xyz[0], point->xyz[1],
                                     point->xyz[2]);
@@ -156,6 +163,7 @@ class ViewCache {
       DenseView& view = views_.front();
       view.R = rotation_of(model.images[index]);
       view.t = translation_of(model.images[index]);
+      view.up = world_up(model);
       view.sparse_points.clear();
       for (const ModelPoint* p : covisibility.points_of(index))
         view.sparse_points.emplace_back(p->xyz[0], p->xyz[1], p->xyz[2]);

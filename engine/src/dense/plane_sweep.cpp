@@ -100,7 +100,9 @@ class StripSweep {
 
   void run(const std::vector<SweepDirection>& directions) {
     for (size_t f = 0; f < directions.size(); ++f) {
-      prepare_direction(directions[f]);
+      // A direction whose planes meet no ray of the strip (the ground's,
+      // above the horizon) could not win anywhere in it.
+      if (!prepare_direction(directions[f])) continue;
       for (int i = 0; i < directions[f].planes; ++i) {
         score_plane(directions[f], i);
         update_winner(directions[f], static_cast<int>(f), i);
@@ -120,7 +122,8 @@ class StripSweep {
     return 1 / d.d_near + plane * step;
   }
 
-  void prepare_direction(const SweepDirection& direction) {
+  // False when no ray of the strip meets the direction's planes in front.
+  bool prepare_direction(const SweepDirection& direction) {
     const Eigen::Vector3d n =
         in_.key.K.inverse().transpose() * direction.normal;
     for (int y = 0; y < size_.height; ++y) {
@@ -131,6 +134,9 @@ class StripSweep {
       }
     }
     previous_.setTo(kNoScore);
+    double lowest = 0, highest = 0;
+    cv::minMaxLoc(ray_dot_, &lowest, &highest);
+    return highest > sweep_kernels::kMinRayDot;
   }
 
   void score_plane(const SweepDirection& direction, int plane) {
@@ -369,11 +375,36 @@ void check_views(const DenseView& key,
   }
 }
 
-// Sky has no depth, whatever the sweep found there (dense/sky_mask.h).
-void mask_sky(const DenseView& key, const PlaneSweepOptions& options,
-              DepthMap* map) {
+// Drops the depths whose points lie farther along `direction`'s normal
+// than its last plane.
+void clip_beyond(const DenseView& key, const SweepDirection& direction,
+                 DepthMap* map) {
+  const Eigen::Vector3d n = key.K.inverse().transpose() * direction.normal;
+  for (int y = 0; y < map->depth.rows; ++y) {
+    float* depth = map->depth.ptr<float>(y);
+    for (int x = 0; x < map->depth.cols; ++x) {
+      if (depth[x] > 0 &&
+          depth[x] * (n.x() * x + n.y() * y + n.z()) > direction.d_far)
+        depth[x] = 0;
+    }
+  }
+}
+
+// What every path's map goes through last. Sky has no depth, whatever the
+// sweep found there (dense/sky_mask.h). Nor has a point beyond the
+// fronto-parallel range (the key's sparse depths, widened: a plane of
+// another direction meets rays near its horizon far beyond anything the key
+// sees) or below the ground's range (measured through the ground, which
+// no surface can be seen through).
+void finish_map(const DenseView& key,
+                const std::vector<SweepDirection>& directions,
+                const PlaneSweepOptions& options, DepthMap* map) {
   if (options.sky_max_texture > 0)
     map->depth.setTo(0, sky_mask(key.bgr, options.sky_max_texture));
+  for (const SweepDirection& direction : directions) {
+    if (&direction == &directions.front() || direction.ground)
+      clip_beyond(key, direction, map);
+  }
 }
 
 }  // namespace
@@ -398,7 +429,7 @@ DepthMap sweep_planes(const DenseView& key,
   if (directions.empty() || neighbours.empty()) return map;
   if (options.use_cuda && cuda::available()) {
     cuda::sweep_planes(key, neighbours, directions, options, &map);
-    mask_sky(key, options, &map);
+    finish_map(key, directions, options, &map);
     return map;
   }
   const SweepInputs inputs = sweep_inputs(key, neighbours, options);
@@ -431,7 +462,7 @@ DepthMap sweep_planes(const DenseView& key,
         sweep_strips(range);
     }
   }
-  mask_sky(key, options, &map);
+  finish_map(key, directions, options, &map);
   return map;
 }
 

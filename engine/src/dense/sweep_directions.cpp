@@ -1,7 +1,7 @@
 // Which planes to sweep: the depth range and plane count from the key
 // view's sparse points and its neighbours' baselines, and the dominant scene
 // plane orientations (facades, ground) found among those points by
-// sequential RANSAC.
+// sequential RANSAC, and the ground when the world's up is known.
 #include <algorithm>
 #include <cmath>
 #include <optional>
@@ -77,17 +77,33 @@ Plane dominant_plane(const std::vector<Eigen::Vector3d>& points,
 
 // The planes spaced one plane_step_px apart in the neighbour with the widest
 // baseline: the disparity between the nearest and farthest plane, in pixels.
-int plane_count(double focal_px, double baseline, double d_near, double d_far,
+// A pixel's depth on the plane n . X = d is d / (n . K^-1 (x, y, 1)), so
+// the disparity between two planes scales with that dot; the largest over
+// the picture (at a corner: it is linear in x and y) bounds the step. It is
+// 1 for fronto-parallel planes and far below 1 for the ground, whose rays
+// meet it at a grazing angle.
+int plane_count(const DenseView& key, const Eigen::Vector3d& normal,
+                double baseline, double d_near, double d_far,
                 const PlaneSweepOptions& options) {
-  const double disparity = focal_px * baseline * (1 / d_near - 1 / d_far);
+  const Eigen::Vector3d n = key.K.inverse().transpose() * normal;
+  const double w = key.bgr.cols, h = key.bgr.rows;
+  double ray_dot = 0;
+  for (const Eigen::Vector3d corner :
+       {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(w, 0, 1),
+        Eigen::Vector3d(0, h, 1), Eigen::Vector3d(w, h, 1)})
+    ray_dot = std::max(ray_dot, n.dot(corner));
+  const double focal_px = std::max(key.K(0, 0), key.K(1, 1));
+  const double disparity =
+      focal_px * baseline * ray_dot * (1 / d_near - 1 / d_far);
   const int planes =
       static_cast<int>(std::ceil(disparity / options.plane_step_px));
   return std::clamp(planes, options.min_planes, options.max_planes);
 }
 
 std::optional<SweepDirection> direction_for(
-    const Eigen::Vector3d& normal, const std::vector<Eigen::Vector3d>& points,
-    double focal_px, double baseline, const PlaneSweepOptions& options) {
+    const DenseView& key, const Eigen::Vector3d& normal,
+    const std::vector<Eigen::Vector3d>& points, double baseline,
+    const PlaneSweepOptions& options) {
   std::vector<double> offsets;
   for (const Eigen::Vector3d& X : points) offsets.push_back(normal.dot(X));
   const double lo = percentile(offsets, 0.02);
@@ -98,8 +114,8 @@ std::optional<SweepDirection> direction_for(
   direction.d_far = hi * (1 + options.depth_margin);
   if (!(direction.d_near > 0) || !(direction.d_far > direction.d_near))
     return std::nullopt;
-  direction.planes = plane_count(focal_px, baseline, direction.d_near,
-                                 direction.d_far, options);
+  direction.planes = plane_count(key, direction.normal, baseline,
+                                 direction.d_near, direction.d_far, options);
   return direction;
 }
 
@@ -154,6 +170,42 @@ scene_planes(std::vector<Eigen::Vector3d> points, int count) {
   return planes;
 }
 
+bool parallel_to_any(const std::vector<SweepDirection>& directions,
+                     const Eigen::Vector3d& normal) {
+  return std::any_of(directions.begin(), directions.end(), [&](const auto& d) {
+    return std::acos(std::clamp(std::abs(d.normal.dot(normal)), 0.0, 1.0)) *
+               180 / M_PI <=
+           kParallelDeg;
+  });
+}
+
+// Planes parallel to the ground, below the camera. The sparse points below
+// the camera bound the range; the ground lies at the bottom of the scene,
+// so the farthest of them is about its offset, and the nearest plane is at
+// least a quarter of that (a street rising ahead): nearer offsets would
+// only be the bottoms of facades, and planes spaced in 1/d would crowd
+// there.
+std::optional<SweepDirection> ground_direction(
+    const DenseView& key, const std::vector<Eigen::Vector3d>& points,
+    double baseline, const PlaneSweepOptions& options) {
+  const Eigen::Vector3d down = -(key.R * key.up).normalized();
+  std::vector<double> below;
+  for (const Eigen::Vector3d& X : points) {
+    const double offset = down.dot(X);
+    if (offset > 0) below.push_back(offset);
+  }
+  if (static_cast<int>(below.size()) < kMinSparsePoints) return std::nullopt;
+  SweepDirection direction;
+  direction.normal = down;
+  direction.ground = true;
+  direction.d_far = percentile(below, 0.98) * (1 + options.depth_margin);
+  direction.d_near = std::max(percentile(below, 0.02), direction.d_far / 4) *
+                     (1 - options.depth_margin);
+  direction.planes = plane_count(key, direction.normal, baseline,
+                                 direction.d_near, direction.d_far, options);
+  return direction;
+}
+
 }  // namespace
 
 std::vector<SweepDirection> sweep_directions(
@@ -164,8 +216,7 @@ std::vector<SweepDirection> sweep_directions(
   const double baseline = widest_baseline(key, neighbours);
   if (static_cast<int>(points.size()) < kMinSparsePoints || baseline <= 0)
     return directions;
-  const double focal = std::max(key.K(0, 0), key.K(1, 1));
-  if (auto fronto = direction_for(Eigen::Vector3d::UnitZ(), points, focal,
+  if (auto fronto = direction_for(key, Eigen::Vector3d::UnitZ(), points,
                                   baseline, options)) {
     directions.push_back(*fronto);
   } else {
@@ -175,7 +226,12 @@ std::vector<SweepDirection> sweep_directions(
   // points bound the range.
   for (const auto& [normal, on_plane] :
        scene_planes(points, options.max_scene_directions)) {
-    if (auto d = direction_for(normal, on_plane, focal, baseline, options))
+    if (auto d = direction_for(key, normal, on_plane, baseline, options))
+      directions.push_back(*d);
+  }
+  if (options.ground_direction && key.up.norm() > 0.5 &&
+      !parallel_to_any(directions, key.R * key.up)) {
+    if (auto d = ground_direction(key, points, baseline, options))
       directions.push_back(*d);
   }
   return directions;

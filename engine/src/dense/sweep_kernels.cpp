@@ -174,7 +174,7 @@ void update_winner_row(const float* scores, const float* previous,
                        const WinnerRow& row) {
   assert(count % kLanes == 0);
   const v_float32x4 none = all(kNoScore), zero = all(0.0f), one = all(1.0f),
-                    eps = all(1e-6f), v_d = all(d), v_basin = all(basin);
+                    eps = all(kMinRayDot), v_d = all(d), v_basin = all(basin);
   const v_int32x4 v_direction = all(direction), v_plane = all(plane),
                   v_before_plane = all(plane - 1);
   for (int i = 0; i < count; i += kLanes) {

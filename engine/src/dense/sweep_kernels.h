@@ -10,6 +10,9 @@ namespace arscout::engine::sweep_kernels {
 
 constexpr int kRowAlignment = 4;
 constexpr float kNoScore = -2;  // below any ZNCC
+// A ray meets a plane in front of the camera when the dot of K^-T n with
+// the pixel (x, y, 1) exceeds this (update_winner_row).
+constexpr float kMinRayDot = 1e-6f;
 // Grey levels are centred before the window sums, which keeps the float
 // sums of squares small and accurate; ZNCC does not see the offset.
 constexpr float kGreyCentre = 127.5f;

@@ -36,6 +36,13 @@ struct PlaneSweepOptions {
   // Extra sweep directions along the dominant scene planes found in the
   // sparse points (Gallup et al. 2007); 0 sweeps fronto-parallel only.
   int max_scene_directions = 1;
+  // One more direction, parallel to the ground, when the key view knows
+  // which way is up (DenseView::up) and no scene direction found is within
+  // 15 degrees of it. A street's ground is seen at a grazing angle, where a
+  // fronto-parallel plane matches a window badly and the sparse points are
+  // few (RANSAC finds the facade first): without it the ground is mostly
+  // missing and the winners there are depths measured past it.
+  bool ground_direction = true;
   // Rejection: a key window whose grey levels vary less than this (standard
   // deviation, 0-255) has too little texture; a winner below min_score or
   // beating the runner-up at another depth by less than min_margin is not
@@ -75,6 +82,9 @@ struct DenseView {
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   Eigen::Vector3d t = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector3d> sparse_points;  // world frame
+  // The world's up (unit, world frame) when known: the site's ENU z once
+  // the model is geo-registered; zero when unknown.
+  Eigen::Vector3d up = Eigen::Vector3d::Zero();
 
   Eigen::Vector3d centre() const { return -R.transpose() * t; }
 };
@@ -101,11 +111,18 @@ struct SweepDirection {
   double d_near = 1;
   double d_far = 10;
   int planes = 64;
+  // Planes parallel to the ground (PlaneSweepOptions::ground_direction):
+  // the ground is opaque, so a depth of any direction whose point lies
+  // farther below the camera than d_far is dropped.
+  bool ground = false;
 };
 
 // The directions swept for `key`: fronto-parallel, plus up to
-// max_scene_directions dominant planes among its sparse points. Empty when
-// the key sees too few sparse points to bound the depth range.
+// max_scene_directions dominant planes among its sparse points, plus the
+// ground when `ground_direction` and key.up is known and no scene plane is
+// already parallel to it (its range: the offsets below the camera of the
+// sparse points, the nearest at least a quarter of the farthest). Empty
+// when the key sees too few sparse points to bound the depth range.
 std::vector<SweepDirection> sweep_directions(
     const DenseView& key, const std::vector<const DenseView*>& neighbours,
     const PlaneSweepOptions& options);
