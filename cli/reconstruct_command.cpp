@@ -457,8 +457,8 @@ void add_reconstruct_command(CLI::App& app) {
       "--dense-no-ground",
       [] { args.dense_options.sweep.ground_direction = false; },
       "sweep no planes parallel to the ground (by default they are "
-                "swept once the model is in ENU and no scene plane found is "
-                "already parallel to it)");
+      "swept once the model is in ENU and no scene plane found is "
+      "already parallel to it)");
   cmd->add_flag("--cuda", args.dense_options.sweep.use_cuda,
                 "sweep on the GPU when this build has the CUDA path and a "
                 "device (else the CPU path runs)");

@@ -177,9 +177,10 @@ TEST_F(DenseStagesSweepDirections, NoGroundDirectionBesideAParallelOne) {
   const auto directions = sweep_directions(key_view, neighbours(), options);
   EXPECT_EQ(directions.size(), without_up);
   const Eigen::Vector3d up = key_view.R * Eigen::Vector3d::UnitZ();
-  const auto along_up = std::count_if(
-      directions.begin(), directions.end(),
-      [&](const SweepDirection& d) { return std::abs(d.normal.dot(up)) > 0.9; });
+  const auto along_up = std::count_if(directions.begin(), directions.end(),
+                                      [&](const SweepDirection& d) {
+                                        return std::abs(d.normal.dot(up)) > 0.9;
+                                      });
   EXPECT_EQ(along_up, 1);
 }
 

@@ -190,9 +190,9 @@ TEST_F(StreetSweep, NoDepthBelowTheGroundOnceUpIsKnown) {
   int below_blind = 0, below_upright = 0, past_margin = 0, ground_kept = 0;
   for (int key = 1; key + 1 < kStreetViews; ++key) {
     for (const bool upright : {false, true}) {
-      const Eigen::Vector3d up =
-          upright ? Eigen::Vector3d(Eigen::Vector3d::UnitZ())
-                  : Eigen::Vector3d(Eigen::Vector3d::Zero());
+      const Eigen::Vector3d up = upright
+                                     ? Eigen::Vector3d(Eigen::Vector3d::UnitZ())
+                                     : Eigen::Vector3d(Eigen::Vector3d::Zero());
       const DepthMap map = sweep(key, options, up);
       for (int y = 0; y < map.depth.rows; ++y) {
         for (int x = 0; x < map.depth.cols; ++x) {
