@@ -30,6 +30,7 @@
 #include "arscout/engine/synthetic_site.h"
 #include "dense/consistency.h"
 #include "dense/depth_map_io.h"
+#include "dense/depth_normals.h"
 #include "dense/sky_mask.h"
 #include "rendered_street.h"
 
@@ -62,6 +63,40 @@ DepthMap truth_map(const Rendered& r, const std::string& id) {
 }
 
 int count_where(const cv::Mat& mask) { return cv::countNonZero(mask); }
+
+// ---------------------------------------------------------------------------
+// depth_normals
+
+// The nearest surface of the street to X, and its unit normal facing `eye`.
+std::pair<double, Eigen::Vector3d> nearest_surface(const Eigen::Vector3d& X,
+                                                   const Eigen::Vector3d& eye);
+
+// On an exact map, the fitted planes are the street's own surfaces.
+TEST(DenseStagesNormals, ExactDepthsGiveTheSurfacesNormals) {
+  const Rendered& r = street()[2];
+  const DepthMap map = truth_map(r, "view2");
+  const cv::Mat normals = depth_normals(map.depth, map.K, 4);
+  ASSERT_EQ(normals.type(), CV_32FC3);
+  int compared = 0, within_2deg = 0;
+  for (int y = 0; y < map.depth.rows; y += 3) {
+    for (int x = 0; x < map.depth.cols; x += 3) {
+      const float z = map.depth.at<float>(y, x);
+      const cv::Vec3f n = normals.at<cv::Vec3f>(y, x);
+      if (z <= 0) {
+        EXPECT_EQ(cv::norm(n), 0);
+        continue;
+      }
+      const Eigen::Vector3d X = map.unproject(x, y, z);
+      const Eigen::Vector3d world =
+          map.R.transpose() * Eigen::Vector3d(n[0], n[1], n[2]);
+      const auto [distance, truth] = nearest_surface(X, r.view.centre());
+      ++compared;
+      within_2deg += world.dot(truth) > std::cos(2 * M_PI / 180);
+    }
+  }
+  // Pixels within the window of an edge between two surfaces fit neither.
+  EXPECT_GE(within_2deg, 0.85 * compared) << within_2deg << " / " << compared;
+}
 
 // ---------------------------------------------------------------------------
 // sweep_directions
@@ -875,6 +910,19 @@ double distance_to_site(const Eigen::Vector3d& X) {
   return best;
 }
 
+std::pair<double, Eigen::Vector3d> nearest_surface(const Eigen::Vector3d& X,
+                                                   const Eigen::Vector3d& eye) {
+  const syn::Quad* nearest = nullptr;
+  double best = std::numeric_limits<double>::infinity();
+  for (const syn::Quad& quad : street_scene().quads) {
+    const double d = distance_to_quad(quad, X);
+    if (d < best) best = d, nearest = &quad;
+  }
+  Eigen::Vector3d normal = nearest->edge_u.cross(nearest->edge_v).normalized();
+  if (normal.dot(eye - X) < 0) normal = -normal;
+  return {best, normal};
+}
+
 std::set<std::string> as_set(const std::vector<std::string>& ids) {
   return {ids.begin(), ids.end()};
 }
@@ -1040,6 +1088,59 @@ TEST(DenseStagesReconstruction, ADepthTwoMapsMustAgreeWithIsKeptOnlyThen) {
     EXPECT_LT(kept, count_where(kept_one[m].depth > 0)) << map.id;
   }
   EXPECT_LT(two.points().size(), one.points().size());
+}
+
+// Each fused point carries its surface's normal, facing the cameras, and
+// its support: how many of the maps measured it, which grows as maps that
+// see it are added and falls as they are withdrawn.
+TEST(DenseStagesReconstruction, FusedPointsCarryNormalAndSupport) {
+  const SparseTruth truth = sparse_truth(street(), 300, 17);
+  const ImageSource images = street_images();
+  const Model first2 = build_model(street(), truth, {1, 2});
+  const Model all5 = build_model(street(), truth, {0, 1, 2, 3, 4});
+  DenseReconstruction dense(small_dense_options());
+  dense.update(first2, images);
+  auto supports = [&] {
+    std::map<int, int> count;
+    for (const ColoredPoint& p : dense.points()) ++count[p.support];
+    return count;
+  };
+  const auto two = supports();
+  ASSERT_FALSE(two.empty());
+  EXPECT_GE(two.begin()->first, 1);
+  EXPECT_LE(two.rbegin()->first, 2);
+  dense.update(all5, images);
+  const std::vector<ColoredPoint> cloud = dense.points();
+  const auto five = supports();
+  EXPECT_LE(five.rbegin()->first, 5);
+  int confident = 0, normals = 0, true_normals = 0, on_site = 0;
+  const Eigen::Vector3d centre = street()[2].view.centre();
+  for (const ColoredPoint& p : cloud) {
+    const Eigen::Vector3d X(p.x, p.y, p.z);
+    const Eigen::Vector3d n(p.nx, p.ny, p.nz);
+    confident += p.support >= kConfidentSupport;
+    if (n.norm() == 0) continue;
+    EXPECT_NEAR(n.norm(), 1, 1e-4);
+    ++normals;
+    // The nearest surface's normal, turned toward the cameras.
+    const auto [distance, truth_n] = nearest_surface(X, centre);
+    if (distance > 0.02 * (X - centre).norm()) continue;
+    ++on_site;
+    true_normals += n.dot(truth_n) > std::cos(15 * M_PI / 180);
+  }
+  std::cout << cloud.size() << " points, " << normals << " with a normal, "
+            << true_normals << " of " << on_site
+            << " on the surfaces within 15 degrees, " << confident
+            << " confident\n";
+  EXPECT_GE(normals, 0.95 * cloud.size());
+  // Measured: 71 % (swept maps at 320 x 240, where the depth noise of a
+  // facade seen head-on is a large share of a 13-pixel window's extent).
+  EXPECT_GE(true_normals, 0.65 * on_site);
+  // Most of the street is seen by three maps or more once all five are in.
+  EXPECT_GE(confident, 0.5 * cloud.size());
+  // Withdrawing three views leaves no point supported by more than two.
+  dense.update(first2, images);
+  EXPECT_LE(supports().rbegin()->first, 2);
 }
 
 // The swept maps of `dense`, a board drawn into those of `views`

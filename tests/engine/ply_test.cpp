@@ -53,6 +53,10 @@ void expect_identical(const std::vector<ColoredPoint>& a,
     EXPECT_EQ(a[i].r, b[i].r);
     EXPECT_EQ(a[i].g, b[i].g);
     EXPECT_EQ(a[i].b, b[i].b);
+    EXPECT_EQ(bits(a[i].nx), bits(b[i].nx));
+    EXPECT_EQ(bits(a[i].ny), bits(b[i].ny));
+    EXPECT_EQ(bits(a[i].nz), bits(b[i].nz));
+    EXPECT_EQ(a[i].support, b[i].support);
   }
 }
 
@@ -203,9 +207,10 @@ TEST(PlyTest, ReadsAsciiWithDoublesAndExtraProperties) {
       "3 0 1 2\n";
   const std::vector<ColoredPoint> points = decode_ply(text);
   using L = std::numeric_limits<float>;
-  expect_identical(points, {{0.1f, -2.5f, 1000.0f, 10, 20, 30},
-                            {4.0f, 5.25f, -0.06125f, 0, 0, 0},
-                            {L::infinity(), -L::infinity(), 0, 255, 255, 255}});
+  expect_identical(
+      points, {{0.1f, -2.5f, 1000.0f, 10, 20, 30, 0, 0, 1},
+               {4.0f, 5.25f, -0.06125f, 0, 0, 0, 0.5f, 0.5f, 0.5f},
+               {L::infinity(), -L::infinity(), 0, 255, 255, 255, 1, 2, 3}});
 }
 
 TEST(PlyTest, ReadsAsciiWithoutColours) {
@@ -218,7 +223,44 @@ TEST(PlyTest, ReadsAsciiWithoutColours) {
 TEST(PlyTest, ReadsBinaryWithExtraPropertiesAndElements) {
   std::vector<ColoredPoint> points = random_points(20, 11);
   for (const ColoredPoint& p : extreme_points()) points.push_back(p);
-  expect_identical(decode_ply(binary_with_extras(points)), points);
+  std::vector<ColoredPoint> expected = points;
+  for (ColoredPoint& p : expected) p.nz = 1;  // binary_with_extras' normal
+  expect_identical(decode_ply(binary_with_extras(points)), expected);
+}
+
+// Fused dense points carry a normal and a support: the 28-byte layout.
+TEST(PlyTest, FusedPointsRoundTripWithNormalAndSupport) {
+  std::vector<ColoredPoint> points = random_points(200, 5);
+  for (size_t i = 0; i < points.size(); ++i) {
+    points[i].nx = 0.6f, points[i].ny = -0.8f, points[i].nz = 0;
+    points[i].support = static_cast<uint8_t>(i % 7);
+  }
+  const std::string bytes = encode_ply(points);
+  const std::string fields =
+      "property uchar blue\nproperty float nx\nproperty float ny\n"
+      "property float nz\nproperty uchar support\nend_header\n";
+  EXPECT_NE(bytes.find(fields), std::string::npos);
+  EXPECT_EQ(bytes.size() - body_offset(bytes), points.size() * 28);
+  expect_identical(decode_ply(bytes), points);
+  // A cloud without supports keeps the 15-byte layout.
+  for (ColoredPoint& p : points) p.support = 0;
+  const std::string plain = encode_ply(points);
+  EXPECT_EQ(plain.find("support"), std::string::npos);
+  EXPECT_EQ(plain.size() - body_offset(plain), points.size() * 15);
+}
+
+TEST(PlyTest, SupportOfAnyIntegerTypeIsClampedOthersRefused) {
+  const std::string head =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nproperty ";
+  const std::string body =
+      " support\nend_header\n0 0 0 -4\n0 0 0 7\n0 0 0 300\n";
+  const auto points = decode_ply(head + "int" + body);
+  ASSERT_EQ(points.size(), 3u);
+  EXPECT_EQ(points[0].support, 0);
+  EXPECT_EQ(points[1].support, 7);
+  EXPECT_EQ(points[2].support, 255);
+  EXPECT_THROW(decode_ply(head + "float" + body), std::runtime_error);
 }
 
 TEST(PlyTest, ReadsDoubleCoordinatesInBinary) {

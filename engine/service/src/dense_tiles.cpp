@@ -41,9 +41,11 @@ struct TileKeyHash {
   }
 };
 
-// A point's 15 bytes mixed into 64 bits (splitmix64's finaliser), summed
-// over a tile: the sum does not depend on the points' order, which the
-// voxel cloud does not keep.
+// A point's position, colour and support mixed into 64 bits (splitmix64's
+// finaliser), summed over a tile: the sum does not depend on the points'
+// order, which the voxel cloud does not keep. The normal is left out: it
+// changes only with the samples in its voxel, which move the mean position
+// too.
 std::uint64_t point_hash(const ColoredPoint& p) {
   std::uint64_t a = 0, b = 0;
   std::memcpy(&a, &p.x, sizeof(float));
@@ -51,7 +53,8 @@ std::uint64_t point_hash(const ColoredPoint& p) {
   std::memcpy(&b, &p.z, sizeof(float));
   b |= static_cast<std::uint64_t>(p.r) << 32 |
        static_cast<std::uint64_t>(p.g) << 40 |
-       static_cast<std::uint64_t>(p.b) << 48;
+       static_cast<std::uint64_t>(p.b) << 48 |
+       static_cast<std::uint64_t>(p.support) << 56;
   std::uint64_t z = a * 0x9E3779B97F4A7C15ull ^ b;
   z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
   z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;

@@ -153,33 +153,49 @@ VoxelCloud::VoxelCloud(double voxel_size) : voxel_size_(voxel_size) {
     throw std::invalid_argument("VoxelCloud: voxel size must be positive");
 }
 
-void VoxelCloud::add(const Eigen::Vector3d& xyz,
-                     const std::array<uint8_t, 3>& rgb) {
-  const uint64_t key = voxel_key(xyz, voxel_size_);
+void VoxelCloud::add(const CloudSample& sample) {
+  const uint64_t key = voxel_key(sample.xyz, voxel_size_);
   auto [it, inserted] =
       index_.try_emplace(key, static_cast<uint32_t>(voxels_.size()));
   if (inserted) voxels_.emplace_back();
   Voxel& voxel = voxels_[it->second];
-  voxel.sum += xyz;
-  for (int c = 0; c < 3; ++c) voxel.rgb_sum[c] += rgb[c];
+  voxel.sum += sample.xyz;
+  voxel.normal_sum += sample.normal;
+  for (int c = 0; c < 3; ++c) voxel.rgb_sum[c] += sample.rgb[c];
+  voxel.support_sum += static_cast<uint32_t>(std::max(0, sample.support));
   ++voxel.count;
 }
 
-bool VoxelCloud::remove(const Eigen::Vector3d& xyz,
-                        const std::array<uint8_t, 3>& rgb) {
+VoxelCloud::Voxel* VoxelCloud::find(const Eigen::Vector3d& xyz) {
   auto it = index_.find(voxel_key(xyz, voxel_size_));
-  if (it == index_.end()) return false;
-  Voxel& voxel = voxels_[it->second];
-  if (--voxel.count == 0) {
+  return it == index_.end() ? nullptr : &voxels_[it->second];
+}
+
+bool VoxelCloud::remove(const CloudSample& sample) {
+  Voxel* voxel = find(sample.xyz);
+  if (!voxel) return false;
+  if (--voxel->count == 0) {
     // Exactly empty, whatever rounding the sums carried.
-    voxel = Voxel{};
-    index_.erase(it);
+    *voxel = Voxel{};
+    index_.erase(voxel_key(sample.xyz, voxel_size_));
     if (voxels_.size() > 1024 && index_.size() < voxels_.size() / 2) compact();
     return true;
   }
-  voxel.sum -= xyz;
+  voxel->sum -= sample.xyz;
+  voxel->normal_sum -= sample.normal;
   for (int c = 0; c < 3; ++c)
-    voxel.rgb_sum[c] -= std::min<uint32_t>(rgb[c], voxel.rgb_sum[c]);
+    voxel->rgb_sum[c] -= std::min<uint32_t>(sample.rgb[c], voxel->rgb_sum[c]);
+  voxel->support_sum -=
+      std::min<uint32_t>(std::max(0, sample.support), voxel->support_sum);
+  return true;
+}
+
+bool VoxelCloud::change_support(const Eigen::Vector3d& xyz, int from, int to) {
+  Voxel* voxel = find(xyz);
+  if (!voxel) return false;
+  voxel->support_sum -=
+      std::min<uint32_t>(std::max(0, from), voxel->support_sum);
+  voxel->support_sum += static_cast<uint32_t>(std::max(0, to));
   return true;
 }
 
@@ -212,6 +228,14 @@ std::vector<ColoredPoint> VoxelCloud::points() const {
                                voxel.count);
     p.b = static_cast<uint8_t>((voxel.rgb_sum[2] + voxel.count / 2) /
                                voxel.count);
+    const float length = voxel.normal_sum.norm();
+    if (length > 0) {
+      p.nx = voxel.normal_sum.x() / length;
+      p.ny = voxel.normal_sum.y() / length;
+      p.nz = voxel.normal_sum.z() / length;
+    }
+    p.support = static_cast<uint8_t>(std::min<uint32_t>(
+        255, (voxel.support_sum + voxel.count / 2) / voxel.count));
     points.push_back(p);
   }
   return points;

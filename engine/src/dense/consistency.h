@@ -65,21 +65,41 @@ struct DepthAgreement {
 };
 DepthAgreement compare_depth_maps(const DepthMap& a, const DepthMap& b);
 
+// What one depth-map pixel brings to the cloud: its point and colour, the
+// surface normal there (unit, toward its camera; zero when unknown) and its
+// support (how many maps measured it; 0 when unknown).
+struct CloudSample {
+  Eigen::Vector3d xyz = Eigen::Vector3d::Zero();
+  std::array<uint8_t, 3> rgb{0, 0, 0};
+  Eigen::Vector3f normal = Eigen::Vector3f::Zero();
+  int support = 0;
+};
+
 // Points merged on a voxel grid: each occupied voxel keeps the mean
-// position and colour of the points that fell into it, so overlapping depth
-// maps do not pile up duplicates. Adding is incremental, and a point added
-// can be taken out again (the map whose camera moved, DenseReconstruction).
+// position, colour, normal and support of the samples that fell into it, so
+// overlapping depth maps do not pile up duplicates. Adding is incremental,
+// and a sample added can be taken out again (the map whose camera moved,
+// DenseReconstruction).
 class VoxelCloud {
  public:
   explicit VoxelCloud(double voxel_size);
 
-  void add(const Eigen::Vector3d& xyz, const std::array<uint8_t, 3>& rgb);
-  // Takes out a point add() put in, given the same xyz and rgb; a voxel
-  // left empty is gone. False (and nothing changed) when no point can have
-  // been added there: its voxel is empty.
-  bool remove(const Eigen::Vector3d& xyz, const std::array<uint8_t, 3>& rgb);
-  // The occupied voxels' means, in the order the voxels were first
-  // occupied.
+  void add(const CloudSample& sample);
+  void add(const Eigen::Vector3d& xyz, const std::array<uint8_t, 3>& rgb) {
+    add(CloudSample{xyz, rgb});
+  }
+  // Takes out a sample add() put in, given the same sample; a voxel left
+  // empty is gone. False (and nothing changed) when no sample can have been
+  // added there: its voxel is empty.
+  bool remove(const CloudSample& sample);
+  bool remove(const Eigen::Vector3d& xyz, const std::array<uint8_t, 3>& rgb) {
+    return remove(CloudSample{xyz, rgb});
+  }
+  // A sample added at `xyz` with support `from` now has support `to` (more
+  // maps came to agree with it, or fewer). False when its voxel is empty.
+  bool change_support(const Eigen::Vector3d& xyz, int from, int to);
+  // The occupied voxels' means (the normal normalised, the support rounded
+  // and at most 255), in the order the voxels were first occupied.
   std::vector<ColoredPoint> points() const;
   size_t size() const { return index_.size(); }
   double voxel_size() const { return voxel_size_; }
@@ -91,9 +111,12 @@ class VoxelCloud {
  private:
   struct Voxel {
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Vector3f normal_sum = Eigen::Vector3f::Zero();
     std::array<uint32_t, 3> rgb_sum{0, 0, 0};
+    uint32_t support_sum = 0;
     uint32_t count = 0;  // 0: emptied by remove(), skipped
   };
+  Voxel* find(const Eigen::Vector3d& xyz);
   void compact();
 
   double voxel_size_;

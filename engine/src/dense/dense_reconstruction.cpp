@@ -286,6 +286,7 @@ struct DenseReconstruction::Impl {
     void start_fusion() {
       agreed = cv::Mat::zeros(map.depth.size(), CV_8U);
       conflicts = cv::Mat::zeros(map.depth.size(), CV_8U);
+      fusion = MapFusion();  // a new map: its normals too
       fusion.reset(map.depth.size());
     }
   };

@@ -1,5 +1,6 @@
 #include "arscout/engine/ply.h"
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <charconv>
@@ -16,7 +17,8 @@
 namespace arscout::engine {
 namespace {
 
-constexpr size_t kBytesPerPoint = 15;  // 3 floats + 3 bytes, no padding
+constexpr size_t kBytesPerPoint = 15;       // 3 floats + 3 bytes, no padding
+constexpr size_t kBytesPerFusedPoint = 28;  // and 3 floats + 1 byte
 
 [[noreturn]] void fail(const std::string& what) {
   throw std::runtime_error("PLY: " + what);
@@ -29,14 +31,18 @@ void put_float_le(float value, char* out) {
   for (int i = 0; i < 4; ++i) out[i] = static_cast<char>(bits >> (8 * i));
 }
 
-std::string header_text(size_t vertices, std::string_view comment) {
+std::string header_text(size_t vertices, std::string_view comment, bool fused) {
   std::string header = "ply\nformat binary_little_endian 1.0\ncomment ";
   header.append(comment);
   header += "\nelement vertex " + std::to_string(vertices) +
             "\nproperty float x\nproperty float y\nproperty float z\n"
-            "property uchar red\nproperty uchar green\nproperty uchar blue\n"
-            "end_header\n";
-  return header;
+            "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  if (fused) {
+    header +=
+        "property float nx\nproperty float ny\nproperty float nz\n"
+        "property uchar support\n";
+  }
+  return header + "end_header\n";
 }
 
 // ---------------------------------------------------------------- header
@@ -401,12 +407,27 @@ class AsciiBody {
 };
 
 // What each vertex property is for.
-enum class Role { kSkip, kX, kY, kZ, kRed, kGreen, kBlue };
+enum class Role {
+  kSkip,
+  kX,
+  kY,
+  kZ,
+  kRed,
+  kGreen,
+  kBlue,
+  kNx,
+  kNy,
+  kNz,
+  kSupport
+};
 
 Role role_of(const Property& property) {
   static constexpr std::pair<std::string_view, Role> kRoles[] = {
-      {"x", Role::kX},     {"y", Role::kY},         {"z", Role::kZ},
-      {"red", Role::kRed}, {"green", Role::kGreen}, {"blue", Role::kBlue}};
+      {"x", Role::kX},         {"y", Role::kY},
+      {"z", Role::kZ},         {"red", Role::kRed},
+      {"green", Role::kGreen}, {"blue", Role::kBlue},
+      {"nx", Role::kNx},       {"ny", Role::kNy},
+      {"nz", Role::kNz},       {"support", Role::kSupport}};
   for (const auto& [name, role] : kRoles) {
     if (property.name == name) return role;
   }
@@ -415,7 +436,7 @@ Role role_of(const Property& property) {
 
 std::vector<Role> vertex_roles(const Element& vertex) {
   std::vector<Role> roles;
-  std::array<int, 7> seen{};
+  std::array<int, 11> seen{};
   for (const Property& property : vertex.properties) {
     if (property.is_list) {
       fail("list property " + quoted(property.name) + " in element vertex");
@@ -424,8 +445,12 @@ std::vector<Role> vertex_roles(const Element& vertex) {
     if (role != Role::kSkip && seen[static_cast<int>(role)]++) {
       fail("vertex property " + quoted(property.name) + " declared twice");
     }
-    if (role >= Role::kRed && property.type != Type::kUint8) {
+    if (role >= Role::kRed && role <= Role::kBlue &&
+        property.type != Type::kUint8) {
       fail("vertex property " + quoted(property.name) + " is not a uchar");
+    }
+    if (role == Role::kSupport && !is_integer(property.type)) {
+      fail("vertex property 'support' is not an integer");
     }
     roles.push_back(role);
   }
@@ -477,6 +502,12 @@ void skip_element(Body& body, const Element& element) {
   }
 }
 
+// Ascii bodies parse every number as a double, "nan" included.
+uint8_t clamp_support(double value) {
+  if (!(value > 0)) return 0;
+  return static_cast<uint8_t>(std::min(value, 255.0));
+}
+
 template <class Body>
 ColoredPoint read_vertex(Body& body, const Element& vertex,
                          const std::vector<Role>& roles) {
@@ -491,6 +522,10 @@ ColoredPoint read_vertex(Body& body, const Element& vertex,
       case Role::kRed: point.r = body.read_uchar(); break;
       case Role::kGreen: point.g = body.read_uchar(); break;
       case Role::kBlue: point.b = body.read_uchar(); break;
+      case Role::kNx: point.nx = body.read_float(type); break;
+      case Role::kNy: point.ny = body.read_float(type); break;
+      case Role::kNz: point.nz = body.read_float(type); break;
+      case Role::kSupport: point.support = clamp_support(body.read(type)); break;
       case Role::kSkip: body.skip(type); break;
     }
     // clang-format on
@@ -524,9 +559,13 @@ std::string encode_ply(const std::vector<ColoredPoint>& points,
   if (comment.find_first_of("\r\n") != std::string_view::npos) {
     throw std::invalid_argument("PLY comment holds a line break");
   }
-  std::string bytes = header_text(points.size(), comment);
+  const bool fused =
+      std::any_of(points.begin(), points.end(),
+                  [](const ColoredPoint& p) { return p.support > 0; });
+  std::string bytes = header_text(points.size(), comment, fused);
   const size_t start = bytes.size();
-  bytes.resize(start + points.size() * kBytesPerPoint);
+  const size_t stride = fused ? kBytesPerFusedPoint : kBytesPerPoint;
+  bytes.resize(start + points.size() * stride);
   char* out = bytes.data() + start;
   for (const ColoredPoint& p : points) {
     put_float_le(p.x, out);
@@ -535,7 +574,13 @@ std::string encode_ply(const std::vector<ColoredPoint>& points,
     out[12] = static_cast<char>(p.r);
     out[13] = static_cast<char>(p.g);
     out[14] = static_cast<char>(p.b);
-    out += kBytesPerPoint;
+    if (fused) {
+      put_float_le(p.nx, out + 15);
+      put_float_le(p.ny, out + 19);
+      put_float_le(p.nz, out + 23);
+      out[27] = static_cast<char>(p.support);
+    }
+    out += stride;
   }
   return bytes;
 }

@@ -1,8 +1,9 @@
 // Coloured point clouds as PLY (Stanford polygon files), the format
 // MeshLab, CloudCompare and COLMAP exchange point clouds in.
 //
-// Writing always produces one layout (binary little-endian, float x y z and
-// uchar red green blue), whatever the host's byte order. Reading accepts the
+// Writing produces one of two layouts (binary little-endian, float x y z and
+// uchar red green blue, then for fused dense points float nx ny nz and
+// uchar support), whatever the host's byte order. Reading accepts the
 // vertex element of most PLY files written by other tools; it is meant for
 // untrusted bytes: every malformed input ends in std::runtime_error, never in
 // a read outside the buffer.
@@ -18,7 +19,18 @@ namespace arscout::engine {
 struct ColoredPoint {
   float x = 0, y = 0, z = 0;
   uint8_t r = 0, g = 0, b = 0;
+  // A fused dense point's unit normal (toward the cameras that saw it; zero
+  // when unknown) and its support: how many depth maps measured it (its
+  // own and those that agree with it, at most 255). 0: not a fused point
+  // (sparse points, files from other tools).
+  float nx = 0, ny = 0, nz = 0;
+  uint8_t support = 0;
 };
+
+// Points measured by at least this many depth maps (their own and two
+// neighbours that agree: the issue's "consistent with at least two
+// neighbour views") are confident; the viewer shows only those by default.
+constexpr uint8_t kConfidentSupport = 3;
 
 // The whole file: the header
 //
@@ -34,7 +46,15 @@ struct ColoredPoint {
 //   property uchar blue
 //   end_header
 //
-// (each line ended by '\n'), then 15 bytes per point in that order. The
+// (each line ended by '\n'), then 15 bytes per point in that order. When any
+// point has a support, four more properties follow blue,
+//
+//   property float nx
+//   property float ny
+//   property float nz
+//   property uchar support
+//
+// and each point takes 28 bytes. The
 // comment is "written by arscout" unless given; throws std::invalid_argument
 // when it holds a line break (it would end the header line early).
 std::string encode_ply(const std::vector<ColoredPoint>& points,
@@ -53,9 +73,11 @@ void write_ply(const std::string& path, const std::vector<ColoredPoint>& points,
 // "vertex" element, with scalar properties x, y and z of any numeric type
 // (float/float32 or double/float64 as a rule; values beyond float's range
 // become infinities) and optionally red, green and blue of type uchar/uint8
-// (0 when absent). Other scalar vertex properties (normals, alpha, ...) are
-// skipped. Other elements are skipped when they come before the vertices
-// and ignored when they come after; "\r\n" line ends are tolerated.
+// (0 when absent), nx, ny and nz of any numeric type and support of an
+// integer type (values beyond 0..255 clamped), 0 when absent. Other scalar
+// vertex properties (alpha, ...) are skipped. Other elements are skipped when
+// they come before the vertices and ignored when they come after; "\r\n" line
+// ends are tolerated.
 //
 // Throws std::runtime_error saying what is wrong for: no "ply" magic, no
 // end_header, a format other than the two above (binary_big_endian is
