@@ -25,7 +25,10 @@
 // 40 m from their nearest camera horizontally, more than 30 m above or 6 m
 // below it, or sky-coloured (tests/engine/eval/dense_eval.h), and points and
 // dense seconds per photo (the dense lines' sweep, filter and fusion
-// seconds, summed, over the photos).
+// seconds, summed, over the photos). Then the share of confident points
+// (support >= 3: what the viewer shows by default) and their implausible
+// share, and the ground covered near the cameras (m2 of 5 cm cells within
+// 15 cm of the cameras' usual drop, ev::ground_cover_m2).
 //
 // Targets (issue 36): block p90 <= 5 cm and completeness >= 80 %; lund
 // implausible <= 5 %, fountain-P11 <= 3 %. With --check it exits 1 when a
@@ -91,6 +94,11 @@ struct Row {
   ev::AccuracyFigures accuracy;
   ev::CompletenessFigures completeness;
   ev::PlausibilityFigures plausibility;
+  // Of the confident points (support >= kConfidentSupport), what the
+  // viewer shows by default.
+  double confident_share = kNaN;
+  ev::PlausibilityFigures confident_plausibility;
+  double ground_m2 = kNaN;  // ev::ground_cover_m2
 };
 
 int count_photos(const fs::path& images) {
@@ -155,11 +163,19 @@ Outputs measure_common(const fs::path& dir, Row& row) {
   row.registered = static_cast<int>(out.poses.size());
   for (const auto& p :
        arscout::engine::read_ply((dir / "out/dense.ply").string()))
-    out.cloud.push_back({Eigen::Vector3d(p.x, p.y, p.z), p.r, p.g, p.b});
+    out.cloud.push_back(
+        {Eigen::Vector3d(p.x, p.y, p.z), p.r, p.g, p.b, p.support});
   row.points = static_cast<long>(out.cloud.size());
   std::vector<Eigen::Vector3d> centres;
   for (const auto& [name, pose] : out.poses) centres.push_back(pose.centre());
   row.plausibility = ev::measure_plausibility(out.cloud, centres);
+  std::vector<ev::CloudPoint> confident;
+  for (const ev::CloudPoint& p : out.cloud)
+    if (p.support >= arscout::engine::kConfidentSupport) confident.push_back(p);
+  row.confident_share = static_cast<double>(confident.size()) /
+                        std::max<size_t>(1, out.cloud.size());
+  row.confident_plausibility = ev::measure_plausibility(confident, centres);
+  row.ground_m2 = ev::ground_cover_m2(out.cloud, centres);
   return out;
 }
 
@@ -264,8 +280,9 @@ void print_rows(const std::vector<Row>& rows) {
   std::cout << "| scene | registered | depth maps | points | points / photo "
                "| dense s / photo | accuracy median cm | p90 cm | within 5 cm "
                "| completeness 5 cm | implausible | far | above | below | "
-               "sky |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|"
-               "---|---|\n";
+               "sky | confident | implausible, confident | ground m2 |\n"
+               "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+               "---|---|---|\n";
   for (const Row& r : rows) {
     const auto& a = r.accuracy;
     const auto& p = r.plausibility;
@@ -280,7 +297,9 @@ void print_rows(const std::vector<Row>& rows) {
               << percent(p.implausible_share) << " | " << percent(p.far_share)
               << " | " << percent(p.above_share) << " | "
               << percent(p.below_share) << " | " << percent(p.sky_share)
-              << " |\n";
+              << " | " << percent(r.confident_share) << " | "
+              << percent(r.confident_plausibility.implausible_share) << " | "
+              << fixed(r.ground_m2, 1) << " |\n";
   }
   for (const Row& r : rows)
     if (!r.error.empty()) std::cout << r.label << ": " << r.error << "\n";

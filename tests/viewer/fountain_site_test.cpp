@@ -374,8 +374,12 @@ TEST_F(FountainSite, LasExportsAgreeAndCarryGeoidHeights) {
   std::uint32_t offset = 0;
   std::memcpy(&count, las.bytes.data() + 247, sizeof count);
   std::memcpy(&offset, las.bytes.data() + 96, sizeof offset);
+  std::uint16_t record = 0;
+  std::memcpy(&record, las.bytes.data() + 105, sizeof record);
   ASSERT_GT(count, 1000u);
-  ASSERT_EQ(las.bytes.size(), offset + 36 * count);
+  // The fused cloud's records carry support and normal (13 extra bytes).
+  EXPECT_EQ(record, 36 + 13);
+  ASSERT_EQ(las.bytes.size(), offset + record * count);
   double z_scale = 0, z_offset[2] = {0, 0};
   std::memcpy(&z_scale, las.bytes.data() + 147, sizeof z_scale);
   std::memcpy(&z_offset[0], las.bytes.data() + 171, sizeof(double));
@@ -388,7 +392,7 @@ TEST_F(FountainSite, LasExportsAgreeAndCarryGeoidHeights) {
   const auto z_at = [&](const std::string& bytes, std::uint32_t at, size_t i,
                         double base) {
     std::int32_t z = 0;
-    std::memcpy(&z, bytes.data() + at + 36 * i + 8, sizeof z);
+    std::memcpy(&z, bytes.data() + at + record * i + 8, sizeof z);
     return z * z_scale + base;
   };
   const Json& o = model_.attrs.at("enu_origin");

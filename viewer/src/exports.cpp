@@ -200,6 +200,8 @@ std::string encode_site_las(const std::vector<engine::ColoredPoint>& points,
     point.red = static_cast<std::uint16_t>(p.r * 257);
     point.green = static_cast<std::uint16_t>(p.g * 257);
     point.blue = static_cast<std::uint16_t>(p.b * 257);
+    point.support = p.support;
+    point.normal = {p.nx, p.ny, p.nz};
     las_points.push_back(point);
   }
   LasFile file;

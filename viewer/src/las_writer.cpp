@@ -14,6 +14,9 @@ constexpr std::uint16_t kHeaderSize = 375;
 constexpr std::uint16_t kVlrHeaderSize = 54;
 constexpr std::uint8_t kPointFormat = 7;
 constexpr std::uint16_t kPointSize = 36;
+constexpr std::uint16_t kExtraBytes = 13;  // support, then 3 floats
+constexpr std::uint16_t kExtraBytesRecordId = 4;
+constexpr std::uint16_t kExtraBytesDescriptorSize = 192;
 constexpr std::uint16_t kGlobalEncodingWkt = 1 << 4;
 constexpr std::uint16_t kWktRecordId = 2112;  // OGC coordinate system WKT
 
@@ -74,7 +77,7 @@ void measure_bounds(const std::vector<LasPoint>& points,
 
 void put_header(util::ByteWriter& out, const LasFile& file,
                 const std::array<Axis, 3>& axes, std::uint64_t count,
-                std::uint32_t point_offset) {
+                std::uint32_t point_offset, bool extra) {
   out.append("LASF");
   out.put<std::uint16_t>(0);  // file source id
   out.put<std::uint16_t>(kGlobalEncodingWkt);
@@ -87,9 +90,9 @@ void put_header(util::ByteWriter& out, const LasFile& file,
   out.put<std::uint16_t>(static_cast<std::uint16_t>(file.year));
   out.put<std::uint16_t>(kHeaderSize);
   out.put<std::uint32_t>(point_offset);
-  out.put<std::uint32_t>(1);  // one VLR: the WKT
+  out.put<std::uint32_t>(extra ? 2 : 1);  // the WKT, the extra bytes
   out.put<std::uint8_t>(kPointFormat);
-  out.put<std::uint16_t>(kPointSize);
+  out.put<std::uint16_t>(extra ? kPointSize + kExtraBytes : kPointSize);
   out.put<std::uint32_t>(0);  // legacy point count: 0 for formats 6-10
   for (int r = 0; r < 5; ++r) out.put<std::uint32_t>(0);
   for (const Axis& a : axes) out.put<double>(a.scale);
@@ -118,8 +121,35 @@ void put_wkt_record(util::ByteWriter& out, const std::string& wkt) {
   out.append(text);
 }
 
+// One Extra Bytes descriptor (LAS 1.4 R15, 2.5.2.2): the type, the name,
+// no no-data, minimum, maximum, scale or offset, and the description.
+void put_extra_bytes_descriptor(util::ByteWriter& out, std::uint8_t data_type,
+                                const std::string& name,
+                                const std::string& description) {
+  out.put<std::uint16_t>(0);  // reserved
+  out.put<std::uint8_t>(data_type);
+  out.put<std::uint8_t>(0);  // options: none of the optional fields
+  put_text(out, name, 32);
+  out.append(std::string(4 + 8 + 16 + 8 + 16 + 8 + 16 + 8 + 16 + 8 + 16, '\0'));
+  put_text(out, description, 32);
+}
+
+void put_extra_bytes_record(util::ByteWriter& out) {
+  constexpr std::uint8_t kUchar = 1, kFloat = 9;
+  out.put<std::uint16_t>(0);  // reserved
+  put_text(out, "LASF_Spec", 16);
+  out.put<std::uint16_t>(kExtraBytesRecordId);
+  out.put<std::uint16_t>(4 * kExtraBytesDescriptorSize);
+  put_text(out, "Extra Bytes", 32);
+  put_extra_bytes_descriptor(out, kUchar, "support",
+                             "depth maps that measured it");
+  put_extra_bytes_descriptor(out, kFloat, "normal east", "unit normal, ENU");
+  put_extra_bytes_descriptor(out, kFloat, "normal north", "unit normal, ENU");
+  put_extra_bytes_descriptor(out, kFloat, "normal up", "unit normal, ENU");
+}
+
 void put_point(util::ByteWriter& out, const LasPoint& p,
-               const std::array<Axis, 3>& axes) {
+               const std::array<Axis, 3>& axes, bool extra) {
   for (int a = 0; a < 3; ++a)
     out.put<std::int32_t>(quantize(p.xyz[a], axes[a]));
   out.put<std::uint16_t>(0);    // intensity
@@ -133,6 +163,9 @@ void put_point(util::ByteWriter& out, const LasPoint& p,
   out.put<std::uint16_t>(p.red);
   out.put<std::uint16_t>(p.green);
   out.put<std::uint16_t>(p.blue);
+  if (!extra) return;
+  out.put<std::uint8_t>(p.support);
+  for (float n : p.normal) out.put<float>(n);
 }
 
 }  // namespace
@@ -141,13 +174,19 @@ std::string encode_las(const std::vector<LasPoint>& points,
                        const LasFile& file) {
   std::array<Axis, 3> axes = axes_of(points, file);
   measure_bounds(points, &axes);
+  const bool extra =
+      std::any_of(points.begin(), points.end(),
+                  [](const LasPoint& p) { return p.support > 0; });
   const std::uint32_t point_offset = static_cast<std::uint32_t>(
-      kHeaderSize + kVlrHeaderSize + file.wkt.size() + 1);
+      kHeaderSize + kVlrHeaderSize + file.wkt.size() + 1 +
+      (extra ? kVlrHeaderSize + 4 * kExtraBytesDescriptorSize : 0));
   util::ByteWriter out;
-  out.reserve(point_offset + points.size() * kPointSize);
-  put_header(out, file, axes, points.size(), point_offset);
+  out.reserve(point_offset +
+              points.size() * (kPointSize + (extra ? kExtraBytes : 0)));
+  put_header(out, file, axes, points.size(), point_offset, extra);
   put_wkt_record(out, file.wkt);
-  for (const LasPoint& p : points) put_point(out, p, axes);
+  if (extra) put_extra_bytes_record(out);
+  for (const LasPoint& p : points) put_point(out, p, axes, extra);
   return out.take();
 }
 

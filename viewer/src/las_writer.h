@@ -2,6 +2,11 @@
 // (x y z as scaled 32-bit integers, 16-bit RGB, point source id, one return
 // each), the CRS as an OGC WKT variable-length record, and the global
 // encoding's WKT bit set, as the specification requires of formats 6-10.
+// When any point has a support (fused dense points), each record carries
+// 13 extra bytes, described by an Extra Bytes VLR (LASF_Spec, record 4) as
+// PDAL, LAStools and CloudCompare read them: "support" (uchar, the depth
+// maps that measured the point) and "normal east", "normal north",
+// "normal up" (float, the unit normal in the site's ENU frame).
 #pragma once
 
 #include <array>
@@ -15,6 +20,8 @@ struct LasPoint {
   std::array<double, 3> xyz{};                 // in the CRS of LasFile::wkt
   std::uint16_t red = 0, green = 0, blue = 0;  // 0..65535
   std::uint16_t source_id = 0;                 // 0: unknown
+  std::uint8_t support = 0;                    // 0: not a fused point
+  std::array<float, 3> normal{};               // ENU, unit; zero: unknown
 };
 
 struct LasFile {

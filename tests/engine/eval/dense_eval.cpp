@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -291,6 +292,32 @@ PlausibilityFigures measure_plausibility(
   f.far_share = far / n, f.above_share = above / n, f.below_share = below / n;
   f.sky_share = sky / n, f.implausible_share = any / n;
   return f;
+}
+
+double ground_cover_m2(const std::vector<CloudPoint>& points,
+                       const std::vector<Eigen::Vector3d>& cameras,
+                       double cell_m, double band_m) {
+  if (points.empty() || cameras.empty()) return 0;
+  constexpr double kLowest = 0.8, kHighest = 4, kBin = 0.1;
+  std::vector<double> drops;
+  drops.reserve(points.size());
+  std::vector<int> bins(static_cast<int>((kHighest - kLowest) / kBin), 0);
+  for (const CloudPoint& p : points) {
+    const double drop = nearest_horizontally(p.xyz, cameras).z() - p.xyz.z();
+    drops.push_back(drop);
+    if (drop >= kLowest && drop < kHighest)
+      ++bins[static_cast<int>((drop - kLowest) / kBin)];
+  }
+  const auto mode = std::max_element(bins.begin(), bins.end());
+  if (*mode == 0) return 0;
+  const double height = kLowest + (mode - bins.begin() + 0.5) * kBin;
+  std::set<std::pair<int64_t, int64_t>> cells;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (std::abs(drops[i] - height) > band_m) continue;
+    cells.emplace(static_cast<int64_t>(std::floor(points[i].xyz.x() / cell_m)),
+                  static_cast<int64_t>(std::floor(points[i].xyz.y() / cell_m)));
+  }
+  return cells.size() * cell_m * cell_m;
 }
 
 }  // namespace arscout::eval

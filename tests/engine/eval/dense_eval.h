@@ -100,6 +100,7 @@ CompletenessFigures measure_completeness(
 struct CloudPoint {
   Eigen::Vector3d xyz = Eigen::Vector3d::Zero();  // east-north-up, metres
   uint8_t r = 0, g = 0, b = 0;
+  uint8_t support = 0;  // depth maps that measured it (0: unknown)
 };
 
 // Sky-coloured: hue 190-250 degrees (blue), saturation at least 0.12 and
@@ -132,5 +133,14 @@ PlausibilityFigures measure_plausibility(
     const std::vector<CloudPoint>& points,
     const std::vector<Eigen::Vector3d>& cameras,
     const PlausibilityOptions& options = {});
+
+// The ground the cloud covers near the cameras, in square metres: the
+// camera height is the most common drop from a point's nearest camera
+// (horizontally) to the point, in 10 cm bins from 0.8 to 4 m; the points
+// within `band_m` of that drop are counted on a grid of `cell_m` cells, and
+// the covered cells' area is returned. 0 when no point lies in that range.
+double ground_cover_m2(const std::vector<CloudPoint>& points,
+                       const std::vector<Eigen::Vector3d>& cameras,
+                       double cell_m = 0.05, double band_m = 0.15);
 
 }  // namespace arscout::eval

@@ -172,6 +172,25 @@ TEST(DenseEval, SkyColouredIsBrightBlueOnly) {
   EXPECT_FALSE(ev::sky_coloured(90, 200, 90));    // green
 }
 
+// A 2 x 1 m patch of ground 1.6 m below the cameras, sampled every 2.5 cm
+// (one point per 5 cm cell and three more), a wall above it and a few
+// points 1 m lower: the ground's 2 m^2 are found, nothing else.
+TEST(DenseEval, GroundCoverIsTheAreaAtTheCamerasDrop) {
+  const std::vector<Vector3d> cameras = {Vector3d(0, 0, 11.6),
+                                         Vector3d(4, 0, 11.6)};
+  std::vector<ev::CloudPoint> points;
+  for (int i = 0; i < 80; ++i)
+    for (int j = 0; j < 40; ++j)
+      points.push_back({Vector3d(0.0125 + 0.025 * i, 2.0125 + 0.025 * j, 10)});
+  for (int i = 0; i < 500; ++i)
+    points.push_back({Vector3d(0.01 * i, 5, 10.5 + 0.004 * i)});
+  for (int i = 0; i < 20; ++i) points.push_back({Vector3d(0.1 * i, 4, 9)});
+  EXPECT_NEAR(ev::ground_cover_m2(points, cameras), 2.0, 1e-9);
+  EXPECT_NEAR(ev::ground_cover_m2(points, cameras, 0.1), 2.0, 1e-9);
+  EXPECT_EQ(ev::ground_cover_m2({}, cameras), 0);
+  EXPECT_EQ(ev::ground_cover_m2(points, {}), 0);
+}
+
 TEST(DenseEval, PlausibilityFlagsFarHighLowAndSkyPoints) {
   const std::vector<Vector3d> cameras = {Vector3d(0, 0, 1.6),
                                          Vector3d(10, 0, 1.6)};
