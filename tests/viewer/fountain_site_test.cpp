@@ -464,7 +464,7 @@ TEST_F(FountainSite, OctreeAndCoordinatesEndpoints) {
   const auto root = client.get(base + "/octree/" + version + "/r.bin");
   ASSERT_EQ(root.status, 200);
   EXPECT_EQ(root.body.size(),
-            15 * tree.at("nodes").at(0).at("points").get<std::size_t>());
+            16 * tree.at("nodes").at(0).at("points").get<std::size_t>());
   EXPECT_NE(root.headers.at("cache-control").find("immutable"),
             std::string::npos);
   EXPECT_EQ(client.get(base + "/octree/" + version + "/r9.bin").status, 404);

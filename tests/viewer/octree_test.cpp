@@ -69,10 +69,12 @@ TEST(PointOctree, EveryPointOnceInItsNodesBoxWithFinerSamplesBelow) {
   EXPECT_THROW(build_point_octree({}), std::invalid_argument);
 }
 
-using PointRecord = std::tuple<float, float, float, int, int, int>;
+using PointRecord = std::tuple<float, float, float, int, int, int, int>;
 
 TEST(CloudOctree, HierarchyAndNodeBytesHoldTheCloud) {
-  const auto cloud = street_cloud::synthetic_street(30000);
+  auto cloud = street_cloud::synthetic_street(30000);
+  for (size_t i = 0; i < cloud.size(); ++i)
+    cloud[i].support = static_cast<uint8_t>(i % 6);
   const CloudOctree octree =
       build_cloud_octree(cloud, "street", 7, "dense", {2000, 16});
   EXPECT_EQ(octree.hierarchy.at("version"), 7);
@@ -82,18 +84,20 @@ TEST(CloudOctree, HierarchyAndNodeBytesHoldTheCloud) {
   for (const auto& node : octree.hierarchy.at("nodes")) {
     const std::string& bytes = octree.node_bytes.at(node.at("name"));
     const std::size_t n = node.at("points");
-    ASSERT_EQ(bytes.size(), n * 15);
+    ASSERT_EQ(bytes.size(), n * 16);
     for (std::size_t i = 0; i < n; ++i) {
       float xyz[3];
       std::memcpy(xyz, bytes.data() + i * 12, sizeof xyz);
       const auto* rgb =
           reinterpret_cast<const unsigned char*>(bytes.data() + n * 12 + i * 3);
-      read.emplace_back(xyz[0], xyz[1], xyz[2], rgb[0], rgb[1], rgb[2]);
+      const auto support = static_cast<unsigned char>(bytes[n * 15 + i]);
+      read.emplace_back(xyz[0], xyz[1], xyz[2], rgb[0], rgb[1], rgb[2],
+                        support);
     }
   }
   std::vector<PointRecord> expected;
   for (const ColoredPoint& p : cloud)
-    expected.emplace_back(p.x, p.y, p.z, p.r, p.g, p.b);
+    expected.emplace_back(p.x, p.y, p.z, p.r, p.g, p.b, p.support);
   std::sort(read.begin(), read.end());
   std::sort(expected.begin(), expected.end());
   EXPECT_EQ(read, expected);

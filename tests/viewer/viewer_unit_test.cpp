@@ -120,6 +120,45 @@ TEST(ViewerOverlay, NearPointsHideFarOnesAndAreColouredWarm) {
   EXPECT_GT(r[0], r[2]);
 }
 
+// The scout's overlay draws only confident fused points: a near wall of
+// points only one depth map measured is left out (the far wall shows where
+// it was), unless min_support is 0; sparse points (support 0) always show.
+TEST(ViewerOverlay, LowConfidencePointsAreNotDrawn) {
+  const ImageCamera camera = test_camera();
+  const cv::Mat photo(480, 640, CV_8UC3, cv::Scalar(128, 128, 128));
+  std::vector<engine::ColoredPoint> points = two_walls(camera);
+  std::vector<engine::ColoredPoint> shifted = points;
+  // The far wall's right half once more, at 3 m (nearer than the near
+  // wall), measured by one depth map.
+  for (engine::ColoredPoint& p : shifted) p.support = 5;
+  std::vector<engine::ColoredPoint> floaters;
+  for (engine::ColoredPoint p : points) {
+    if (p.z < 11 || p.x < 0) continue;
+    p.support = 1;
+    p.x *= 0.25f, p.y *= 0.25f, p.z *= 0.25f;  // on the same rays
+    floaters.push_back(p);
+  }
+  ASSERT_GT(floaters.size(), 1000u);
+  shifted.insert(shifted.end(), floaters.begin(), floaters.end());
+  OverlayOptions options;
+  options.opacity = 1;
+  options.radius = 1;
+  const cv::Mat confident = draw_overlay(photo, camera, shifted, options);
+  const cv::Mat without =
+      draw_overlay(photo, camera, two_walls(camera), options);
+  // Colours follow the drawn depth range, so the same points give the same
+  // picture only if the floaters were left out.
+  EXPECT_EQ(cv::norm(confident, without, cv::NORM_INF), 0);
+  options.min_support = 0;
+  const cv::Mat all = draw_overlay(photo, camera, shifted, options);
+  EXPECT_GT(cv::norm(all, without, cv::NORM_INF), 0);
+  // Sparse points (support 0) are drawn whatever min_support.
+  options.min_support = 200;
+  const cv::Mat sparse =
+      draw_overlay(photo, camera, two_walls(camera), options);
+  EXPECT_EQ(cv::norm(sparse, without, cv::NORM_INF), 0);
+}
+
 TEST(ViewerTar, GnuTarListsAndExtractsTheFiles) {
   TarWriter tar;
   std::string big(1500, 'x');

@@ -11,14 +11,15 @@ namespace {
 
 using Json = nlohmann::json;
 
-// n float32 x y z, then n uchar r g b: what the browser puts in its
-// position and colour buffers as they are.
+// n float32 x y z, then n uchar r g b, then n uchar support: what the
+// browser puts in its position, colour and support buffers as they are.
 std::string node_bytes(const std::vector<engine::ColoredPoint>& points,
                        const OctreeNode& node) {
   const std::size_t n = node.points.size();
-  std::string bytes(n * 15, '\0');
+  std::string bytes(n * 16, '\0');
   char* xyz = bytes.data();
   char* rgb = bytes.data() + n * 12;
+  char* support = bytes.data() + n * 15;
   for (std::uint32_t i : node.points) {
     const engine::ColoredPoint& p = points[i];
     const float v[3] = {p.x, p.y, p.z};
@@ -27,6 +28,7 @@ std::string node_bytes(const std::vector<engine::ColoredPoint>& points,
     *rgb++ = static_cast<char>(p.r);
     *rgb++ = static_cast<char>(p.g);
     *rgb++ = static_cast<char>(p.b);
+    *support++ = static_cast<char>(p.support);
   }
   return bytes;
 }

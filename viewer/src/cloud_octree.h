@@ -8,7 +8,9 @@
 //   GET /v1/sites/{id}/octree/{version}/{node}.bin?cloud=  one node's points
 //
 // A node's bytes are its n points as n float32 x y z (ENU, little-endian)
-// followed by n uchar r g b.
+// followed by n uchar r g b and n uchar support (ColoredPoint::support: 0
+// for sparse points; the viewer hides fused points below
+// kConfidentSupport by default).
 #pragma once
 
 #include <cstddef>

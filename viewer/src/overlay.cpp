@@ -37,9 +37,10 @@ std::pair<float, float> depth_range(const cv::Mat& depth) {
 // Nearest point per output pixel (camera z; 0 where none).
 cv::Mat splat_depths(const ImageCamera& camera,
                      const std::vector<engine::ColoredPoint>& points,
-                     cv::Size size, double scale, int radius) {
+                     cv::Size size, double scale, int radius, int min_support) {
   cv::Mat depth = cv::Mat::zeros(size, CV_32F);
   for (const engine::ColoredPoint& p : points) {
+    if (!engine::shown_at(p, min_support)) continue;
     const Eigen::Vector3d X(p.x, p.y, p.z);
     const auto pixel = project(camera, X);
     if (!pixel) continue;
@@ -114,7 +115,8 @@ cv::Mat draw_overlay(const cv::Mat& photo, const ImageCamera& camera,
   const int radius = options.radius >= 0
                          ? options.radius
                          : std::max(1, std::max(size.width, size.height) / 900);
-  cv::Mat depth = splat_depths(camera, points, size, scale, radius);
+  cv::Mat depth =
+      splat_depths(camera, points, size, scale, radius, options.min_support);
   clear_see_through(depth, radius);
   const auto [near, far] = depth_range(depth);
   cv::Mat level(size, CV_8U, cv::Scalar(0));

@@ -79,6 +79,8 @@ HttpResponse overlay(db::Store& store, const HttpRequest& req,
   std::optional<HttpResponse> bad;
   OverlayOptions options;
   options.max_side = int_query(req, "max_side", 1280, 64, 4096, &bad);
+  options.min_support =
+      int_query(req, "min_support", engine::kConfidentSupport, 0, 255, &bad);
   if (auto cloud = cloud_query(req, &bad)) options.cloud = *cloud;
   if (bad) return *bad;
   HttpResponse r = jpeg(overlay_jpeg(store, capture, options));

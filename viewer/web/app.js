@@ -6,6 +6,7 @@ import { ApiClient, ApiError, UnauthorizedError, healthz, tokenStore, encodePath
 import { Viewer, robustBounds } from './scene.js';
 import { OctreeCloud, DEFAULT_POINT_BUDGET } from './lod.js';
 import { Measurement } from './measure.js';
+import { CONFIDENT_SUPPORT, shownAt } from './points_material.js';
 import { ThumbnailCache, cameraCentre, cameraRotation } from './frusta.js';
 import { LiveFeed } from './live.js';
 import { renderSites, markSelectedSite, captureStatuses, renderCaptures, siteId, siteHolding, liveSites } from './sites.js';
@@ -329,8 +330,20 @@ function viewDirection(attrs, centre, up) {
   return from.normalize().addScaledVector(up, 0.45).normalize();
 }
 
+// The root's points that are drawn: the view frames what the planner sees.
+function shownPositions(sample) {
+  if (!sample.support) return sample.positions;
+  const kept = [];
+  for (let i = 0; i < sample.count; i++) {
+    if (shownAt(sample.support[i], viewer.minSupport)) {
+      kept.push(sample.positions[3 * i], sample.positions[3 * i + 1], sample.positions[3 * i + 2]);
+    }
+  }
+  return kept.length > 0 ? Float32Array.from(kept) : sample.positions;
+}
+
 function frameOn(sample, attrs) {
-  const bounds = robustBounds(sample.positions);
+  const bounds = robustBounds(shownPositions(sample));
   const up = upVector(attrs);
   viewer.frame(bounds, viewDirection(attrs, bounds.centre, up), up);
   state.frustumDepth = bounds.size * FRUSTUM_SCALE;
@@ -551,6 +564,10 @@ function wireViewOptions() {
   $('colour-mode').addEventListener('change', applyColourMode);
   $('edl').addEventListener('change', (e) => viewer.setEyeDomeLighting(e.target.checked));
   viewer.setEyeDomeLighting($('edl').checked);
+  const applyConfidence = () =>
+    viewer.setMinSupport($('hide-low-confidence').checked ? CONFIDENT_SUPPORT : 0);
+  $('hide-low-confidence').addEventListener('change', applyConfidence);
+  applyConfidence();
   $('point-budget').addEventListener('change', () => {
     if (viewer.lod) viewer.lod.budget = Number($('point-budget').value);
     viewer.requestRender();

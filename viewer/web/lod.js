@@ -15,14 +15,18 @@ const MAX_LOADS = 4;
 // Nodes kept in memory out of view, in points, as a multiple of the budget.
 const CACHE_FACTOR = 3;
 
-/** A node's bytes: n float32 x y z, then n uchar r g b (cloud_octree.h). */
+/**
+ * A node's bytes: n float32 x y z, then n uchar r g b, then n uchar support
+ * (cloud_octree.h; 0 for sparse points).
+ */
 export function parseNode(buffer) {
-  const count = buffer.byteLength / 15;
+  const count = buffer.byteLength / 16;
   if (!Number.isInteger(count)) throw new Error(`octree node of ${buffer.byteLength} bytes is not whole points`);
   return {
     count,
     positions: new Float32Array(buffer, 0, count * 3),
     colors: new Uint8Array(buffer, count * 12, count * 3),
+    support: new Uint8Array(buffer, count * 15, count),
   };
 }
 
@@ -157,6 +161,7 @@ export class OctreeCloud {
         const geometry = new THREE.BufferGeometry();
         geometry.setAttribute('position', new THREE.BufferAttribute(cloud.positions, 3));
         geometry.setAttribute('color', new THREE.BufferAttribute(cloud.colors, 3, true));
+        geometry.setAttribute('support', new THREE.BufferAttribute(cloud.support, 1));
         geometry.boundingSphere = node.sphere.clone();
         geometry.boundingBox = node.box.clone();
         node.object = new THREE.Points(geometry, this.material);

@@ -1,7 +1,8 @@
 // A parser for the point clouds the engine writes (docs/engine.md,
 // write_points_ply): binary little-endian PLY with one vertex element of
-// float x, y, z and uchar red, green, blue. Anything else is refused with
-// a message that says what was found.
+// float x, y, z and uchar red, green, blue, and for fused dense clouds then
+// float nx, ny, nz and uchar support. Anything else is refused with a
+// message that says what was found.
 
 const EXPECTED = [
   ['x', 'float'],
@@ -11,7 +12,9 @@ const EXPECTED = [
   ['green', 'uchar'],
   ['blue', 'uchar'],
 ];
+const FUSED = [...EXPECTED, ['nx', 'float'], ['ny', 'float'], ['nz', 'float'], ['support', 'uchar']];
 const STRIDE = 3 * 4 + 3;
+const FUSED_STRIDE = STRIDE + 3 * 4 + 1;
 
 // PLY names some types two ways.
 const TYPE_ALIASES = { float32: 'float', uint8: 'uchar' };
@@ -96,17 +99,19 @@ function checkLayout({ format, elements }) {
   }
   const found = vertex.properties.map((p) => `${p.type} ${p.name}`).join(', ');
   const wanted = EXPECTED.map(([name, type]) => `${type} ${name}`).join(', ');
-  const same = vertex.properties.length === EXPECTED.length &&
-    vertex.properties.every((p, i) => p.name === EXPECTED[i][0] && p.type === EXPECTED[i][1]);
-  if (!same) throw new PlyError(`vertex layout (${found}) is not the supported (${wanted})`);
-  return vertex.count;
+  const is = (layout) => vertex.properties.length === layout.length &&
+    vertex.properties.every((p, i) => p.name === layout[i][0] && p.type === layout[i][1]);
+  if (is(EXPECTED)) return { count: vertex.count, stride: STRIDE };
+  if (is(FUSED)) return { count: vertex.count, stride: FUSED_STRIDE };
+  throw new PlyError(`vertex layout (${found}) is not the supported (${wanted}, optionally then float nx, ny, nz, uchar support)`);
 }
 
 /**
  * Parses a point cloud.
  * @param {ArrayBuffer} buffer the whole file
- * @returns {{count: number, positions: Float32Array, colors: Uint8Array}}
- *   positions x,y,z per point, colors r,g,b per point
+ * @returns {{count: number, positions: Float32Array, colors: Uint8Array, support: Uint8Array}}
+ *   positions x,y,z per point, colors r,g,b per point, support per point
+ *   (0 for a cloud without supports)
  */
 export function parsePly(buffer) {
   const bytes = new Uint8Array(buffer);
@@ -116,8 +121,8 @@ export function parsePly(buffer) {
     throw new PlyError(magic === 'ply' ? 'no end_header line' : 'not a PLY file');
   }
   const header = parseHeader(new TextDecoder('latin1').decode(bytes.subarray(0, start)));
-  const count = checkLayout(header);
-  const needed = start + count * STRIDE;
+  const { count, stride } = checkLayout(header);
+  const needed = start + count * stride;
   if (bytes.length < needed) {
     throw new PlyError(`truncated: ${count} vertices need ${needed} bytes, the file has ${bytes.length}`);
   }
@@ -125,7 +130,8 @@ export function parsePly(buffer) {
   const positions = new Float32Array(count * 3);
   const colors = new Uint8Array(count * 3);
   const view = new DataView(buffer, 0, needed);
-  for (let i = 0, at = start; i < count; i++, at += STRIDE) {
+  const support = new Uint8Array(count);
+  for (let i = 0, at = start; i < count; i++, at += stride) {
     const p = i * 3;
     positions[p] = view.getFloat32(at, true);
     positions[p + 1] = view.getFloat32(at + 4, true);
@@ -133,6 +139,7 @@ export function parsePly(buffer) {
     colors[p] = bytes[at + 12];
     colors[p + 1] = bytes[at + 13];
     colors[p + 2] = bytes[at + 14];
+    if (stride === FUSED_STRIDE) support[i] = bytes[at + 27];
   }
-  return { count, positions, colors };
+  return { count, positions, colors, support };
 }

@@ -1,6 +1,8 @@
 // The point material: square points of a fixed size in pixels, coloured by
 // their RGB or by their height (a blue-cyan-green-yellow-red ramp between
-// two heights), in one shader so switching costs nothing.
+// two heights), in one shader so switching costs nothing. Fused points
+// measured by fewer depth maps than minSupport are not drawn (a sparse
+// point's support is 0: always drawn).
 
 import * as THREE from 'three';
 
@@ -10,7 +12,9 @@ const vertexShader = /* glsl */ `
   uniform float size;
   uniform int mode;
   uniform vec2 heightRange;
+  uniform float minSupport;
   attribute vec3 color;
+  attribute float support;
   varying vec3 vColour;
 
   // Blue, cyan, green, yellow, red at 0, 1/4, 1/2, 3/4, 1.
@@ -24,6 +28,12 @@ const vertexShader = /* glsl */ `
   }
 
   void main() {
+    if (support > 0.5 && support < minSupport) {
+      gl_Position = vec4(0.0, 0.0, 2.0, 1.0); // beyond the far plane: clipped
+      gl_PointSize = 0.0;
+      vColour = vec3(0.0);
+      return;
+    }
     vec4 world = modelMatrix * vec4(position, 1.0);
     if (mode == 1) {
       vColour = ramp((world.z - heightRange.x) / max(heightRange.y - heightRange.x, 1e-6));
@@ -42,13 +52,28 @@ const fragmentShader = /* glsl */ `
   }
 `;
 
-/** A ShaderMaterial with .setSize(px), .setMode(name), .setHeightRange(lo, hi). */
+/**
+ * The depth maps a fused point must have been measured by to be shown by
+ * default (ColoredPoint's kConfidentSupport: its own and two that agree).
+ */
+export const CONFIDENT_SUPPORT = 3;
+
+/** Whether a point of `support` is drawn at `minSupport` (as the shader). */
+export function shownAt(support, minSupport) {
+  return support === 0 || support >= minSupport;
+}
+
+/**
+ * A ShaderMaterial with .setSize(px), .setMode(name), .setHeightRange(lo, hi)
+ * and .setMinSupport(n).
+ */
 export function createPointsMaterial() {
   const material = new THREE.ShaderMaterial({
     uniforms: {
       size: { value: 2 },
       mode: { value: COLOUR_MODES.rgb },
       heightRange: { value: new THREE.Vector2(0, 1) },
+      minSupport: { value: CONFIDENT_SUPPORT },
     },
     vertexShader,
     fragmentShader,
@@ -56,5 +81,6 @@ export function createPointsMaterial() {
   material.setSize = (px) => { material.uniforms.size.value = px; };
   material.setMode = (name) => { material.uniforms.mode.value = COLOUR_MODES[name] ?? 0; };
   material.setHeightRange = (lo, hi) => { material.uniforms.heightRange.value.set(lo, hi); };
+  material.setMinSupport = (n) => { material.uniforms.minSupport.value = n; };
   return material;
 }

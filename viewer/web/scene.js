@@ -5,7 +5,7 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { FrustumSet } from './frusta.js';
-import { createPointsMaterial } from './points_material.js';
+import { createPointsMaterial, CONFIDENT_SUPPORT, shownAt } from './points_material.js';
 import { EyeDomeLighting } from './edl.js';
 
 // Point colours and thumbnails are sRGB bytes meant to be shown as they are:
@@ -65,6 +65,7 @@ export class Viewer {
 
     this.pointSizePx = 2;
     this.material = createPointsMaterial();
+    this.minSupport = CONFIDENT_SUPPORT;
     this.material.setSize(this.pointSizePx * this.renderer.getPixelRatio());
     this.lod = null; // the OctreeCloud on screen
     this.edl = new EyeDomeLighting();
@@ -166,6 +167,16 @@ export class Viewer {
     this.requestRender();
   }
 
+  /**
+   * Hides the fused points measured by fewer than `n` depth maps, from the
+   * picture and from picking (0 shows every point).
+   */
+  setMinSupport(n) {
+    this.minSupport = n;
+    this.material.setMinSupport(n);
+    this.requestRender();
+  }
+
   setEyeDomeLighting(enabled) {
     this.edl.enabled = enabled;
     this.requestRender();
@@ -173,7 +184,8 @@ export class Viewer {
 
   /**
    * The drawn point nearest the canvas position (clientX, clientY) within
-   * `radiusPx`, among those not hidden on screen: a point is hidden when a
+   * `radiusPx` (low-confidence points hidden by setMinSupport are not
+   * drawn, so not candidates), among those not hidden on screen: a point is hidden when a
    * nearer one (by 1 % of the depth and 5 cm) is drawn within a point's
    * size of it, as its square would cover it. So a click snaps to what is
    * seen, not to a point behind a surface; null when no point is that
@@ -215,7 +227,9 @@ export class Viewer {
     const p = new THREE.Vector4();
     for (const object of this.lod.visibleObjects()) {
       const positions = object.geometry.getAttribute('position').array;
+      const support = object.geometry.getAttribute('support')?.array;
       for (let i = 0; i < positions.length; i += 3) {
+        if (support && !shownAt(support[i / 3], this.minSupport)) continue;
         p.set(positions[i], positions[i + 1], positions[i + 2], 1).applyMatrix4(viewProjection);
         if (p.w <= 0) continue;
         const dx = ((p.x / p.w + 1) / 2) * rect.width - px;

@@ -32,6 +32,12 @@ struct ColoredPoint {
 // neighbour views") are confident; the viewer shows only those by default.
 constexpr uint8_t kConfidentSupport = 3;
 
+// Whether `p` is shown when fused points need `min_support` depth maps: a
+// point that is not fused (support 0: sparse, other tools') always is.
+inline bool shown_at(const ColoredPoint& p, int min_support) {
+  return p.support == 0 || p.support >= min_support;
+}
+
 // The whole file: the header
 //
 //   ply

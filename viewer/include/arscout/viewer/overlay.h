@@ -28,10 +28,14 @@ struct OverlayOptions {
   Cloud cloud = Cloud::kDense;
   int radius = -1;        // splat half-size in output pixels; -1: by size
   double opacity = 0.55;  // of the drawn points over the photo
+  // Fused points measured by fewer depth maps are not drawn (shown_at):
+  // the scout sees the confident cloud only. 0 draws every point.
+  int min_support = engine::kConfidentSupport;
 };
 
 // Draws `points` over `photo` (BGR, original size) seen by `camera`: each
-// point is projected with project(), splatted, z-buffered, and coloured by
+// point shown at the options' min_support is projected with project(),
+// splatted, z-buffered, and coloured by
 // its depth (turbo colour map, near red, far blue, over the 2nd-98th
 // percentile of the drawn depths). Returns the drawn image at the options'
 // size.
