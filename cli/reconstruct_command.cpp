@@ -271,7 +271,10 @@ void write_outputs(const engine::Reconstruction& site,
   fs::create_directories(a.out);
   write_sources(a);
   if (dense) {
-    const auto points = dense->points();
+    const double voxel = dense->voxel_size();
+    const auto points = engine::without_isolated_points(
+        dense->points(), engine::kIsolatedRadiusVoxels * voxel,
+        voxel > 0 ? engine::kIsolatedMinNeighbours : 0);
     engine::write_ply(a.out + "/dense.ply", points);
     std::cout << "dense cloud: " << points.size() << " points from "
               << dense->filtered_depth_maps().size() << " depth maps, wrote "

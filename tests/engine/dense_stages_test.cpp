@@ -99,6 +99,39 @@ TEST(DenseStagesNormals, ExactDepthsGiveTheSurfacesNormals) {
 }
 
 // ---------------------------------------------------------------------------
+// without_isolated_points
+
+// A wall sampled every voxel (1 cm) keeps every point, its edges and
+// corners included; floaters standing alone, or in pairs, 10 cm and more
+// from anything, are dropped.
+TEST(DenseStagesIsolatedPoints, FloatersGoTheSurfaceStays) {
+  const double voxel = 0.01;
+  std::vector<ColoredPoint> points;
+  for (int i = 0; i < 100; ++i)
+    for (int j = 0; j < 60; ++j)
+      points.push_back({static_cast<float>(i * voxel), 5,
+                        static_cast<float>(j * voxel), 1, 2, 3});
+  const size_t wall = points.size();
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> across(-3, 3);
+  for (int k = 0; k < 200; ++k) {
+    ColoredPoint p{across(rng), 2 + across(rng) / 10, 1 + across(rng), 9, 9, 9};
+    points.push_back(p);
+    if (k % 2) {  // a pair: one neighbour is not enough
+      p.x += 0.5f * voxel;
+      points.push_back(p);
+    }
+  }
+  const auto kept = without_isolated_points(
+      points, kIsolatedRadiusVoxels * voxel, kIsolatedMinNeighbours);
+  ASSERT_EQ(kept.size(), wall);
+  for (size_t i = 0; i < wall; ++i) EXPECT_EQ(kept[i].x, points[i].x);
+  EXPECT_EQ(without_isolated_points(points, 0.025, 0).size(), points.size());
+  EXPECT_TRUE(without_isolated_points({}, 0.025, 2).empty());
+  EXPECT_THROW(without_isolated_points(points, 0, 2), std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------
 // sweep_directions
 
 class DenseStagesSweepDirections : public ::testing::Test {

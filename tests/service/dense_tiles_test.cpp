@@ -42,6 +42,36 @@ struct FakeBlobs {
   }
 };
 
+// The outlier pass runs in each stored tile: a point standing alone is not
+// in its PLY, the tile's fused count still holds it, and the same fused
+// points stored again keep the blob.
+TEST(DenseTiles, IsolatedPointsAreLeftOutOfTheStoredTile) {
+  std::vector<ColoredPoint> points;
+  for (int i = 0; i < 50; ++i)
+    for (int j = 0; j < 50; ++j)
+      points.push_back({0.1f * i, 0.1f * j, 0, 1, 1, 1});
+  points.push_back({2.5f, 2.5f, 3, 200, 0, 0});  // 3 m above the patch
+  FakeBlobs blobs;
+  const DenseTiles tiles =
+      store_dense_tiles(points, 10, {}, blobs.putter(), 0.25, 2);
+  ASSERT_EQ(tiles.size(), 1u);
+  const DenseTile& tile = tiles.begin()->second;
+  EXPECT_EQ(tile.fused, points.size());
+  EXPECT_EQ(tile.points, points.size() - 1);
+  const auto content = decode_ply(blobs.stored.at(tile.blob));
+  ASSERT_EQ(content.size(), tile.points);
+  for (const ColoredPoint& p : content) EXPECT_EQ(p.z, 0);
+  const DenseTiles again =
+      store_dense_tiles(points, 10, tiles, blobs.putter(), 0.25, 2);
+  EXPECT_EQ(again.begin()->second.blob, tile.blob);
+  EXPECT_EQ(again.begin()->second.points, tile.points);
+  EXPECT_EQ(blobs.stored.size(), 1u);
+  // Both counts survive the model document.
+  const DenseTiles back = dense_tiles_from_json(dense_tiles_json(tiles));
+  EXPECT_EQ(back.begin()->second.fused, tile.fused);
+  EXPECT_EQ(back.begin()->second.points, tile.points);
+}
+
 TEST(DenseTiles, ColumnsOfTheFrameHoldEveryPointOnce) {
   const auto points = random_cloud(20000, 20);  // 40 m across, 10 m tiles
   FakeBlobs blobs;

@@ -1,5 +1,7 @@
 #include "dense_tiles.h"
 
+#include "arscout/engine/dense_reconstruction.h"
+
 #include "arscout/db/document.h"
 #include "arscout/db/store.h"
 #include "arscout/engine/service.h"
@@ -129,7 +131,8 @@ double dense_tile_size(double voxel) { return 512 * voxel; }
 DenseTiles store_dense_tiles(
     const std::vector<ColoredPoint>& points, double size,
     const DenseTiles& published,
-    const std::function<std::string(const std::string& bytes)>& put_blob) {
+    const std::function<std::string(const std::string& bytes)>& put_blob,
+    double isolated_radius, int isolated_min_neighbours) {
   // One pass for each point's tile, coarser while there are too many; then
   // the tiles' hashes; the points are gathered only for the tiles that
   // changed.
@@ -143,25 +146,31 @@ DenseTiles store_dense_tiles(
   for (std::size_t i = 0; i < points.size(); ++i) {
     DenseTile& tile = found[tile_of[i]];
     tile.hash += point_hash(points[i]);
-    ++tile.points;
+    ++tile.fused;
   }
   std::vector<std::vector<ColoredPoint>> changed(found.size());
   std::vector<bool> is_changed(found.size(), false);
   for (std::size_t t = 0; t < found.size(); ++t) {
     const auto was = published.find(names[t]);
     if (was != published.end() && was->second.hash == found[t].hash &&
-        was->second.points == found[t].points && !was->second.blob.empty())
+        was->second.fused == found[t].fused && !was->second.blob.empty()) {
       found[t].blob = was->second.blob;
-    else
+      found[t].points = was->second.points;
+    } else {
       is_changed[t] = true;
+    }
   }
   for (std::size_t i = 0; i < points.size(); ++i)
     if (is_changed[tile_of[i]]) changed[tile_of[i]].push_back(points[i]);
   DenseTiles tiles;
   for (std::size_t t = 0; t < found.size(); ++t) {
-    if (is_changed[t])
+    if (is_changed[t]) {
+      const std::vector<ColoredPoint> kept = without_isolated_points(
+          changed[t], isolated_radius, isolated_min_neighbours);
+      found[t].points = kept.size();
       found[t].blob =
-          put_blob(encode_ply(changed[t], "arscout dense tile " + names[t]));
+          put_blob(encode_ply(kept, "arscout dense tile " + names[t]));
+    }
     tiles[names[t]] = found[t];
   }
   return tiles;
@@ -173,6 +182,7 @@ nlohmann::json dense_tiles_json(const DenseTiles& tiles) {
     array.push_back({{"tile", name},
                      {"blob", tile.blob},
                      {"points", tile.points},
+                     {"fused", tile.fused},
                      {"hash", std::to_string(tile.hash)}});
   return array;
 }
@@ -184,6 +194,9 @@ DenseTiles dense_tiles_from_json(const nlohmann::json& attr) {
     DenseTile tile;
     tile.blob = entry.value("blob", "");
     tile.points = entry.value("points", std::size_t{0});
+    // Documents from before the outlier pass have no "fused": 0 differs
+    // from any tile's count, so the next dense phase stores it again.
+    tile.fused = entry.value("fused", std::size_t{0});
     try {
       tile.hash = std::stoull(entry.value("hash", "0"));
     } catch (const std::exception&) {

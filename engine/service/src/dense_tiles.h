@@ -19,8 +19,9 @@ namespace arscout::engine::service {
 
 struct DenseTile {
   std::string blob;        // SHA-256 of its PLY
-  std::uint64_t hash = 0;  // of its points, in any order
-  std::size_t points = 0;
+  std::uint64_t hash = 0;  // of its fused points, in any order
+  std::size_t fused = 0;   // fused points, before the outlier pass
+  std::size_t points = 0;  // in its PLY
 };
 
 // By tile name ("ix_iy": the column's integer coordinates).
@@ -38,15 +39,18 @@ constexpr std::size_t kMaxDenseTiles = 1024;
 
 // Splits `points` into tiles of edge `size` (doubled until there are at
 // most kMaxDenseTiles) and stores (put_blob) the PLY of each tile whose
-// points differ from its entry in `published`; the others keep their blob.
-// Returns every non-empty tile.
+// points differ from its entry in `published`, without its isolated points
+// (without_isolated_points with `isolated_radius` and
+// `isolated_min_neighbours`, within the tile; 0 neighbours keeps them);
+// the others keep their blob. Returns every non-empty tile.
 DenseTiles store_dense_tiles(
     const std::vector<ColoredPoint>& points, double size,
     const DenseTiles& published,
-    const std::function<std::string(const std::string& bytes)>& put_blob);
+    const std::function<std::string(const std::string& bytes)>& put_blob,
+    double isolated_radius = 0, int isolated_min_neighbours = 0);
 
 // The model document's "dense_tiles" attribute (docs/service.md): an array
-// of {tile, blob, points, hash (decimal string)}, by tile name.
+// of {tile, blob, points, fused, hash (decimal string)}, by tile name.
 nlohmann::json dense_tiles_json(const DenseTiles& tiles);
 // Its inverse (a tile without a readable hash is stored again by the next
 // dense phase).

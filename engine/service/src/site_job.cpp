@@ -569,7 +569,9 @@ void SiteJob::compute_dense(DenseTask& task) {
   task.views.insert(covered.begin(), covered.end());
   task.tiles = store_dense_tiles(
       dense.points(), dense_tile_size(dense.voxel_size()), task.published,
-      [this](const std::string& bytes) { return store_.put_blob(bytes); });
+      [this](const std::string& bytes) { return store_.put_blob(bytes); },
+      kIsolatedRadiusVoxels * dense.voxel_size(),
+      dense.voxel_size() > 0 ? kIsolatedMinNeighbours : 0);
   task.voxel_size = dense.voxel_size();
   task.seconds = seconds_since(start);
 }

@@ -25,6 +25,23 @@
 
 namespace arscout::engine {
 
+// The last outlier pass (docs/dense.md, "Isolated points"): `points`
+// without those that have fewer than `min_neighbours` others within
+// `radius` (radius outlier removal, as PCL's RadiusOutlierRemoval), in
+// their order; all of them when min_neighbours <= 0 (or there are none).
+// Linear in the points
+// (a hash grid of `radius` cells). The service runs it on each dense tile
+// it stores, reconstruct on the cloud it writes. Throws
+// std::invalid_argument for a radius <= 0.
+std::vector<ColoredPoint> without_isolated_points(
+    const std::vector<ColoredPoint>& points, double radius, int min_neighbours);
+
+// Its defaults for a cloud of voxel edge `voxel`: a point needs 2 others
+// within 2.5 voxels. A surface seen head-on fills about 20 voxels within
+// that radius, its edge half as many; a floater standing alone none.
+constexpr double kIsolatedRadiusVoxels = 2.5;
+constexpr int kIsolatedMinNeighbours = 2;
+
 struct DenseOptions {
   int long_side = 640;  // dense working resolution (long side, pixels)
   PlaneSweepOptions sweep;
