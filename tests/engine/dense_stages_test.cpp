@@ -706,6 +706,39 @@ TEST(DenseStagesVoxelCloud, RemoveUndoesAdd) {
     EXPECT_NEAR(left[k].x, 3.0 * k + 0.5, 1e-4);
 }
 
+// A voxel's normal is the unit mean of its samples' and its support their
+// rounded mean; a sample's support can change in place, and removing every
+// sample leaves nothing.
+TEST(DenseStagesVoxelCloud, MeanNormalAndSupportFollowTheSamples) {
+  VoxelCloud cloud(1.0);
+  const CloudSample a{{0.2, 0.2, 0.2}, {10, 20, 30}, {1, 0, 0}, 2};
+  const CloudSample b{{0.4, 0.4, 0.4}, {10, 20, 30}, {0, 1, 0}, 5};
+  cloud.add(a);
+  cloud.add(b);
+  auto points = cloud.points();
+  ASSERT_EQ(points.size(), 1u);
+  EXPECT_NEAR(points[0].nx, std::sqrt(0.5), 1e-6);
+  EXPECT_NEAR(points[0].ny, std::sqrt(0.5), 1e-6);
+  EXPECT_EQ(points[0].nz, 0);
+  EXPECT_EQ(points[0].support, 4);  // (2 + 5) / 2, rounded
+  EXPECT_TRUE(cloud.change_support(a.xyz, 2, 9));
+  EXPECT_EQ(cloud.points()[0].support, 7);
+  EXPECT_FALSE(cloud.change_support({5.5, 0.5, 0.5}, 1, 2));
+  CloudSample a_now = a;
+  a_now.support = 9;
+  EXPECT_TRUE(cloud.remove(a_now));
+  points = cloud.points();
+  ASSERT_EQ(points.size(), 1u);
+  EXPECT_NEAR(points[0].ny, 1, 1e-6);
+  EXPECT_EQ(points[0].support, 5);
+  EXPECT_TRUE(cloud.remove(b));
+  EXPECT_EQ(cloud.size(), 0u);
+  // Plain points carry neither.
+  cloud.add({0.5, 0.5, 0.5}, {1, 1, 1});
+  EXPECT_EQ(cloud.points()[0].support, 0);
+  EXPECT_EQ(cloud.points()[0].nx, 0);
+}
+
 TEST(DenseStagesVoxelCloud, MeanPositionAndRoundedMeanColour) {
   VoxelCloud cloud(1.0);
   cloud.add({0.1, 0.2, 0.3}, {10, 200, 0});

@@ -1,6 +1,7 @@
 #include "dense/depth_normals.h"
 
 #include <cmath>
+#include <vector>
 
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>

@@ -1,8 +1,6 @@
 #include "dense/map_fusion.h"
 
 #include <algorithm>
-#include <cmath>
-#include <optional>
 
 #include "dense/depth_normals.h"
 
