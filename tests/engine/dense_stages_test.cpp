@@ -127,6 +127,13 @@ TEST(DenseStagesIsolatedPoints, FloatersGoTheSurfaceStays) {
   ASSERT_EQ(kept.size(), wall);
   for (size_t i = 0; i < wall; ++i) EXPECT_EQ(kept[i].x, points[i].x);
   EXPECT_EQ(without_isolated_points(points, 0.025, 0).size(), points.size());
+  // Points no fusion makes, far off or not numbers, are dropped, not a
+  // crash or an overflow.
+  std::vector<ColoredPoint> odd = {{1e30f, 0, 0}, {-1e30f, 0, 0}};
+  odd.push_back({std::numeric_limits<float>::infinity(), 0, 0});
+  odd.push_back({std::numeric_limits<float>::quiet_NaN(), 0, 0});
+  odd.insert(odd.end(), points.begin(), points.begin() + wall);
+  EXPECT_EQ(without_isolated_points(odd, 0.025, 2).size(), wall);
   EXPECT_TRUE(without_isolated_points({}, 0.025, 2).empty());
   EXPECT_THROW(without_isolated_points(points, 0, 2), std::invalid_argument);
 }

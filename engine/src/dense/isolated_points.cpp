@@ -1,6 +1,7 @@
 // The last outlier pass over a fused cloud: radius outlier removal on a
 // hash grid whose cells are the radius, so each point's neighbours are in
 // its own cell and the 26 around it.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -17,15 +18,25 @@ using Cell = std::array<std::int64_t, 3>;
 
 struct CellHash {
   std::size_t operator()(const Cell& c) const {
-    return static_cast<std::size_t>(c[0] * 73856093LL ^ c[1] * 19349663LL ^
-                                    c[2] * 83492791LL);
+    // Unsigned: wrapping is defined.
+    const auto u = [](std::int64_t v) { return static_cast<std::uint64_t>(v); };
+    return static_cast<std::size_t>(
+        u(c[0]) * 73856093ULL ^ u(c[1]) * 19349663ULL ^ u(c[2]) * 83492791ULL);
   }
 };
 
+// A coordinate's cell, clamped far beyond any site (and NaN to 0) so that
+// the conversion is always defined.
+std::int64_t cell_index(float v, double radius) {
+  constexpr double kFar = 1e15;
+  const double index = std::floor(v / radius);
+  if (!(index > -kFar)) return index < 0 ? static_cast<std::int64_t>(-kFar) : 0;
+  return static_cast<std::int64_t>(std::min(index, kFar));
+}
+
 Cell cell_of(const ColoredPoint& p, double radius) {
-  return {static_cast<std::int64_t>(std::floor(p.x / radius)),
-          static_cast<std::int64_t>(std::floor(p.y / radius)),
-          static_cast<std::int64_t>(std::floor(p.z / radius))};
+  return {cell_index(p.x, radius), cell_index(p.y, radius),
+          cell_index(p.z, radius)};
 }
 
 // Whether `p` has at least `wanted` points other than itself within
