@@ -4,6 +4,9 @@
 # skip WHY: exits 77 (skipped), except under CI=true, where it fails.
 # use_work_dir: sets $work to a fresh folder; on exit the server started
 # by start_server is stopped and the folder removed.
+# copy_fixture_store FIXTURE: use_work_dir, then a copy of the SQLite store
+# of the viewer_fountain fixture in FIXTURE (make_fountain_site.sh) in
+# $work, its URL in $db; fails when the fixture is not ready.
 # start_server LOG ARGS...: runs `$bin serve ARGS...` in the background with
 # its output in LOG, sets $server (the pid) and $url (its address, http or
 # https), or fails with the log.
@@ -31,4 +34,11 @@ use_work_dir() {
   work=$(mktemp -d)
   server=""
   trap 'if [ -n "$server" ]; then kill "$server" 2>/dev/null; wait "$server" 2>/dev/null; fi; rm -rf "$work"' EXIT
+}
+
+copy_fixture_store() {
+  [ -f "$1/ready" ] || { echo "FAIL: no fountain site in $1"; exit 1; }
+  use_work_dir
+  cp "$1"/arscout.db* "$work/"
+  db="sqlite:$work/arscout.db"
 }

@@ -33,6 +33,7 @@
 
 import fs from 'node:fs';
 import { requireFromViewer, log, TestFailure, fail, SOFTWARE_WEBGL_ARGS } from './harness.mjs';
+import { settleView, lookAt, screenPosition } from './viewer_page.mjs';
 
 const { chromium } = requireFromViewer('playwright-core');
 
@@ -74,20 +75,7 @@ async function openSite(page, site) {
     const app = window.arscoutViewer;
     return app?.state.site === id && app.viewer.lod && document.body.dataset.cloud === 'loaded';
   }, site, { timeout: 300000, polling: 200 });
-  return settle(page);
-}
-
-/** Renders until the cloud wants nothing more; returns the drawn figures. */
-async function settle(page) {
-  await page.waitForFunction(() => {
-    const { viewer } = window.arscoutViewer;
-    viewer.renderNow();
-    return viewer.lod.settled;
-  }, null, { timeout: 300000, polling: 250 });
-  return page.evaluate(() => {
-    const { lod } = window.arscoutViewer.viewer;
-    return { total: lod.totalPoints, drawn: lod.drawnPoints, budget: lod.budget, loaded: lod.loadedPoints };
-  });
+  return settleView(page);
 }
 
 /** Opens a site, settles, and times frames at its home view. */
@@ -136,17 +124,6 @@ const VIEW = { eye: [-4, -4, 20], target: [5, 10, 8] };
 const CLICK_DISTANCE_M = 8;
 const CLICK_FROM = [-0.15, -0.45, 1];
 
-/** Moves the camera, and settles. */
-async function look(page, { eye, target }) {
-  await page.evaluate(([e, t]) => {
-    const { viewer } = window.arscoutViewer;
-    viewer.camera.position.set(...e);
-    viewer.controls.target.set(...t);
-    viewer.controls.update();
-  }, [eye, target]);
-  return settle(page);
-}
-
 /**
  * Zooms in on a world point from above (CLICK_FROM), as one does to click
  * a corner, then clicks where it is drawn; the viewer snaps to the cloud.
@@ -154,16 +131,11 @@ async function look(page, { eye, target }) {
 async function clickAt(page, point) {
   const away = CLICK_FROM;
   const norm = Math.hypot(...away);
-  await look(page, { eye: point.map((p, a) => p + (away[a] / norm) * CLICK_DISTANCE_M), target: point });
+  await lookAt(page, point.map((p, a) => p + (away[a] / norm) * CLICK_DISTANCE_M), point);
   // Clicks on one spot in quick succession make a double click, which
   // finishes a measurement: leave the time a hand would.
   await page.waitForTimeout(600);
-  const at = await page.evaluate(([x, y, z]) => {
-    const { viewer } = window.arscoutViewer;
-    const p = viewer.toScreen({ x, y, z });
-    const rect = viewer.canvas.getBoundingClientRect();
-    return p && { x: rect.left + p.x, y: rect.top + p.y };
-  }, point);
+  const at = await screenPosition(page, point);
   if (!at) fail(`${point} is behind the camera`);
   await page.mouse.click(at.x, at.y);
   const picked = await page.evaluate(([x, y]) => window.arscoutViewer.viewer.pick(x, y)?.toArray(), [at.x, at.y]);
@@ -242,7 +214,7 @@ async function pixels(page, points) {
  */
 async function checkShading(page) {
   await page.click('#measure-clear');
-  await look(page, VIEW);
+  await lookAt(page, VIEW.eye, VIEW.target);
   const probes = [[5, 13, 12], PAVEMENT];
   await page.selectOption('#colour-mode', 'height');
   const [roof, ground] = (await pixels(page, probes)).around;
@@ -326,7 +298,7 @@ async function run(browser, page) {
     big_open_s: big.openS,
   };
 
-  const near = await look(page, VIEW);
+  const near = await lookAt(page, VIEW.eye, VIEW.target);
   log(`close to the house: ${near.drawn} points drawn, ${near.loaded} in memory`);
   const mem = await memory(browser, page);
   Object.assign(figures, { page_pss_mb: mem.page, js_heap_mb: mem.jsHeap, pss_by_process_mb: mem.byType });
@@ -335,7 +307,7 @@ async function run(browser, page) {
 
   const distance = await measure(page, 'distance', EDGE);
   figures.edge_m = distance.total;
-  await look(page, VIEW);
+  await lookAt(page, VIEW.eye, VIEW.target);
   if (config.screenshot) await page.screenshot({ path: config.screenshot });
   const picked = await page.evaluate(() => ({ ...document.getElementById('picked-point').dataset }));
   log(`picked point: ${picked.crs} ${picked.coordinates}`);

@@ -36,10 +36,7 @@ tiles3d_setup() {
 }
 
 export_site_tileset() {
-  [ -f "$fixture/ready" ] || { echo "FAIL: no fountain site in $fixture"; exit 1; }
-  use_work_dir
-  cp "$fixture"/arscout.db* "$work/"
-  local db="sqlite:$work/arscout.db"
+  copy_fixture_store "$fixture"
   # The fixture holds exactly one site (make_fountain_site.sh); `db ls`
   # prints PATH<TAB>KIND<TAB>vVERSION per document.
   local sites

@@ -24,6 +24,7 @@
 // Prints one JSON line of figures ("figures: {...}") for bench/RESULTS.md.
 
 import { requireFromViewer, log, TestFailure, fail, SOFTWARE_WEBGL_ARGS } from './harness.mjs';
+import { settleView, lookAt, screenPosition } from './viewer_page.mjs';
 
 const { chromium } = requireFromViewer('playwright-core');
 
@@ -65,15 +66,6 @@ async function signIn(page) {
   await page.waitForSelector('body[data-cloud="loaded"]', { timeout: 300000 });
   log(`opened site ${site}`);
   return site;
-}
-
-/** Renders until every node the view wants is on screen. */
-async function settle(page) {
-  await page.waitForFunction(() => {
-    const { viewer } = window.arscoutViewer;
-    viewer.renderNow();
-    return viewer.lod.settled;
-  }, null, { timeout: 300000, polling: 250 });
 }
 
 /**
@@ -178,21 +170,10 @@ async function cameraCentres(site) {
 
 /** Looks at `target` from `eye`, settles, and clicks where it is drawn. */
 async function clickFrom(page, eye, target) {
-  await page.evaluate(([e, t]) => {
-    const { viewer } = window.arscoutViewer;
-    viewer.camera.position.set(...e);
-    viewer.controls.target.set(...t);
-    viewer.controls.update();
-  }, [eye, target]);
-  await settle(page);
+  await lookAt(page, eye, target);
   // Clicks on one spot in quick succession would make a double click.
   await page.waitForTimeout(600);
-  const at = await page.evaluate(([x, y, z]) => {
-    const { viewer } = window.arscoutViewer;
-    const p = viewer.toScreen({ x, y, z });
-    const rect = viewer.canvas.getBoundingClientRect();
-    return p && { x: rect.left + p.x, y: rect.top + p.y };
-  }, target);
+  const at = await screenPosition(page, target);
   if (!at) fail(`${target} is behind the camera`);
   await page.mouse.click(at.x, at.y);
 }
@@ -226,7 +207,7 @@ async function tries(page, targets) {
 
 async function run(page) {
   const site = await signIn(page);
-  await settle(page);
+  await settleView(page);
   const cameras = await cameraCentres(site);
   const points = await shownPoints(page);
   const targets = clickTargets(points, cameras);

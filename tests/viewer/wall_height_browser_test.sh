@@ -17,12 +17,8 @@ chromium=${CHROMIUM:-/usr/bin/chromium}
 source "$(dirname "$0")/browser_support.sh"
 need_browser
 [ -d "$scene/images" ] || skip "$scene not found"
-[ -f "$fixture/ready" ] || { echo "FAIL: no fountain site in $fixture"; exit 1; }
-
-use_work_dir
-cp "$fixture"/arscout.db* "$work/"
-start_server "$work/server.log" --db "sqlite:$work/arscout.db" \
-  --listen 127.0.0.1:0
+copy_fixture_store "$fixture"
+start_server "$work/server.log" --db "$db" --listen 127.0.0.1:0
 status=0
 SERVER="$url" PLANNER_TOKEN=$(cat "$fixture/planner.token") \
   SCREENSHOT="$fixture/wall-height.png" CHROMIUM="$chromium" \
