@@ -456,6 +456,18 @@ void add_reconstruct_command(CLI::App& app) {
                   "row (5 x 5 grey std below this, 0-255; 0: off)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 255.0));
+  cmd->add_option("--dense-min-angle",
+                  args.dense_options.sweep.min_triangulation_deg,
+                  "drop a depth that no neighbour sees at this triangulation "
+                  "angle or more (degrees; 0: off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 30.0));
+  cmd->add_option("--dense-distinct-margin",
+                  args.dense_options.consistency.distinct_margin,
+                  "a depth whose ZNCC beats every other depth's by less than "
+                  "this needs one more agreeing depth map (0: off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   cmd->add_flag_callback(
       "--dense-no-ground",
       [] { args.dense_options.sweep.ground_direction = false; },

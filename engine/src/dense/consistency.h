@@ -56,6 +56,13 @@ PairVerdict judge_pair(const DepthMap& map, const DepthMap& other,
 inline bool fusable(uint8_t agreed, uint8_t conflicts, int min_agreeing_maps) {
   return agreed >= min_agreeing_maps && agreed > conflicts;
 }
+// The same for a pixel whose match is ambiguous (`ambiguous`: its margin
+// over the runner-up is under ConsistencyOptions::distinct_margin): it
+// needs one more agreeing map.
+inline bool fusable(uint8_t agreed, uint8_t conflicts, int min_agreeing_maps,
+                    bool ambiguous) {
+  return fusable(agreed, conflicts, min_agreeing_maps + (ambiguous ? 1 : 0));
+}
 
 // Median of |z_a - z_b| / z_b over the pixels of `a` whose points fall on a
 // depth in `b` (no tolerance applied), and how many there were.

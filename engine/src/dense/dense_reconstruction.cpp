@@ -236,6 +236,8 @@ struct DenseReconstruction::Impl {
     cv::Mat agreed;  // CV_8U: how many other maps agree (saturating)
     // CV_8U: how many are in free-space conflict with it (saturating)
     cv::Mat conflicts;
+    // CV_8U: 255 where the match is ambiguous (distinct_margin)
+    cv::Mat ambiguous;
     MapFusion fusion;  // what it put into the cloud
     // The pose of its last fusion whole; moving away from it re-fuses it.
     Eigen::Vector3d fused_centre = Eigen::Vector3d::Zero();
@@ -264,7 +266,7 @@ struct DenseReconstruction::Impl {
     }
     FusionInput fusion_input(int min_agreeing) const {
       return {&depth_as_swept(), depth_scale, &agreed, &conflicts, min_agreeing,
-              &colour,           map.K,       map.R,   map.t};
+              &ambiguous,        &colour,     map.K,   map.R,      map.t};
     }
     // Adds one other map's word on this one to the counts (saturating):
     // `mine` is this map judged against it, `theirs` it judged against this
@@ -279,11 +281,14 @@ struct DenseReconstruction::Impl {
       for (int y = 0; y < mask.rows; ++y)
         for (int x = 0; x < mask.cols; ++x)
           if (fusable(agreed.at<uint8_t>(y, x), conflicts.at<uint8_t>(y, x),
-                      min_agreeing))
+                      min_agreeing, ambiguous.at<uint8_t>(y, x)))
             mask.at<uint8_t>(y, x) = 255;
       return mask;
     }
-    void start_fusion() {
+    void start_fusion(double distinct_margin) {
+      ambiguous = cv::Mat::zeros(map.depth.size(), CV_8U);
+      if (distinct_margin > 0 && !map.margin.empty())
+        ambiguous = map.margin < distinct_margin;
       agreed = cv::Mat::zeros(map.depth.size(), CV_8U);
       conflicts = cv::Mat::zeros(map.depth.size(), CV_8U);
       fusion = MapFusion();  // a new map: its normals too
@@ -529,7 +534,7 @@ bool DenseReconstruction::Impl::sweep(const Model& model, int key,
     entry.neighbours.push_back(model.images[n].id);
   entry.sequence = next_sequence++;
   entry.colour = key_view.bgr;
-  entry.start_fusion();
+  entry.start_fusion(options.consistency.distinct_margin);
   entries[id] = std::move(entry);
   order.push_back(id);
   update->new_depth_maps.push_back(id);
@@ -787,7 +792,7 @@ DenseUpdate DenseReconstruction::restore_depth_maps(
     entry.sparse_ratio = swept.sparse_depth_ratio;
     entry.map = std::move(swept.map);
     entry.colour = colour;
-    entry.start_fusion();
+    entry.start_fusion(impl_->options.consistency.distinct_margin);
     adopted.emplace_back(id, std::move(entry));
   }
   const double loading_s = seconds_since(start);

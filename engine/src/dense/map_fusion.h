@@ -35,6 +35,9 @@ struct FusionInput {
   const cv::Mat* agreed = nullptr;
   const cv::Mat* conflicts = nullptr;
   int min_agreeing = 1;
+  // CV_8U, 255 where the match is ambiguous (one more map must agree);
+  // null: none is.
+  const cv::Mat* ambiguous = nullptr;
   const cv::Mat* bgr = nullptr;
   Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();

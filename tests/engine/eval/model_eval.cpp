@@ -501,6 +501,36 @@ Similarity fit_similarity(const std::vector<Eigen::Vector3d>& from,
   return sim;
 }
 
+Similarity fit_similarity_robust(const std::vector<Eigen::Vector3d>& from,
+                                 const std::vector<Eigen::Vector3d>& to,
+                                 int* used) {
+  Similarity sim = fit_similarity(from, to);
+  std::vector<bool> kept(from.size(), true);
+  for (int round = 0; round < 10; ++round) {
+    std::vector<double> residuals;
+    for (size_t i = 0; i < from.size(); ++i)
+      residuals.push_back((sim.apply(from[i]) - to[i]).norm());
+    std::vector<double> sorted = residuals;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2,
+                     sorted.end());
+    const double limit = 5 * sorted[sorted.size() / 2];
+    std::vector<bool> within(from.size());
+    std::vector<Eigen::Vector3d> a, b;
+    for (size_t i = 0; i < from.size(); ++i) {
+      within[i] = residuals[i] <= limit;
+      if (!within[i]) continue;
+      a.push_back(from[i]);
+      b.push_back(to[i]);
+    }
+    if (within == kept || a.size() < 3) break;
+    kept = within;
+    sim = fit_similarity(a, b);
+  }
+  if (used)
+    *used = static_cast<int>(std::count(kept.begin(), kept.end(), true));
+  return sim;
+}
+
 Pose transform_pose(const Similarity& sim, const Pose& pose) {
   // Camera-to-world R^T becomes sim.R * R^T, so world-to-camera R sim.R^T.
   Pose out = Pose::from_centre(pose.name, pose.R * sim.R.transpose(),

@@ -108,6 +108,17 @@ struct Similarity {
 Similarity fit_similarity(const std::vector<Eigen::Vector3d>& from,
                           const std::vector<Eigen::Vector3d>& to);
 
+// The similarity the bulk of the points agree on: fit_similarity on all of
+// them, then again on those whose residual is within five times the
+// median residual, until that set stops changing (at most 10 rounds). A
+// model whose cameras are mostly right but holds a small part placed apart
+// (a component of three photos placed by its own GPS fixes) is aligned by
+// the rest, not pulled toward the part. *used (when not null) gets how many
+// points the last fit used. The same errors as fit_similarity.
+Similarity fit_similarity_robust(const std::vector<Eigen::Vector3d>& from,
+                                 const std::vector<Eigen::Vector3d>& to,
+                                 int* used = nullptr);
+
 // Maps a pose through the similarity: its centre goes to sim.apply(centre),
 // its camera-to-world rotation R^T to sim.R * R^T.
 Pose transform_pose(const Similarity& sim, const Pose& pose);

@@ -192,6 +192,43 @@ TEST(FitSimilarity, RecoversAKnownSimilarityExactly) {
   EXPECT_NEAR(fit.R.determinant(), 1, 1e-12);
 }
 
+// A few points placed apart (a small component placed by its own fixes)
+// pull the plain fit off; the robust fit is aligned by the others and says
+// how many it used.
+TEST(FitSimilarity, TheRobustFitIsNotPulledByAPartPlacedApart) {
+  std::mt19937 rng(11);
+  const ev::Similarity truth{0.5, random_rotation(rng), Vector3d(1, 2, 3)};
+  std::normal_distribution<double> noise(0, 0.005);
+  std::vector<Vector3d> from, to;
+  for (int i = 0; i < 40; ++i) {
+    from.push_back(random_vector(rng, 50));
+    Vector3d jitter(noise(rng), noise(rng), noise(rng));
+    to.push_back(truth.apply(from.back()) + jitter);
+    if (i < 3) to.back() += Vector3d(1.8, 0, 0);
+  }
+  int used = 0;
+  const ev::Similarity robust = ev::fit_similarity_robust(from, to, &used);
+  const ev::Similarity plain = ev::fit_similarity(from, to);
+  EXPECT_EQ(used, 37);
+  double robust_error = 0, plain_error = 0;
+  for (int i = 3; i < 40; ++i) {
+    robust_error = std::max(
+        robust_error, (robust.apply(from[i]) - truth.apply(from[i])).norm());
+    plain_error = std::max(
+        plain_error, (plain.apply(from[i]) - truth.apply(from[i])).norm());
+  }
+  EXPECT_LT(robust_error, 0.01);
+  EXPECT_GT(plain_error, 0.1);
+  // Without a part apart it is the plain fit.
+  from.erase(from.begin(), from.begin() + 3);
+  to.erase(to.begin(), to.begin() + 3);
+  used = 0;
+  const ev::Similarity clean = ev::fit_similarity_robust(from, to, &used);
+  const ev::Similarity all = ev::fit_similarity(from, to);
+  EXPECT_GE(used, 36);
+  EXPECT_LT((clean.t - all.t).norm(), 0.01);
+}
+
 TEST(FitSimilarity, RejectsTooFewMismatchedOrCoincidentPoints) {
   const std::vector<Vector3d> two{Vector3d(0, 0, 0), Vector3d(1, 0, 0)};
   EXPECT_THROW(ev::fit_similarity(two, two), std::invalid_argument);

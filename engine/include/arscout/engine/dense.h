@@ -58,6 +58,12 @@ struct PlaneSweepOptions {
   // levels varying by less than this, standard deviation 0-255) gets no
   // depth (dense/sky_mask.h); 0 turns the mask off.
   double sky_max_texture = 3.0;
+  // Triangulation: a depth whose point the key's ray and every
+  // neighbour's ray meet at less than this angle (degrees) is dropped. Near
+  // a forward-moving camera's epipole the parallax between planes is a
+  // fraction of a pixel, and a winner there is noise (COLMAP's
+  // filter_min_triangulation_angle). 0 keeps every depth.
+  double min_triangulation_deg = 3.0;
   bool use_cuda = false;  // the CUDA path, when built with ARSCOUT_CUDA
   // Strips over OpenCV's worker threads; false keeps the sweep on the
   // calling thread (the same map either way). A caller that sweeps beside
@@ -152,6 +158,11 @@ struct ConsistencyOptions {
   // more maps agree with it than see through it (docs/dense.md). 0 turns
   // the check off.
   double free_space_margin = 0.05;
+  // Photometric confidence: a depth whose ZNCC beats the best score at
+  // another depth by less than this (DepthMap::margin) is ambiguous
+  // (repeated or faint texture, a window across a depth edge) and needs one
+  // more agreeing map than min_agreeing_maps. 0 turns it off.
+  double distinct_margin = 0.0;
   bool parallel = true;  // rows over OpenCV's threads (PlaneSweepOptions)
 };
 
