@@ -5,6 +5,7 @@
 //                 [--height 768] [--real DIR]... [--no-real] [--no-block]
 //                 [--dense-long-side 640] [--work /tmp/arscout-dense-quality]
 //                 [--arscout PATH] [--reconstruct-args "..."] [--check]
+//                 [--measure-only]
 //
 // Each scene goes through `arscout reconstruct --dense` as a child process
 // (its log and outputs in WORK/NAME/). For each seed, a block walk is
@@ -82,6 +83,7 @@ struct Options {
   std::string arscout = ARSCOUT_EXE;
   std::string reconstruct_args;
   bool check = false;
+  bool measure_only = false;  // measure WORK's outputs of an earlier run
 };
 
 struct Row {
@@ -132,6 +134,11 @@ bool reconstruct(const Options& o, const fs::path& scene, const fs::path& dir,
                 {"--camera", (scene / "images" / "K.txt").string()});
   std::istringstream extra(o.reconstruct_args);
   for (std::string word; extra >> word;) args.push_back(word);
+  if (o.measure_only) {
+    if (fs::exists(dir / "out/dense.ply")) return true;
+    row.error = "no earlier run's " + (dir / "out/dense.ply").string();
+    return false;
+  }
   fs::remove_all(dir / "out");
   std::cerr << row.label << ": reconstructing" << std::endl;
   const std::string log = (dir / "reconstruct.log").string();
@@ -364,6 +371,9 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--reconstruct-args", o.reconstruct_args,
                  "extra arguments for arscout reconstruct, space-separated");
   app.add_flag("--check", o.check, "exit 1 when a scene misses a target");
+  app.add_flag("--measure-only", o.measure_only,
+               "measure the outputs an earlier run left in --work (its "
+               "reconstruct.log and out/), reconstructing nothing");
 }
 
 std::vector<std::string> default_real_scenes() {

@@ -739,10 +739,10 @@ TEST(DenseStagesVoxelCloud, RemoveUndoesAdd) {
 // A voxel's normal is the unit mean of its samples' and its support their
 // rounded mean; a sample's support can change in place, and removing every
 // sample leaves nothing.
-TEST(DenseStagesVoxelCloud, MeanNormalAndSupportFollowTheSamples) {
+TEST(DenseStagesVoxelCloud, MeanNormalSupportAndScoreFollowTheSamples) {
   VoxelCloud cloud(1.0);
-  const CloudSample a{{0.2, 0.2, 0.2}, {10, 20, 30}, {1, 0, 0}, 2};
-  const CloudSample b{{0.4, 0.4, 0.4}, {10, 20, 30}, {0, 1, 0}, 5};
+  const CloudSample a{{0.2, 0.2, 0.2}, {10, 20, 30}, {1, 0, 0}, 2, 0.8f};
+  const CloudSample b{{0.4, 0.4, 0.4}, {10, 20, 30}, {0, 1, 0}, 5, 0.6f};
   cloud.add(a);
   cloud.add(b);
   auto points = cloud.points();
@@ -751,6 +751,7 @@ TEST(DenseStagesVoxelCloud, MeanNormalAndSupportFollowTheSamples) {
   EXPECT_NEAR(points[0].ny, std::sqrt(0.5), 1e-6);
   EXPECT_EQ(points[0].nz, 0);
   EXPECT_EQ(points[0].support, 4);  // (2 + 5) / 2, rounded
+  EXPECT_EQ(points[0].score, 179);  // 0.7 * 255, rounded
   EXPECT_TRUE(cloud.change_support(a.xyz, 2, 9));
   EXPECT_EQ(cloud.points()[0].support, 7);
   EXPECT_FALSE(cloud.change_support({5.5, 0.5, 0.5}, 1, 2));
@@ -761,11 +762,13 @@ TEST(DenseStagesVoxelCloud, MeanNormalAndSupportFollowTheSamples) {
   ASSERT_EQ(points.size(), 1u);
   EXPECT_NEAR(points[0].ny, 1, 1e-6);
   EXPECT_EQ(points[0].support, 5);
+  EXPECT_EQ(points[0].score, 153);  // 0.6 * 255
   EXPECT_TRUE(cloud.remove(b));
   EXPECT_EQ(cloud.size(), 0u);
   // Plain points carry neither.
   cloud.add({0.5, 0.5, 0.5}, {1, 1, 1});
   EXPECT_EQ(cloud.points()[0].support, 0);
+  EXPECT_EQ(cloud.points()[0].score, 0);
   EXPECT_EQ(cloud.points()[0].nx, 0);
 }
 

@@ -57,6 +57,7 @@ void expect_identical(const std::vector<ColoredPoint>& a,
     EXPECT_EQ(bits(a[i].ny), bits(b[i].ny));
     EXPECT_EQ(bits(a[i].nz), bits(b[i].nz));
     EXPECT_EQ(a[i].support, b[i].support);
+    EXPECT_EQ(a[i].score, b[i].score);
   }
 }
 
@@ -228,22 +229,25 @@ TEST(PlyTest, ReadsBinaryWithExtraPropertiesAndElements) {
   expect_identical(decode_ply(binary_with_extras(points)), expected);
 }
 
-// Fused dense points carry a normal and a support: the 28-byte layout.
-TEST(PlyTest, FusedPointsRoundTripWithNormalAndSupport) {
+// Fused dense points carry a normal, a support and a score: the 29-byte
+// layout.
+TEST(PlyTest, FusedPointsRoundTripWithNormalSupportAndScore) {
   std::vector<ColoredPoint> points = random_points(200, 5);
   for (size_t i = 0; i < points.size(); ++i) {
     points[i].nx = 0.6f, points[i].ny = -0.8f, points[i].nz = 0;
     points[i].support = static_cast<uint8_t>(i % 7);
+    points[i].score = static_cast<uint8_t>(i % 256);
   }
   const std::string bytes = encode_ply(points);
   const std::string fields =
       "property uchar blue\nproperty float nx\nproperty float ny\n"
-      "property float nz\nproperty uchar support\nend_header\n";
+      "property float nz\nproperty uchar support\nproperty uchar score\n"
+      "end_header\n";
   EXPECT_NE(bytes.find(fields), std::string::npos);
-  EXPECT_EQ(bytes.size() - body_offset(bytes), points.size() * 28);
+  EXPECT_EQ(bytes.size() - body_offset(bytes), points.size() * 29);
   expect_identical(decode_ply(bytes), points);
   // A cloud without supports keeps the 15-byte layout.
-  for (ColoredPoint& p : points) p.support = 0;
+  for (ColoredPoint& p : points) p.support = p.score = 0;
   const std::string plain = encode_ply(points);
   EXPECT_EQ(plain.find("support"), std::string::npos);
   EXPECT_EQ(plain.size() - body_offset(plain), points.size() * 15);
@@ -261,6 +265,14 @@ TEST(PlyTest, SupportOfAnyIntegerTypeIsClampedOthersRefused) {
   EXPECT_EQ(points[1].support, 7);
   EXPECT_EQ(points[2].support, 255);
   EXPECT_THROW(decode_ply(head + "float" + body), std::runtime_error);
+  // The score reads the same way.
+  const std::string score_body =
+      " score\nend_header\n0 0 0 -4\n0 0 0 7\n0 0 0 300\n";
+  const auto scored = decode_ply(head + "uchar" + score_body);
+  ASSERT_EQ(scored.size(), 3u);
+  EXPECT_EQ(scored[1].score, 7);
+  EXPECT_EQ(scored[2].score, 255);
+  EXPECT_THROW(decode_ply(head + "double" + score_body), std::runtime_error);
 }
 
 TEST(PlyTest, ReadsDoubleCoordinatesInBinary) {

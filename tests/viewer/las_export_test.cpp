@@ -105,40 +105,43 @@ ExportOptions las_options(const std::string& crs, const std::string& heights) {
   return options;
 }
 
-// Fused points (a support) carry their support and ENU normal in 13 extra
-// bytes, described by an Extra Bytes VLR after the WKT.
-TEST(LasExport, FusedPointsCarrySupportAndNormalInExtraBytes) {
+// Fused points (a support) carry their support, ENU normal and score in 14
+// extra bytes, described by an Extra Bytes VLR after the WKT.
+TEST(LasExport, FusedPointsCarrySupportNormalAndScoreInExtraBytes) {
   auto cloud = street_cloud();
   for (size_t i = 0; i < cloud.size(); ++i) {
     cloud[i].support = static_cast<std::uint8_t>(1 + i % 9);
     cloud[i].nx = 0.6f, cloud[i].ny = 0, cloud[i].nz = i % 2 ? 0.8f : -0.8f;
+    cloud[i].score = static_cast<std::uint8_t>(100 + i % 150);
   }
   const std::string b = encode_site_las(
       cloud, kGraz, las_options("utm", "ellipsoid"), kCreatedUs);
   const ParsedLas las = parse_las(b);
   EXPECT_EQ(las.vlrs, 2u);
-  EXPECT_EQ(las.record_length, 36 + 13);
-  // The second VLR: LASF_Spec record 4, four 192-byte descriptors.
+  EXPECT_EQ(las.record_length, 36 + 14);
+  // The second VLR: LASF_Spec record 4, five 192-byte descriptors.
   const size_t vlr = 375 + 54 + read_at<std::uint16_t>(b, 375 + 20);
   EXPECT_EQ(std::string(b.data() + vlr + 2), "LASF_Spec");
   EXPECT_EQ(read_at<std::uint16_t>(b, vlr + 18), 4);
-  ASSERT_EQ(read_at<std::uint16_t>(b, vlr + 20), 4 * 192);
-  EXPECT_EQ(las.point_offset, vlr + 54 + 4 * 192);
-  const char* names[] = {"support", "normal east", "normal north", "normal up"};
-  const std::uint8_t types[] = {1, 9, 9, 9};  // unsigned char, float
-  for (int d = 0; d < 4; ++d) {
+  ASSERT_EQ(read_at<std::uint16_t>(b, vlr + 20), 5 * 192);
+  EXPECT_EQ(las.point_offset, vlr + 54 + 5 * 192);
+  const char* names[] = {"support", "normal east", "normal north", "normal up",
+                         "score"};
+  const std::uint8_t types[] = {1, 9, 9, 9, 1};  // unsigned char, float
+  for (int d = 0; d < 5; ++d) {
     const size_t at = vlr + 54 + 192 * d;
     EXPECT_EQ(read_at<std::uint8_t>(b, at + 2), types[d]) << d;
     EXPECT_EQ(read_at<std::uint8_t>(b, at + 3), 0) << d;  // options
     EXPECT_EQ(std::string(b.data() + at + 4), names[d]) << d;
   }
   ASSERT_EQ(las.count, cloud.size());
-  EXPECT_EQ(b.size(), las.point_offset + cloud.size() * (36 + 13));
+  EXPECT_EQ(b.size(), las.point_offset + cloud.size() * (36 + 14));
   for (size_t i = 0; i < cloud.size(); ++i) {
     const size_t at = las.point_offset + i * las.record_length + 36;
     EXPECT_EQ(read_at<std::uint8_t>(b, at), cloud[i].support) << i;
     EXPECT_EQ(read_at<float>(b, at + 1), 0.6f) << i;
     EXPECT_EQ(read_at<float>(b, at + 9), cloud[i].nz) << i;
+    EXPECT_EQ(read_at<std::uint8_t>(b, at + 13), cloud[i].score) << i;
   }
   // The coordinates read as before.
   const ParsedLas plain = parse_las(encode_site_las(

@@ -202,6 +202,7 @@ std::string encode_site_las(const std::vector<engine::ColoredPoint>& points,
     point.blue = static_cast<std::uint16_t>(p.b * 257);
     point.support = p.support;
     point.normal = {p.nx, p.ny, p.nz};
+    point.score = p.score;
     las_points.push_back(point);
   }
   LasFile file;

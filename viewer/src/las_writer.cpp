@@ -14,7 +14,8 @@ constexpr std::uint16_t kHeaderSize = 375;
 constexpr std::uint16_t kVlrHeaderSize = 54;
 constexpr std::uint8_t kPointFormat = 7;
 constexpr std::uint16_t kPointSize = 36;
-constexpr std::uint16_t kExtraBytes = 13;  // support, then 3 floats
+constexpr std::uint16_t kExtraBytes = 14;  // support, 3 floats, score
+constexpr std::uint16_t kExtraBytesFields = 5;
 constexpr std::uint16_t kExtraBytesRecordId = 4;
 constexpr std::uint16_t kExtraBytesDescriptorSize = 192;
 constexpr std::uint16_t kGlobalEncodingWkt = 1 << 4;
@@ -139,13 +140,15 @@ void put_extra_bytes_record(util::ByteWriter& out) {
   out.put<std::uint16_t>(0);  // reserved
   put_text(out, "LASF_Spec", 16);
   out.put<std::uint16_t>(kExtraBytesRecordId);
-  out.put<std::uint16_t>(4 * kExtraBytesDescriptorSize);
+  out.put<std::uint16_t>(kExtraBytesFields * kExtraBytesDescriptorSize);
   put_text(out, "Extra Bytes", 32);
   put_extra_bytes_descriptor(out, kUchar, "support",
                              "depth maps that measured it");
   put_extra_bytes_descriptor(out, kFloat, "normal east", "unit normal, ENU");
   put_extra_bytes_descriptor(out, kFloat, "normal north", "unit normal, ENU");
   put_extra_bytes_descriptor(out, kFloat, "normal up", "unit normal, ENU");
+  put_extra_bytes_descriptor(out, kUchar, "score",
+                             "mean winning ZNCC times 255");
 }
 
 void put_point(util::ByteWriter& out, const LasPoint& p,
@@ -166,6 +169,7 @@ void put_point(util::ByteWriter& out, const LasPoint& p,
   if (!extra) return;
   out.put<std::uint8_t>(p.support);
   for (float n : p.normal) out.put<float>(n);
+  out.put<std::uint8_t>(p.score);
 }
 
 }  // namespace
@@ -179,7 +183,8 @@ std::string encode_las(const std::vector<LasPoint>& points,
                   [](const LasPoint& p) { return p.support > 0; });
   const std::uint32_t point_offset = static_cast<std::uint32_t>(
       kHeaderSize + kVlrHeaderSize + file.wkt.size() + 1 +
-      (extra ? kVlrHeaderSize + 4 * kExtraBytesDescriptorSize : 0));
+      (extra ? kVlrHeaderSize + kExtraBytesFields * kExtraBytesDescriptorSize
+             : 0));
   util::ByteWriter out;
   out.reserve(point_offset +
               points.size() * (kPointSize + (extra ? kExtraBytes : 0)));

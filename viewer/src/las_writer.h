@@ -3,10 +3,11 @@
 // each), the CRS as an OGC WKT variable-length record, and the global
 // encoding's WKT bit set, as the specification requires of formats 6-10.
 // When any point has a support (fused dense points), each record carries
-// 13 extra bytes, described by an Extra Bytes VLR (LASF_Spec, record 4) as
+// 14 extra bytes, described by an Extra Bytes VLR (LASF_Spec, record 4) as
 // PDAL, LAStools and CloudCompare read them: "support" (uchar, the depth
-// maps that measured the point) and "normal east", "normal north",
-// "normal up" (float, the unit normal in the site's ENU frame).
+// maps that measured the point), "normal east", "normal north",
+// "normal up" (float, the unit normal in the site's ENU frame) and "score"
+// (uchar, the mean winning ZNCC of its depths times 255).
 #pragma once
 
 #include <array>
@@ -22,6 +23,7 @@ struct LasPoint {
   std::uint16_t source_id = 0;                 // 0: unknown
   std::uint8_t support = 0;                    // 0: not a fused point
   std::array<float, 3> normal{};               // ENU, unit; zero: unknown
+  std::uint8_t score = 0;  // ZNCC times 255 (ColoredPoint::score)
 };
 
 struct LasFile {

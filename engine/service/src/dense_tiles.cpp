@@ -45,9 +45,9 @@ struct TileKeyHash {
 
 // A point's position, colour and support mixed into 64 bits (splitmix64's
 // finaliser), summed over a tile: the sum does not depend on the points'
-// order, which the voxel cloud does not keep. The normal is left out: it
-// changes only with the samples in its voxel, which move the mean position
-// too.
+// order, which the voxel cloud does not keep. The normal and the score are
+// left out: they change only with the samples in their voxel, which move
+// the mean position too.
 std::uint64_t point_hash(const ColoredPoint& p) {
   std::uint64_t a = 0, b = 0;
   std::memcpy(&a, &p.x, sizeof(float));

@@ -59,6 +59,12 @@ void mark_overshoot(cv::Mat* overshoots, const Eigen::Vector2d& pixel) {
       .store(255, std::memory_order_relaxed);
 }
 
+// A sample's score in the integer thousandths a voxel sums.
+uint32_t score_units(float score) {
+  return static_cast<uint32_t>(
+      std::lround(std::clamp(score, 0.0f, 1.0f) * 1000));
+}
+
 uint64_t voxel_key(const Eigen::Vector3d& xyz, double size) {
   // 21 bits per axis: +-1 million voxels around the origin, far more than a
   // site needs at any sensible voxel size.
@@ -163,6 +169,7 @@ void VoxelCloud::add(const CloudSample& sample) {
   voxel.normal_sum += sample.normal;
   for (int c = 0; c < 3; ++c) voxel.rgb_sum[c] += sample.rgb[c];
   voxel.support_sum += static_cast<uint32_t>(std::max(0, sample.support));
+  voxel.score_sum += score_units(sample.score);
   ++voxel.count;
 }
 
@@ -187,6 +194,7 @@ bool VoxelCloud::remove(const CloudSample& sample) {
     voxel->rgb_sum[c] -= std::min<uint32_t>(sample.rgb[c], voxel->rgb_sum[c]);
   voxel->support_sum -=
       std::min<uint32_t>(std::max(0, sample.support), voxel->support_sum);
+  voxel->score_sum -= std::min(score_units(sample.score), voxel->score_sum);
   return true;
 }
 
@@ -236,6 +244,8 @@ std::vector<ColoredPoint> VoxelCloud::points() const {
     }
     p.support = static_cast<uint8_t>(std::min<uint32_t>(
         255, (voxel.support_sum + voxel.count / 2) / voxel.count));
+    p.score = static_cast<uint8_t>(std::min<long>(
+        255, std::lround(255.0 * voxel.score_sum / (1000.0 * voxel.count))));
     points.push_back(p);
   }
   return points;

@@ -73,17 +73,20 @@ struct DepthAgreement {
 DepthAgreement compare_depth_maps(const DepthMap& a, const DepthMap& b);
 
 // What one depth-map pixel brings to the cloud: its point and colour, the
-// surface normal there (unit, toward its camera; zero when unknown) and its
-// support (how many maps measured it; 0 when unknown).
+// surface normal there (unit, toward its camera; zero when unknown), its
+// support (how many maps measured it; 0 when unknown) and its score (the
+// sweep's winning ZNCC, 0 to 1; 0 when unknown).
 struct CloudSample {
   Eigen::Vector3d xyz = Eigen::Vector3d::Zero();
   std::array<uint8_t, 3> rgb{0, 0, 0};
   Eigen::Vector3f normal = Eigen::Vector3f::Zero();
   int support = 0;
+  float score = 0;
 };
 
 // Points merged on a voxel grid: each occupied voxel keeps the mean
-// position, colour, normal and support of the samples that fell into it, so
+// position, colour, normal, support and score of the samples that fell
+// into it, so
 // overlapping depth maps do not pile up duplicates. Adding is incremental,
 // and a sample added can be taken out again (the map whose camera moved,
 // DenseReconstruction).
@@ -106,7 +109,8 @@ class VoxelCloud {
   // maps came to agree with it, or fewer). False when its voxel is empty.
   bool change_support(const Eigen::Vector3d& xyz, int from, int to);
   // The occupied voxels' means (the normal normalised, the support rounded
-  // and at most 255), in the order the voxels were first occupied.
+  // and at most 255, the score times 255 and rounded), in the order the
+  // voxels were first occupied.
   std::vector<ColoredPoint> points() const;
   size_t size() const { return index_.size(); }
   double voxel_size() const { return voxel_size_; }
@@ -121,7 +125,8 @@ class VoxelCloud {
     Eigen::Vector3f normal_sum = Eigen::Vector3f::Zero();
     std::array<uint32_t, 3> rgb_sum{0, 0, 0};
     uint32_t support_sum = 0;
-    uint32_t count = 0;  // 0: emptied by remove(), skipped
+    uint32_t score_sum = 0;  // thousandths: removal undoes add exactly
+    uint32_t count = 0;      // 0: emptied by remove(), skipped
   };
   Voxel* find(const Eigen::Vector3d& xyz);
   void compact();

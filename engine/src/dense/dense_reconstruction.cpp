@@ -257,6 +257,11 @@ struct DenseReconstruction::Impl {
     double depth_scale = 1;
     double swept_median = -1;  // of the swept depths; -1 until asked
 
+    // The sweep's scores, when the map has them (every swept or stored map
+    // does; a hand-built one may not).
+    const cv::Mat* score() const {
+      return map.score.size() == map.depth.size() ? &map.score : nullptr;
+    }
     const cv::Mat& depth_as_swept() const {
       return swept_depth.empty() ? map.depth : swept_depth;
     }
@@ -265,8 +270,9 @@ struct DenseReconstruction::Impl {
       return swept_median * depth_scale;
     }
     FusionInput fusion_input(int min_agreeing) const {
-      return {&depth_as_swept(), depth_scale, &agreed, &conflicts, min_agreeing,
-              &ambiguous,        &colour,     map.K,   map.R,      map.t};
+      return {&depth_as_swept(), depth_scale, &agreed, &conflicts,
+              min_agreeing,      &ambiguous,  score(), &colour,
+              map.K,             map.R,       map.t};
     }
     // Adds one other map's word on this one to the counts (saturating):
     // `mine` is this map judged against it, `theirs` it judged against this

@@ -51,6 +51,8 @@ CloudSample MapFusion::sample_of(const FusionInput& in, const Batch& batch,
   sample.xyz = point_of(in, batch, x, y);
   sample.rgb = rgb_of(in.bgr->at<cv::Vec3b>(y, x));
   sample.support = support;
+  if (in.score)
+    sample.score = std::clamp(in.score->at<float>(y, x), 0.0f, 1.0f);
   const cv::Vec<schar, 3> n = normals.at<cv::Vec<schar, 3>>(y, x);
   const Eigen::Vector3d camera(n[0], n[1], n[2]);
   sample.normal = (batch.camera_to_world * camera / kNormalUnit).cast<float>();

@@ -38,6 +38,8 @@ struct FusionInput {
   // CV_8U, 255 where the match is ambiguous (one more map must agree);
   // null: none is.
   const cv::Mat* ambiguous = nullptr;
+  // CV_32F, the sweep's winning ZNCC (DepthMap::score); null: unknown.
+  const cv::Mat* score = nullptr;
   const cv::Mat* bgr = nullptr;
   Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();

@@ -16,8 +16,12 @@ namespace arscout::engine {
 // photo starts under a black border (pixels 0, 0, 0 from the top row
 // down), and the textured edge of that border would otherwise cut the sky
 // off. Smooth regions that do not reach the top (a plain wall under a
-// roof, a patch of sky between leaves) are not sky by this rule. All zero
-// when max_texture is 0.
+// roof, a patch of sky between leaves) are not sky by this rule. The mask
+// then grows, up to 6 pixels, into the pixels beside it whose colour is
+// within 8 grey levels (every channel) of the masked pixel next to them:
+// the band along an edge that the 5 x 5 window left out, where the sweep's
+// wider window would give the sky the edge's depth. All zero when
+// max_texture is 0.
 cv::Mat sky_mask(const cv::Mat& bgr, double max_texture);
 
 }  // namespace arscout::engine

@@ -18,7 +18,7 @@ namespace arscout::engine {
 namespace {
 
 constexpr size_t kBytesPerPoint = 15;       // 3 floats + 3 bytes, no padding
-constexpr size_t kBytesPerFusedPoint = 28;  // and 3 floats + 1 byte
+constexpr size_t kBytesPerFusedPoint = 29;  // and 3 floats + 2 bytes
 
 [[noreturn]] void fail(const std::string& what) {
   throw std::runtime_error("PLY: " + what);
@@ -40,7 +40,7 @@ std::string header_text(size_t vertices, std::string_view comment, bool fused) {
   if (fused) {
     header +=
         "property float nx\nproperty float ny\nproperty float nz\n"
-        "property uchar support\n";
+        "property uchar support\nproperty uchar score\n";
   }
   return header + "end_header\n";
 }
@@ -418,7 +418,8 @@ enum class Role {
   kNx,
   kNy,
   kNz,
-  kSupport
+  kSupport,
+  kScore
 };
 
 Role role_of(const Property& property) {
@@ -427,7 +428,8 @@ Role role_of(const Property& property) {
       {"z", Role::kZ},         {"red", Role::kRed},
       {"green", Role::kGreen}, {"blue", Role::kBlue},
       {"nx", Role::kNx},       {"ny", Role::kNy},
-      {"nz", Role::kNz},       {"support", Role::kSupport}};
+      {"nz", Role::kNz},       {"support", Role::kSupport},
+      {"score", Role::kScore}};
   for (const auto& [name, role] : kRoles) {
     if (property.name == name) return role;
   }
@@ -436,7 +438,7 @@ Role role_of(const Property& property) {
 
 std::vector<Role> vertex_roles(const Element& vertex) {
   std::vector<Role> roles;
-  std::array<int, 11> seen{};
+  std::array<int, 12> seen{};
   for (const Property& property : vertex.properties) {
     if (property.is_list) {
       fail("list property " + quoted(property.name) + " in element vertex");
@@ -449,8 +451,9 @@ std::vector<Role> vertex_roles(const Element& vertex) {
         property.type != Type::kUint8) {
       fail("vertex property " + quoted(property.name) + " is not a uchar");
     }
-    if (role == Role::kSupport && !is_integer(property.type)) {
-      fail("vertex property 'support' is not an integer");
+    if ((role == Role::kSupport || role == Role::kScore) &&
+        !is_integer(property.type)) {
+      fail("vertex property " + quoted(property.name) + " is not an integer");
     }
     roles.push_back(role);
   }
@@ -503,7 +506,7 @@ void skip_element(Body& body, const Element& element) {
 }
 
 // Ascii bodies parse every number as a double, "nan" included.
-uint8_t clamp_support(double value) {
+uint8_t clamp_byte(double value) {
   if (!(value > 0)) return 0;
   return static_cast<uint8_t>(std::min(value, 255.0));
 }
@@ -525,7 +528,8 @@ ColoredPoint read_vertex(Body& body, const Element& vertex,
       case Role::kNx: point.nx = body.read_float(type); break;
       case Role::kNy: point.ny = body.read_float(type); break;
       case Role::kNz: point.nz = body.read_float(type); break;
-      case Role::kSupport: point.support = clamp_support(body.read(type)); break;
+      case Role::kSupport: point.support = clamp_byte(body.read(type)); break;
+      case Role::kScore: point.score = clamp_byte(body.read(type)); break;
       case Role::kSkip: body.skip(type); break;
     }
     // clang-format on
@@ -579,6 +583,7 @@ std::string encode_ply(const std::vector<ColoredPoint>& points,
       put_float_le(p.ny, out + 19);
       put_float_le(p.nz, out + 23);
       out[27] = static_cast<char>(p.support);
+      out[28] = static_cast<char>(p.score);
     }
     out += stride;
   }

@@ -55,8 +55,9 @@ struct PlaneSweepOptions {
   double min_score = 0.35;
   double min_margin = 0.02;
   // Sky: the smooth region joined to the image's top row (5 x 5 grey
-  // levels varying by less than this, standard deviation 0-255) gets no
-  // depth (dense/sky_mask.h); 0 turns the mask off.
+  // levels varying by less than this, standard deviation 0-255), grown
+  // into the pixels of its colour along its edges, gets no depth
+  // (dense/sky_mask.h); 0 turns the mask off.
   double sky_max_texture = 3.0;
   // Triangulation: a depth whose point the key's ray and every
   // neighbour's ray meet at less than this angle (degrees) is dropped. Near
@@ -162,7 +163,7 @@ struct ConsistencyOptions {
   // another depth by less than this (DepthMap::margin) is ambiguous
   // (repeated or faint texture, a window across a depth edge) and needs one
   // more agreeing map than min_agreeing_maps. 0 turns it off.
-  double distinct_margin = 0.0;
+  double distinct_margin = 0.05;
   bool parallel = true;  // rows over OpenCV's threads (PlaneSweepOptions)
 };
 

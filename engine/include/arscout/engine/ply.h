@@ -2,8 +2,8 @@
 // MeshLab, CloudCompare and COLMAP exchange point clouds in.
 //
 // Writing produces one of two layouts (binary little-endian, float x y z and
-// uchar red green blue, then for fused dense points float nx ny nz and
-// uchar support), whatever the host's byte order. Reading accepts the
+// uchar red green blue, then for fused dense points float nx ny nz, uchar
+// support and uchar score), whatever the host's byte order. Reading accepts the
 // vertex element of most PLY files written by other tools; it is meant for
 // untrusted bytes: every malformed input ends in std::runtime_error, never in
 // a read outside the buffer.
@@ -25,6 +25,10 @@ struct ColoredPoint {
   // (sparse points, files from other tools).
   float nx = 0, ny = 0, nz = 0;
   uint8_t support = 0;
+  // A fused dense point's photometric score: the mean winning ZNCC of the
+  // depths fused into it, times 255 and rounded (0 when unknown, and for
+  // points that are not fused).
+  uint8_t score = 0;
 };
 
 // Points measured by at least this many depth maps (their own and two
@@ -53,14 +57,15 @@ inline bool shown_at(const ColoredPoint& p, int min_support) {
 //   end_header
 //
 // (each line ended by '\n'), then 15 bytes per point in that order. When any
-// point has a support, four more properties follow blue,
+// point has a support, five more properties follow blue,
 //
 //   property float nx
 //   property float ny
 //   property float nz
 //   property uchar support
+//   property uchar score
 //
-// and each point takes 28 bytes. The
+// and each point takes 29 bytes. The
 // comment is "written by arscout" unless given; throws std::invalid_argument
 // when it holds a line break (it would end the header line early).
 std::string encode_ply(const std::vector<ColoredPoint>& points,
@@ -79,8 +84,8 @@ void write_ply(const std::string& path, const std::vector<ColoredPoint>& points,
 // "vertex" element, with scalar properties x, y and z of any numeric type
 // (float/float32 or double/float64 as a rule; values beyond float's range
 // become infinities) and optionally red, green and blue of type uchar/uint8
-// (0 when absent), nx, ny and nz of any numeric type and support of an
-// integer type (values beyond 0..255 clamped), 0 when absent. Other scalar
+// (0 when absent), nx, ny and nz of any numeric type and support and score
+// of an integer type (values beyond 0..255 clamped), 0 when absent. Other scalar
 // vertex properties (alpha, ...) are skipped. Other elements are skipped when
 // they come before the vertices and ignored when they come after; "\r\n" line
 // ends are tolerated.
