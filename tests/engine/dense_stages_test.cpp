@@ -1243,18 +1243,25 @@ TEST(DenseStagesReconstruction, FusedPointsCarryNormalAndSupport) {
 }
 
 // The swept maps of `dense`, a board drawn into those of `views`
-// (inject_board).
-std::vector<std::string> maps_with_board(const DenseReconstruction& dense,
-                                         const std::set<std::string>& views,
-                                         const syn::Quad& board,
-                                         bool through_surfaces) {
+// (inject_board); with a `margin`, the board's pixels get it as their
+// margin over the runner-up (as an ambiguous match would: a window across
+// a depth edge, or a repeated texture, beats other depths by little).
+std::vector<std::string> maps_with_board(
+    const DenseReconstruction& dense, const std::set<std::string>& views,
+    const syn::Quad& board, bool through_surfaces,
+    std::optional<float> margin = std::nullopt) {
   std::vector<std::string> blobs;
   for (const std::string& id : dense.depth_map_ids()) {
     std::string blob = dense.serialize_depth_map(id);
     if (views.count(id)) {
       SweptDepthMap swept = decode_depth_map(blob);
+      const cv::Mat before = swept.map.depth.clone();
       swept.map.depth = swept.map.depth.clone();
       EXPECT_GT(inject_board(&swept.map, board, through_surfaces), 500) << id;
+      if (margin) {
+        swept.map.margin = swept.map.margin.clone();
+        swept.map.margin.setTo(*margin, swept.map.depth != before);
+      }
       blob = encode_depth_map(swept);
     }
     blobs.push_back(blob);
@@ -1282,6 +1289,19 @@ CloudCount count_cloud(const std::vector<ColoredPoint>& cloud,
   return count;
 }
 
+// The five street views' model, and their maps swept.
+struct FiveSwept {
+  Model model;
+  DenseReconstruction dense;
+};
+FiveSwept five_swept() {
+  const SparseTruth truth = sparse_truth(street(), 300, 17);
+  FiveSwept five{build_model(street(), truth, {0, 1, 2, 3, 4}),
+                 DenseReconstruction(small_dense_options())};
+  five.dense.update(five.model, street_images());
+  return five;
+}
+
 // The five street maps swept, `board` drawn into views 1 and 3
 // (inject_board), and restored with and without the free-space check: the
 // cloud counted clean, unchecked and checked.
@@ -1289,11 +1309,8 @@ struct BoardClouds {
   CloudCount clean, unchecked, checked;
 };
 BoardClouds fuse_with_board(const syn::Quad& board, bool through_surfaces) {
-  const SparseTruth truth = sparse_truth(street(), 300, 17);
   const ImageSource images = street_images();
-  const Model all5 = build_model(street(), truth, {0, 1, 2, 3, 4});
-  DenseReconstruction swept(small_dense_options());
-  swept.update(all5, images);
+  const auto [all5, swept] = five_swept();
   const std::vector<std::string> blobs =
       maps_with_board(swept, {"view1", "view3"}, board, through_surfaces);
   DenseOptions no_check = small_dense_options();
@@ -1353,41 +1370,15 @@ TEST(DenseStagesReconstruction, AFusedFloaterLeavesWhenLaterMapsSeeThrough) {
   EXPECT_GT(after.on_site, before.on_site);
 }
 
-// The swept maps with the floater drawn into views 1 and 3 as an
-// ambiguous match would put it there: its pixels' margins over the
-// runner-up at `margin` (a window across a depth edge, or a repeated
-// texture, beats other depths by little).
-std::vector<std::string> maps_with_ambiguous_floater(
-    const DenseReconstruction& dense, float margin) {
-  std::vector<std::string> blobs;
-  for (const std::string& id : dense.depth_map_ids()) {
-    std::string blob = dense.serialize_depth_map(id);
-    if (id == "view1" || id == "view3") {
-      SweptDepthMap swept = decode_depth_map(blob);
-      const cv::Mat before = swept.map.depth.clone();
-      swept.map.depth = swept.map.depth.clone();
-      EXPECT_GT(inject_floater(&swept.map), 500) << id;
-      swept.map.margin = swept.map.margin.clone();
-      swept.map.margin.setTo(margin, swept.map.depth != before);
-      blob = encode_depth_map(swept);
-    }
-    blobs.push_back(blob);
-  }
-  return blobs;
-}
-
 // Two maps that agree on an ambiguous floater (free space off: nothing
 // else stands in its way) fuse it; asked for a distinct match or a second
 // agreeing map, the cloud leaves it out and keeps the street, which the
 // five maps measure distinctly or agree on thrice.
 TEST(DenseStagesReconstruction, AnAmbiguousFloaterTwoMapsShareIsNotFused) {
-  const SparseTruth truth = sparse_truth(street(), 300, 17);
   const ImageSource images = street_images();
-  const Model all5 = build_model(street(), truth, {0, 1, 2, 3, 4});
-  DenseReconstruction swept(small_dense_options());
-  swept.update(all5, images);
+  const auto [all5, swept] = five_swept();
   const std::vector<std::string> blobs =
-      maps_with_ambiguous_floater(swept, 0.01f);
+      maps_with_board(swept, {"view1", "view3"}, floater(), false, 0.01f);
   DenseOptions lenient = small_dense_options();
   lenient.consistency.free_space_margin = 0;
   lenient.consistency.distinct_margin = 0;

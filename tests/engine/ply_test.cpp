@@ -253,26 +253,23 @@ TEST(PlyTest, FusedPointsRoundTripWithNormalSupportAndScore) {
   EXPECT_EQ(plain.size() - body_offset(plain), points.size() * 15);
 }
 
-TEST(PlyTest, SupportOfAnyIntegerTypeIsClampedOthersRefused) {
-  const std::string head =
-      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
-      "property float y\nproperty float z\nproperty ";
-  const std::string body =
-      " support\nend_header\n0 0 0 -4\n0 0 0 7\n0 0 0 300\n";
-  const auto points = decode_ply(head + "int" + body);
-  ASSERT_EQ(points.size(), 3u);
-  EXPECT_EQ(points[0].support, 0);
-  EXPECT_EQ(points[1].support, 7);
-  EXPECT_EQ(points[2].support, 255);
-  EXPECT_THROW(decode_ply(head + "float" + body), std::runtime_error);
-  // The score reads the same way.
-  const std::string score_body =
-      " score\nend_header\n0 0 0 -4\n0 0 0 7\n0 0 0 300\n";
-  const auto scored = decode_ply(head + "uchar" + score_body);
-  ASSERT_EQ(scored.size(), 3u);
-  EXPECT_EQ(scored[1].score, 7);
-  EXPECT_EQ(scored[2].score, 255);
-  EXPECT_THROW(decode_ply(head + "double" + score_body), std::runtime_error);
+TEST(PlyTest, SupportAndScoreOfAnyIntegerTypeAreClampedOthersRefused) {
+  for (const std::string name : {"support", "score"}) {
+    const std::string head =
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+        "property float y\nproperty float z\nproperty ";
+    const std::string body =
+        " " + name + "\nend_header\n0 0 0 -4\n0 0 0 7\n0 0 0 300\n";
+    const auto points = decode_ply(head + "int" + body);
+    ASSERT_EQ(points.size(), 3u);
+    auto value = [&](const ColoredPoint& p) {
+      return name == "support" ? p.support : p.score;
+    };
+    EXPECT_EQ(value(points[0]), 0) << name;
+    EXPECT_EQ(value(points[1]), 7) << name;
+    EXPECT_EQ(value(points[2]), 255) << name;
+    EXPECT_THROW(decode_ply(head + "float" + body), std::runtime_error);
+  }
 }
 
 TEST(PlyTest, ReadsDoubleCoordinatesInBinary) {
