@@ -377,8 +377,9 @@ TEST_F(FountainSite, LasExportsAgreeAndCarryGeoidHeights) {
   std::uint16_t record = 0;
   std::memcpy(&record, las.bytes.data() + 105, sizeof record);
   ASSERT_GT(count, 1000u);
-  // The fused cloud's records carry support and normal (13 extra bytes).
-  EXPECT_EQ(record, 36 + 13);
+  // The fused cloud's records carry support, normal and score (14 extra
+  // bytes).
+  EXPECT_EQ(record, 36 + 14);
   ASSERT_EQ(las.bytes.size(), offset + record * count);
   double z_scale = 0, z_offset[2] = {0, 0};
   std::memcpy(&z_scale, las.bytes.data() + 147, sizeof z_scale);

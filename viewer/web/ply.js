@@ -1,8 +1,9 @@
 // A parser for the point clouds the engine writes (docs/engine.md,
 // write_points_ply): binary little-endian PLY with one vertex element of
 // float x, y, z and uchar red, green, blue, and for fused dense clouds then
-// float nx, ny, nz and uchar support. Anything else is refused with a
-// message that says what was found.
+// float nx, ny, nz, uchar support and uchar score (clouds written before
+// the score end at support). Anything else is refused with a message that
+// says what was found.
 
 const EXPECTED = [
   ['x', 'float'],
@@ -13,8 +14,10 @@ const EXPECTED = [
   ['blue', 'uchar'],
 ];
 const FUSED = [...EXPECTED, ['nx', 'float'], ['ny', 'float'], ['nz', 'float'], ['support', 'uchar']];
+const SCORED = [...FUSED, ['score', 'uchar']];
 const STRIDE = 3 * 4 + 3;
 const FUSED_STRIDE = STRIDE + 3 * 4 + 1;
+const SCORED_STRIDE = FUSED_STRIDE + 1;
 
 // PLY names some types two ways.
 const TYPE_ALIASES = { float32: 'float', uint8: 'uchar' };
@@ -103,15 +106,16 @@ function checkLayout({ format, elements }) {
     vertex.properties.every((p, i) => p.name === layout[i][0] && p.type === layout[i][1]);
   if (is(EXPECTED)) return { count: vertex.count, stride: STRIDE };
   if (is(FUSED)) return { count: vertex.count, stride: FUSED_STRIDE };
-  throw new PlyError(`vertex layout (${found}) is not the supported (${wanted}, optionally then float nx, ny, nz, uchar support)`);
+  if (is(SCORED)) return { count: vertex.count, stride: SCORED_STRIDE };
+  throw new PlyError(`vertex layout (${found}) is not the supported (${wanted}, optionally then float nx, ny, nz, uchar support[, uchar score])`);
 }
 
 /**
  * Parses a point cloud.
  * @param {ArrayBuffer} buffer the whole file
- * @returns {{count: number, positions: Float32Array, colors: Uint8Array, support: Uint8Array}}
- *   positions x,y,z per point, colors r,g,b per point, support per point
- *   (0 for a cloud without supports)
+ * @returns {{count: number, positions: Float32Array, colors: Uint8Array, support: Uint8Array, score: Uint8Array}}
+ *   positions x,y,z per point, colors r,g,b per point, support and score
+ *   per point (0 for a cloud without them)
  */
 export function parsePly(buffer) {
   const bytes = new Uint8Array(buffer);
@@ -131,6 +135,7 @@ export function parsePly(buffer) {
   const colors = new Uint8Array(count * 3);
   const view = new DataView(buffer, 0, needed);
   const support = new Uint8Array(count);
+  const score = new Uint8Array(count);
   for (let i = 0, at = start; i < count; i++, at += stride) {
     const p = i * 3;
     positions[p] = view.getFloat32(at, true);
@@ -139,7 +144,8 @@ export function parsePly(buffer) {
     colors[p] = bytes[at + 12];
     colors[p + 1] = bytes[at + 13];
     colors[p + 2] = bytes[at + 14];
-    if (stride === FUSED_STRIDE) support[i] = bytes[at + 27];
+    if (stride >= FUSED_STRIDE) support[i] = bytes[at + 27];
+    if (stride === SCORED_STRIDE) score[i] = bytes[at + 28];
   }
-  return { count, positions, colors, support };
+  return { count, positions, colors, support, score };
 }
