@@ -462,6 +462,12 @@ void add_reconstruct_command(CLI::App& app) {
                   "angle or more (degrees; 0: off)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 30.0));
+  cmd->add_option("--dense-weak-angle",
+                  args.dense_options.consistency.weak_triangulation_deg,
+                  "a depth that no neighbour sees at this triangulation angle "
+                  "or more needs one more agreeing depth map (degrees; 0: off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 30.0));
   cmd->add_option("--dense-distinct-margin",
                   args.dense_options.consistency.distinct_margin,
                   "a depth whose ZNCC beats every other depth's by less than "

@@ -388,6 +388,54 @@ TEST(DenseStagesAgreement, PixelsLandingOutsideThePartnerDoNotAgree) {
 }
 
 // ---------------------------------------------------------------------------
+// weak_depths
+
+// The street's middle view with exact depths: a neighbour 0.5 m to the side
+// sees each point at an angle that shrinks with its distance; a pixel is
+// narrow exactly where that angle is under the limit, whichever way it is
+// computed. A small margin makes a pixel weak too; no neighbour judges none.
+TEST(DenseStagesWeakDepths, NarrowWhereTheNeighbourSeesAtASmallAngle) {
+  DepthMap map = truth_map(street()[2], "middle");
+  map.margin = cv::Mat(map.depth.size(), CV_32F, cv::Scalar(0.5));
+  map.margin(cv::Rect(0, 0, 40, 30)).setTo(0.01);
+  const Eigen::Vector3d centre = -map.R.transpose() * map.t;
+  const Eigen::Vector3d side = centre + 0.5 * map.R.row(0).transpose();
+  ConsistencyOptions options;
+  options.distinct_margin = 0.03;
+  options.weak_triangulation_deg = 4;
+  const cv::Mat weak = weak_depths(map, {side}, options);
+  int narrow = 0, wide = 0, mismatched = 0;
+  for (int y = 0; y < map.depth.rows; ++y) {
+    for (int x = 0; x < map.depth.cols; ++x) {
+      const float z = map.depth.at<float>(y, x);
+      const bool is_weak = weak.at<uint8_t>(y, x) != 0;
+      if (z <= 0) {
+        mismatched += is_weak;
+        continue;
+      }
+      const Eigen::Vector3d X = map.unproject(x, y, z);
+      const double angle =
+          std::acos((centre - X).normalized().dot((side - X).normalized())) *
+          180 / M_PI;
+      const bool expected = angle < 4 || (x < 40 && y < 30);
+      // Exactly at the limit, rounding may go either way.
+      if (std::abs(angle - 4) > 1e-6) mismatched += is_weak != expected;
+      (angle < 4 ? narrow : wide) += 1;
+    }
+  }
+  std::cout << narrow << " narrow, " << wide << " wide\n";
+  EXPECT_GT(narrow, 1000);
+  EXPECT_GT(wide, 10000);
+  EXPECT_EQ(mismatched, 0);
+  EXPECT_EQ(count_where(weak_depths(map, {}, options) !=
+                        ((map.margin < 0.03) & (map.depth > 0))),
+            0);
+  options.weak_triangulation_deg = 0;
+  options.distinct_margin = 0;
+  EXPECT_EQ(count_where(weak_depths(map, {side}, options)), 0);
+}
+
+// ---------------------------------------------------------------------------
 // judge_pair: free-space conflicts
 
 // A floating board, 1.5 x 1 m, 3 m in front of the facade (y = 7, x 0.5 to

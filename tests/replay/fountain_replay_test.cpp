@@ -79,12 +79,12 @@ TEST(ReplayRegression, FountainSessionDrivesTheEngineToTheExpectedModel) {
       // Deterministic: this build gives the same counts on every run
       // (ReplayDeterminism). The 10% allows for another compiler, -O level
       // or OpenCV's CPU dispatch moving last bits across a threshold.
-      // Measured: 4780 sparse, 201 771 dense points (202 158 before the
-      // last outlier pass; 193 149 before the ground sweep, which adds the
-      // ground in front of the fountain;
-      // 241 044 before the free-space and sky filters, docs/dense.md: the
-      // plain white walls and the points in conflict with other maps are
-      // gone).
+      // Measured: 4780 sparse, 195 529 dense points (201 771 before the
+      // weak depths and the triangulation floor, docs/dense.md; 202 158
+      // before the last outlier pass; 193 149 before the ground sweep, which
+      // adds the ground in front of the fountain; 241 044 before the free-space
+      // and sky filters, docs/dense.md: the plain white walls and the points in
+      // conflict with other maps are gone).
       {"sparse points", stats.value("sparse_points", 0.0), 4320, 5280},
       {"dense points", replay::dense_point_count(*r.store, *r.model), 174000,
        213000},

@@ -59,10 +59,11 @@ TEST(ReplayRegression, EntryP10SessionDrivesTheEngineToTheExpectedModel) {
        0, 0.12},
       {"cameras geo-registered", double(geo_matched), 10, 10},
       {"median geo error vs true position, m", geo_m, 0, 1.0},
-      // Measured: 4572 sparse, 198 149 dense points, the same on every
-      // deterministic replay; 10% as for the fountain. (281 192 dense while
-      // the voxel edge kept the scale of the first, three-fix model; it now
-      // follows the model's scale, docs/dense.md.)
+      // Measured: 4626 sparse, 193 198 dense points, the same on every
+      // deterministic replay (198 149 before the weak depths and the
+      // triangulation floor, docs/dense.md); 10% as for the fountain. (281 192
+      // dense while the voxel edge kept the scale of the first, three-fix
+      // model; it now follows the model's scale, docs/dense.md.)
       {"sparse points", stats.value("sparse_points", 0.0), 4110, 5030},
       {"dense points", replay::dense_point_count(*r.store, *r.model), 178000,
        218000},
@@ -128,8 +129,9 @@ TEST(ReplayRegression, LundSessionDrivesTheEngineToTheExpectedModel) {
       // give, changed with it; 79 426 while the voxel edge kept the scale
       // of the first model, docs/dense.md.)
       {"sparse points", stats.value("sparse_points", 0.0), 1520, 1860},
-      // Since the last outlier pass (docs/dense.md, "Isolated points"):
-      // 18 184 dense points (23 690 with the ground sweep, "Ground", whose
+      // 18 825 dense points with the weak depths and the triangulation
+      // floor (docs/dense.md); since the last outlier pass ("Isolated
+      // points"): 18 184 (23 690 with the ground sweep, "Ground", whose
       // clip took the depths below the ground's last plane; 29 631 with
       // the free-space and sky filters alone, before which half the cloud
       // was sky, points past the ground and their like). The band takes it

@@ -123,6 +123,43 @@ PairVerdict judge_pair(const DepthMap& map, const DepthMap& other,
   return verdict;
 }
 
+cv::Mat narrow_triangulation(const DepthMap& map,
+                             const std::vector<Eigen::Vector3d>& centres,
+                             double min_degrees) {
+  cv::Mat narrow = cv::Mat::zeros(map.depth.size(), CV_8U);
+  if (!(min_degrees > 0) || centres.empty()) return narrow;
+  std::vector<Eigen::Vector3d> in_camera;
+  for (const Eigen::Vector3d& c : centres)
+    in_camera.push_back(map.R * c + map.t);
+  const double min_cos = std::cos(min_degrees * M_PI / 180);
+  const Eigen::Matrix3d K_inv = map.K.inverse();
+  for (int y = 0; y < map.depth.rows; ++y) {
+    const float* depth = map.depth.ptr<float>(y);
+    uint8_t* out = narrow.ptr<uint8_t>(y);
+    for (int x = 0; x < map.depth.cols; ++x) {
+      if (depth[x] <= 0) continue;
+      const Eigen::Vector3d point =
+          depth[x] * (K_inv * Eigen::Vector3d(x, y, 1));
+      const Eigen::Vector3d to_map = -point.normalized();
+      bool wide = false;
+      for (const Eigen::Vector3d& c : in_camera)
+        wide = wide || to_map.dot((c - point).normalized()) < min_cos;
+      if (!wide) out[x] = 255;
+    }
+  }
+  return narrow;
+}
+
+cv::Mat weak_depths(const DepthMap& map,
+                    const std::vector<Eigen::Vector3d>& neighbour_centres,
+                    const ConsistencyOptions& options) {
+  cv::Mat weak = narrow_triangulation(map, neighbour_centres,
+                                      options.weak_triangulation_deg);
+  if (options.distinct_margin > 0 && map.margin.size() == map.depth.size())
+    weak |= (map.margin < options.distinct_margin) & (map.depth > 0);
+  return weak;
+}
+
 cv::Mat agreement_mask(const DepthMap& map, const DepthMap& other,
                        const ConsistencyOptions& options) {
   ConsistencyOptions agreement_only = options;

@@ -56,13 +56,30 @@ PairVerdict judge_pair(const DepthMap& map, const DepthMap& other,
 inline bool fusable(uint8_t agreed, uint8_t conflicts, int min_agreeing_maps) {
   return agreed >= min_agreeing_maps && agreed > conflicts;
 }
-// The same for a pixel whose match is ambiguous (`ambiguous`: its margin
-// over the runner-up is under ConsistencyOptions::distinct_margin): it
-// needs one more agreeing map.
+// The same for a pixel whose own measurement is weak (`weak`: an ambiguous
+// match or a narrow triangulation, weak_depths()): it needs one more
+// agreeing map.
 inline bool fusable(uint8_t agreed, uint8_t conflicts, int min_agreeing_maps,
-                    bool ambiguous) {
-  return fusable(agreed, conflicts, min_agreeing_maps + (ambiguous ? 1 : 0));
+                    bool weak) {
+  return fusable(agreed, conflicts, min_agreeing_maps + (weak ? 1 : 0));
 }
+
+// CV_8U, 255 where `map` has a depth whose point each camera centre of
+// `centres` (world frame) sees at less than `min_degrees` from the map's
+// own ray: the parallax there is too small to pin the depth down. All zero
+// when min_degrees is 0 or there is no centre (nothing to judge by).
+cv::Mat narrow_triangulation(const DepthMap& map,
+                             const std::vector<Eigen::Vector3d>& centres,
+                             double min_degrees);
+
+// CV_8U, 255 where a depth of `map`, swept with the neighbours whose
+// centres are `neighbour_centres`, is weak: its match is ambiguous (margin
+// under options.distinct_margin) or its triangulation narrow (under
+// options.weak_triangulation_deg). fusable() asks one more agreeing map
+// of such a pixel.
+cv::Mat weak_depths(const DepthMap& map,
+                    const std::vector<Eigen::Vector3d>& neighbour_centres,
+                    const ConsistencyOptions& options);
 
 // Median of |z_a - z_b| / z_b over the pixels of `a` whose points fall on a
 // depth in `b` (no tolerance applied), and how many there were.

@@ -236,8 +236,8 @@ struct DenseReconstruction::Impl {
     cv::Mat agreed;  // CV_8U: how many other maps agree (saturating)
     // CV_8U: how many are in free-space conflict with it (saturating)
     cv::Mat conflicts;
-    // CV_8U: 255 where the match is ambiguous (distinct_margin)
-    cv::Mat ambiguous;
+    // CV_8U: 255 where the depth is weak (weak_depths())
+    cv::Mat weak;
     MapFusion fusion;  // what it put into the cloud
     // The pose of its last fusion whole; moving away from it re-fuses it.
     Eigen::Vector3d fused_centre = Eigen::Vector3d::Zero();
@@ -270,9 +270,17 @@ struct DenseReconstruction::Impl {
       return swept_median * depth_scale;
     }
     FusionInput fusion_input(int min_agreeing) const {
-      return {&depth_as_swept(), depth_scale, &agreed, &conflicts,
-              min_agreeing,      &ambiguous,  score(), &colour,
-              map.K,             map.R,       map.t};
+      return {&depth_as_swept(),
+              depth_scale,
+              &agreed,
+              &conflicts,
+              min_agreeing,
+              &weak,
+              score(),
+              &colour,
+              map.K,
+              map.R,
+              map.t};
     }
     // Adds one other map's word on this one to the counts (saturating):
     // `mine` is this map judged against it, `theirs` it judged against this
@@ -287,14 +295,15 @@ struct DenseReconstruction::Impl {
       for (int y = 0; y < mask.rows; ++y)
         for (int x = 0; x < mask.cols; ++x)
           if (fusable(agreed.at<uint8_t>(y, x), conflicts.at<uint8_t>(y, x),
-                      min_agreeing, ambiguous.at<uint8_t>(y, x)))
+                      min_agreeing, weak.at<uint8_t>(y, x)))
             mask.at<uint8_t>(y, x) = 255;
       return mask;
     }
-    void start_fusion(double distinct_margin) {
-      ambiguous = cv::Mat::zeros(map.depth.size(), CV_8U);
-      if (distinct_margin > 0 && !map.margin.empty())
-        ambiguous = map.margin < distinct_margin;
+    // A new map's counts, and its weak depths as seen from the neighbours
+    // it was swept with (their centres, world frame).
+    void start_fusion(const ConsistencyOptions& options,
+                      const std::vector<Eigen::Vector3d>& neighbour_centres) {
+      weak = weak_depths(map, neighbour_centres, options);
       agreed = cv::Mat::zeros(map.depth.size(), CV_8U);
       conflicts = cv::Mat::zeros(map.depth.size(), CV_8U);
       fusion = MapFusion();  // a new map: its normals too
@@ -540,7 +549,9 @@ bool DenseReconstruction::Impl::sweep(const Model& model, int key,
     entry.neighbours.push_back(model.images[n].id);
   entry.sequence = next_sequence++;
   entry.colour = key_view.bgr;
-  entry.start_fusion(options.consistency.distinct_margin);
+  std::vector<Eigen::Vector3d> centres;
+  for (const DenseView& v : neighbour_views) centres.push_back(v.centre());
+  entry.start_fusion(options.consistency, centres);
   entries[id] = std::move(entry);
   order.push_back(id);
   update->new_depth_maps.push_back(id);
@@ -798,7 +809,13 @@ DenseUpdate DenseReconstruction::restore_depth_maps(
     entry.sparse_ratio = swept.sparse_depth_ratio;
     entry.map = std::move(swept.map);
     entry.colour = colour;
-    entry.start_fusion(impl_->options.consistency.distinct_margin);
+    std::vector<Eigen::Vector3d> centres;  // of the neighbours still there
+    for (const std::string& neighbour : entry.neighbours) {
+      auto n = index.find(neighbour);
+      if (n != index.end())
+        centres.push_back(centre_of(model.images[n->second]));
+    }
+    entry.start_fusion(impl_->options.consistency, centres);
     adopted.emplace_back(id, std::move(entry));
   }
   const double loading_s = seconds_since(start);

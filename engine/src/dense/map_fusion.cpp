@@ -79,7 +79,7 @@ void MapFusion::update_fused(const FusionInput& in, VoxelCloud* cloud) {
     for (int x = 0; x < batch_of_.cols; ++x) {
       if (!batch_of[x]) continue;
       if (!fusable(agreed[x], conflicts[x], in.min_agreeing,
-                   in.ambiguous && in.ambiguous->at<uint8_t>(y, x))) {
+                   in.weak && in.weak->at<uint8_t>(y, x))) {
         cloud->remove(added_sample(in, normals(in), x, y));
         batch_of[x] = 0;
         continue;
@@ -115,7 +115,7 @@ size_t MapFusion::add(const FusionInput& in, VoxelCloud* cloud) {
     for (int x = 0; x < in.swept_depth->cols; ++x) {
       if (batch_of[x] || depth[x] <= 0 ||
           !fusable(agreed[x], conflicts[x], in.min_agreeing,
-                   in.ambiguous && in.ambiguous->at<uint8_t>(y, x)))
+                   in.weak && in.weak->at<uint8_t>(y, x)))
         continue;
       support_of[x] = support_from(agreed[x]);
       cloud->add(sample_of(in, batch, normals(in), x, y, support_of[x]));

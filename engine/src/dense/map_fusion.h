@@ -35,9 +35,9 @@ struct FusionInput {
   const cv::Mat* agreed = nullptr;
   const cv::Mat* conflicts = nullptr;
   int min_agreeing = 1;
-  // CV_8U, 255 where the match is ambiguous (one more map must agree);
-  // null: none is.
-  const cv::Mat* ambiguous = nullptr;
+  // CV_8U, 255 where the depth is weak (weak_depths(): one more map must
+  // agree); null: none is.
+  const cv::Mat* weak = nullptr;
   // CV_32F, the sweep's winning ZNCC (DepthMap::score); null: unknown.
   const cv::Mat* score = nullptr;
   const cv::Mat* bgr = nullptr;

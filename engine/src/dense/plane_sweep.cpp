@@ -19,6 +19,7 @@
 #include <Eigen/Dense>
 
 #include "arscout/engine/dense.h"
+#include "dense/consistency.h"
 #include "dense/plane_sweep_cuda.h"
 #include "dense/sky_mask.h"
 #include "dense/sweep_kernels.h"
@@ -390,31 +391,6 @@ void clip_beyond(const DenseView& key, const SweepDirection& direction,
   }
 }
 
-// Drops the depths whose point every neighbour sees at less than
-// min_degrees from the key's ray.
-void drop_weak_triangulation(const DenseView& key,
-                             const std::vector<const DenseView*>& neighbours,
-                             double min_degrees, DepthMap* map) {
-  std::vector<Eigen::Vector3d> centres;  // key frame
-  for (const DenseView* n : neighbours)
-    centres.push_back(key.R * n->centre() + key.t);
-  const double min_cos = std::cos(min_degrees * M_PI / 180);
-  const Eigen::Matrix3d K_inv = key.K.inverse();
-  for (int y = 0; y < map->depth.rows; ++y) {
-    float* depth = map->depth.ptr<float>(y);
-    for (int x = 0; x < map->depth.cols; ++x) {
-      if (depth[x] <= 0) continue;
-      const Eigen::Vector3d point =
-          depth[x] * (K_inv * Eigen::Vector3d(x, y, 1));
-      const Eigen::Vector3d to_key = -point.normalized();
-      bool wide = false;
-      for (const Eigen::Vector3d& c : centres)
-        wide = wide || to_key.dot((c - point).normalized()) < min_cos;
-      if (!wide) depth[x] = 0;
-    }
-  }
-}
-
 // What every path's map goes through last. Sky has no depth, whatever the
 // sweep found there (dense/sky_mask.h). Nor has a point beyond the
 // fronto-parallel range (the key's sparse depths, widened: a plane of
@@ -425,9 +401,12 @@ void finish_map(const DenseView& key,
                 const std::vector<const DenseView*>& neighbours,
                 const std::vector<SweepDirection>& directions,
                 const PlaneSweepOptions& options, DepthMap* map) {
-  if (options.min_triangulation_deg > 0)
-    drop_weak_triangulation(key, neighbours, options.min_triangulation_deg,
-                            map);
+  if (options.min_triangulation_deg > 0) {
+    std::vector<Eigen::Vector3d> centres;
+    for (const DenseView* n : neighbours) centres.push_back(n->centre());
+    map->depth.setTo(
+        0, narrow_triangulation(*map, centres, options.min_triangulation_deg));
+  }
   if (options.sky_max_texture > 0)
     map->depth.setTo(0, sky_mask(key.bgr, options.sky_max_texture));
   for (const SweepDirection& direction : directions) {

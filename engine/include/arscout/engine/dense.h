@@ -63,8 +63,11 @@ struct PlaneSweepOptions {
   // neighbour's ray meet at less than this angle (degrees) is dropped. Near
   // a forward-moving camera's epipole the parallax between planes is a
   // fraction of a pixel, and a winner there is noise (COLMAP's
-  // filter_min_triangulation_angle). 0 keeps every depth.
-  double min_triangulation_deg = 3.0;
+  // filter_min_triangulation_angle, 3 degrees with all its source views;
+  // here a key has two neighbours, and depths at 2-4 degrees are asked for
+  // a second agreeing map instead: ConsistencyOptions::
+  // weak_triangulation_deg). 0 keeps every depth.
+  double min_triangulation_deg = 2.0;
   bool use_cuda = false;  // the CUDA path, when built with ARSCOUT_CUDA
   // Strips over OpenCV's worker threads; false keeps the sweep on the
   // calling thread (the same map either way). A caller that sweeps beside
@@ -163,7 +166,12 @@ struct ConsistencyOptions {
   // another depth by less than this (DepthMap::margin) is ambiguous
   // (repeated or faint texture, a window across a depth edge) and needs one
   // more agreeing map than min_agreeing_maps. 0 turns it off.
-  double distinct_margin = 0.05;
+  double distinct_margin = 0.03;
+  // Geometric confidence: a depth whose point every neighbour it was swept
+  // with sees at less than this many degrees from the key's ray (little
+  // parallax: far down a street a scout walks along) is weak as well, and
+  // needs one more agreeing map. 0 turns it off.
+  double weak_triangulation_deg = 4.0;
   bool parallel = true;  // rows over OpenCV's threads (PlaneSweepOptions)
 };
 
