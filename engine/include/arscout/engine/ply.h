@@ -85,10 +85,10 @@ void write_ply(const std::string& path, const std::vector<ColoredPoint>& points,
 // (float/float32 or double/float64 as a rule; values beyond float's range
 // become infinities) and optionally red, green and blue of type uchar/uint8
 // (0 when absent), nx, ny and nz of any numeric type and support and score
-// of an integer type (values beyond 0..255 clamped), 0 when absent. Other scalar
-// vertex properties (alpha, ...) are skipped. Other elements are skipped when
-// they come before the vertices and ignored when they come after; "\r\n" line
-// ends are tolerated.
+// of an integer type (values beyond 0..255 clamped), 0 when absent. Other
+// scalar vertex properties (alpha, ...) are skipped. Other elements are skipped
+// when they come before the vertices and ignored when they come after; "\r\n"
+// line ends are tolerated.
 //
 // Throws std::runtime_error saying what is wrong for: no "ply" magic, no
 // end_header, a format other than the two above (binary_big_endian is
