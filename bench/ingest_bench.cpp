@@ -1,7 +1,8 @@
 // ingest_bench: the HTTP ingest path end to end on one backend, each figure
 // the median of several runs on a fresh store: an in-process Server on
-// 127.0.0.1 (any free port, default ServerOptions) over that store, driven by
-// N client threads with one ingest::Client and one scout token each.
+// 127.0.0.1 (any free port, default ServerOptions but no upload limits) over
+// that store, driven by N client threads with one ingest::Client and one scout
+// token each.
 //
 //   uploads: POST /v1/captures of real 1-3 MB JPEGs (raw body, metadata with
 //            a unique capture_id and a GPS fix in X-Capture-Metadata); every
@@ -140,6 +141,10 @@ std::unique_ptr<Fixture> start_fixture(const Config& cfg, int run) {
   fx->store = db::Store::open(fx->scratch->url());
   ingest::ServerOptions options;
   options.port = 0;  // any free port
+  // The throughput of the path, not of the per-token limits (docs/api.md,
+  // "Limits"), which would refuse a client sending as fast as it can.
+  options.uploads_per_hour = 0;
+  options.new_places_per_hour = 0;
   fx->server = std::make_unique<ingest::Server>(*fx->store, options);
   fx->server->start();
   fx->base_url = "http://127.0.0.1:" + std::to_string(fx->server->port());

@@ -57,6 +57,7 @@
 #include <CLI/CLI.hpp>
 #include <Eigen/Geometry>
 
+#include "arscout/db/blob_collector.h"
 #include "arscout/db/store.h"
 #include "arscout/documents/capture.h"
 #include "arscout/documents/model.h"
@@ -106,6 +107,13 @@ struct Options {
   int sweep_budget = 0;
   int refuse_budget_sweeping = -1;
   int catch_up_backlog = -1;  // DenseOptions::catch_up_backlog
+  // As `arscout serve --with-engine` runs (docs/service.md, "Storage"):
+  // refinement versions at most one per this many seconds, and the blob
+  // collector every gc_interval_s with a grace of gc_min_age_s (0: off,
+  // as before issue 37).
+  double refine_interval_s = 10;
+  double gc_interval_s = 300;
+  double gc_min_age_s = 900;
 };
 
 struct Photo {
@@ -463,6 +471,28 @@ void print_accuracy(arscout::db::Store& store, const Options& o) {
   }
 }
 
+// What the walk left in the store against the photos' own bytes, and what
+// the blob collector removed on its way (issue 37: at most 3x).
+void print_storage(arscout::db::Store& store, const std::vector<Photo>& photos,
+                   const arscout::db::BlobCollector& collector) {
+  std::int64_t photo_bytes = 0;
+  for (const Photo& photo : photos)
+    photo_bytes += static_cast<std::int64_t>(fs::file_size(photo.path));
+  const arscout::db::StoreStats stats = store.stats();
+  const arscout::db::BlobCollectorStats gc = collector.stats();
+  const double n = static_cast<double>(std::max<size_t>(1, photos.size()));
+  std::printf(
+      "stored: %.1f MB of blobs (%lld) for %.1f MB of photos: %.2f MB per "
+      "photo, %.2fx the photos; the collector ran %lld times and removed "
+      "%lld blobs (%.1f MB)\n",
+      stats.blob_bytes / 1e6, static_cast<long long>(stats.blobs),
+      photo_bytes / 1e6, stats.blob_bytes / n / 1e6,
+      static_cast<double>(stats.blob_bytes) /
+          static_cast<double>(std::max<std::int64_t>(1, photo_bytes)),
+      static_cast<long long>(gc.runs), static_cast<long long>(gc.blobs_removed),
+      gc.bytes_removed / 1e6);
+}
+
 void print_report(arscout::db::Store& store, const Options& o,
                   const std::vector<Photo>& photos, Observed& seen) {
   std::lock_guard lock(seen.mutex);
@@ -528,8 +558,15 @@ void run(const Options& o) {
   options.progress = [](const std::string& line) {
     std::fprintf(stderr, "  %s\n", line.c_str());
   };
+  options.refinement_interval = std::chrono::milliseconds(
+      static_cast<std::int64_t>(o.refine_interval_s * 1000));
   arscout::engine::EngineWorker worker(*store, options);
+  arscout::db::BlobCollector collector(
+      *store,
+      {std::chrono::seconds(static_cast<std::int64_t>(o.gc_interval_s)),
+       std::chrono::seconds(static_cast<std::int64_t>(o.gc_min_age_s))});
   worker.start();
+  collector.start();
   const auto start = std::chrono::steady_clock::now();
   for (const Photo& photo : photos) {
     std::this_thread::sleep_until(
@@ -545,7 +582,9 @@ void run(const Options& o) {
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   models->stop();
   worker.stop();
+  collector.stop();
   print_report(*store, o, photos, seen);
+  print_storage(*store, photos, collector);
 }
 
 }  // namespace
@@ -587,6 +626,16 @@ int main(int argc, char** argv) {
                  "is within this many metres")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app.add_option("--refine-interval", o.refine_interval_s,
+                 "seconds: at most one refinement version per site this "
+                 "often, as `arscout serve` (0: no bound)")
+      ->capture_default_str();
+  app.add_option("--gc-interval", o.gc_interval_s,
+                 "seconds between blob collections during the walk (0: none)")
+      ->capture_default_str();
+  app.add_option("--gc-min-age", o.gc_min_age_s,
+                 "seconds of grace for a new blob before it may be collected")
+      ->capture_default_str();
   app.add_option("--settle", o.settle_s,
                  "seconds to wait after the last photo for the worker to go "
                  "idle before reporting (the background refinement may run "

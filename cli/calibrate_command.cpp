@@ -88,8 +88,10 @@ void put_over_http(const CalibrateArgs& a, const Json& camera,
     throw StoreError(ErrorCode::kUnavailable, e.what());
   }
   if (r.status != 200 && r.status != 201) throw http_error(r, "PUT " + target);
-  out << "stored /cameras/" << a.camera_id << " on " << a.server << " (HTTP "
-      << r.status << ")" << std::endl;
+  // The server names it: a scout's camera ids are its own
+  // (/cameras/{scout}.{id}, docs/api.md).
+  out << "stored " << r.json().value("path", "/cameras/" + a.camera_id)
+      << " on " << a.server << " (HTTP " << r.status << ")" << std::endl;
 }
 
 void put_in_store(const CalibrateArgs& a, const Json& camera,

@@ -48,6 +48,17 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
          "coming (also saved after a quiet second; a crash redoes what was "
          "unsaved; 0: at every increment; default 30)")
       ->check(CLI::Range(0.0, 3600.0));
+  o->refinement_interval = std::chrono::seconds(10);
+  cmd->add_option_function<double>(
+         "--refine-interval",
+         [o](double seconds) {
+           o->refinement_interval = std::chrono::milliseconds(
+               static_cast<std::int64_t>(seconds * 1000));
+         },
+         "seconds: a site publishes a version of its global refinement "
+         "(one that adds no photo) at most this often; a merge or a loop "
+         "closure does not wait (0: no bound; default 10)")
+      ->check(CLI::Range(0.0, 3600.0));
   cmd->add_option("--prepare-ahead", o->prepare_ahead,
                   "photos decoded and described ahead of their increments, "
                   "on a thread of their own, at most this many held (0: "
@@ -115,6 +126,31 @@ void expose_worker(const engine::EngineWorker& worker,
   };
 }
 
+void add_gc_options(CLI::App* cmd, db::BlobCollectorOptions* o) {
+  cmd->add_option_function<long long>(
+         "--gc-interval",
+         [o](long long seconds) {
+           o->interval = std::chrono::seconds(seconds);
+         },
+         "seconds between collections of blobs no document refers to "
+         "(0: none; `arscout db gc` by hand; default 300)")
+      ->check(CLI::Range(0LL, 86400LL));
+  cmd->add_option_function<long long>(
+         "--gc-min-age",
+         [o](long long seconds) { o->min_age = std::chrono::seconds(seconds); },
+         "seconds a new blob is kept unreferenced before it may be "
+         "collected (default 900)")
+      ->check(CLI::Range(60LL, 30LL * 86400));
+}
+
+void expose_collector(const db::BlobCollector& collector,
+                      ingest::ServerOptions* options) {
+  auto before = options->extra_metrics;
+  options->extra_metrics = [before, &collector] {
+    return (before ? before() : std::string()) + collector.metrics();
+  };
+}
+
 bool split_listen(const std::string& text, std::string* host,
                   std::uint16_t* port) {
   std::size_t colon = text.rfind(':');
@@ -139,11 +175,13 @@ struct EngineArgs {
   std::string db;
   std::string listen;  // "": no endpoint
   engine::WorkerOptions worker;
+  db::BlobCollectorOptions gc = default_gc_options();
 };
 
 // --listen: /healthz and /metrics only, no API (docs/service.md).
 std::unique_ptr<ingest::Server> start_endpoint(
-    const EngineArgs& a, db::Store& store, const engine::EngineWorker& worker) {
+    const EngineArgs& a, db::Store& store, const engine::EngineWorker& worker,
+    const db::BlobCollector& collector) {
   if (a.listen.empty()) return nullptr;
   ingest::ServerOptions options;
   if (!split_listen(a.listen, &options.host, &options.port))
@@ -152,6 +190,7 @@ std::unique_ptr<ingest::Server> start_endpoint(
   options.serve_api = false;
   options.worker_threads = 2;
   expose_worker(worker, &options);
+  expose_collector(collector, &options);
   auto server = std::make_unique<ingest::Server>(store, options);
   server->start();
   std::cout << "engine health and metrics at http://" << options.host << ":"
@@ -164,11 +203,14 @@ int run_engine(EngineArgs& a) {
   auto store = db::Store::open(a.db);
   log_worker_progress(&a.worker);
   engine::EngineWorker worker(*store, a.worker);
-  auto endpoint = start_endpoint(a, *store, worker);
+  db::BlobCollector collector(*store, a.gc);
+  auto endpoint = start_endpoint(a, *store, worker, collector);
   worker.start();
+  collector.start();
   while (!stop_requested())
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   if (endpoint) endpoint->stop();
+  collector.stop();
   worker.stop();
   const engine::WorkerStats s = worker.stats();
   std::cout << "engine stopped: " << s.captures_placed << " captures placed, "
@@ -190,6 +232,7 @@ void add_engine_command(CLI::App& app) {
                   "HOST:PORT to serve /healthz and /metrics on (port 0: any; "
                   "no API there)");
   add_engine_worker_options(cmd, &args.worker);
+  add_gc_options(cmd, &args.gc);
   cmd->callback([] { run_command([] { return run_engine(args); }); });
 }
 

@@ -2,6 +2,7 @@
 // `arscout serve --with-engine`.
 #pragma once
 
+#include "arscout/db/blob_collector.h"
 #include "arscout/engine/service.h"
 #include "arscout/ingest/server.h"
 
@@ -23,6 +24,19 @@ void log_worker_progress(engine::WorkerOptions* options);
 // The worker must outlive the server.
 void expose_worker(const engine::EngineWorker& worker,
                    ingest::ServerOptions* options);
+
+// --gc-interval and --gc-min-age: the blob collector that `arscout serve`
+// and `arscout engine` run (docs/service.md, "Storage").
+void add_gc_options(CLI::App* cmd, db::BlobCollectorOptions* options);
+// Their defaults: every 300 s, a grace of 900 s.
+inline db::BlobCollectorOptions default_gc_options() {
+  return {std::chrono::seconds(300), std::chrono::seconds(900)};
+}
+
+// A server's /metrics then also carries the collector's (arscout_gc_*,
+// arscout_store_blob*). The collector must outlive the server.
+void expose_collector(const db::BlobCollector& collector,
+                      ingest::ServerOptions* options);
 
 // "HOST:PORT" or "[V6]:PORT"; false when it is neither.
 bool split_listen(const std::string& text, std::string* host,

@@ -179,8 +179,9 @@ int put_camera_from_k(const ScoutArgs& a, const fs::path& first_photo) {
               << ": " << r.body << "\n";
     return r.status == 401 || r.status == 403 ? kExitError : kExitUsage;
   }
-  std::cout << "camera " << a.camera << ": " << k.width << "x" << k.height
-            << ", f " << k.fx << " px (from " << a.camera_k << ")" << std::endl;
+  std::cout << "camera " << r.json().value("path", a.camera) << ": " << k.width
+            << "x" << k.height << ", f " << k.fx << " px (from " << a.camera_k
+            << ")" << std::endl;
   return kExitOk;
 }
 

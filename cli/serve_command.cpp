@@ -29,6 +29,7 @@ struct ServeArgs {
   bool with_engine = false;
   std::string web_root = viewer::default_web_root();
   engine::WorkerOptions engine;
+  db::BlobCollectorOptions gc = default_gc_options();
 };
 
 // Caps against clients that hold what others need (docs/RELIABILITY.md,
@@ -53,6 +54,29 @@ void add_limit_options(CLI::App* cmd, ingest::ServerOptions* limits) {
                   "bytes per second a request body must keep to over every "
                   "10 s (408 and closed below)")
       ->capture_default_str();
+  // Per token and per address (docs/api.md, "Limits"): 429 beyond.
+  const auto rate = [cmd](const char* name, double* value, const char* what) {
+    cmd->add_option(name, *value, what)
+        ->capture_default_str()
+        ->check(CLI::NonNegativeNumber);
+  };
+  rate("--uploads-per-hour", &limits->uploads_per_hour,
+       "captures one token may upload an hour on average (0: no limit)");
+  rate("--upload-burst", &limits->upload_burst,
+       "captures one token may upload at once before the hourly rate holds");
+  rate("--new-places-per-hour", &limits->new_places_per_hour,
+       "captures in new places (a fix farther than --new-place-m from every "
+       "site and from the token's other new places) one token may upload an "
+       "hour (0: no limit)");
+  rate("--new-place-burst", &limits->new_place_burst,
+       "new places one token may open at once");
+  rate("--new-place-m", &limits->new_place_m,
+       "metres from every site beyond which a capture is in a new place");
+  rate("--auth-failures-per-hour", &limits->auth_failures_per_hour,
+       "requests with an unknown, revoked or expired token one address may "
+       "make an hour before its requests are refused (0: no limit)");
+  rate("--auth-failure-burst", &limits->auth_failure_burst,
+       "such requests one address may make at once");
 }
 
 // The web viewer's files; a missing three.js is worth a line at start-up,
@@ -119,6 +143,13 @@ int serve(ServeArgs& a) {
   options.max_streams = a.limits.max_streams;
   options.max_streams_per_token = a.limits.max_streams_per_token;
   options.min_body_rate = a.limits.min_body_rate;
+  options.uploads_per_hour = a.limits.uploads_per_hour;
+  options.upload_burst = a.limits.upload_burst;
+  options.new_places_per_hour = a.limits.new_places_per_hour;
+  options.new_place_burst = a.limits.new_place_burst;
+  options.new_place_m = a.limits.new_place_m;
+  options.auth_failures_per_hour = a.limits.auth_failures_per_hour;
+  options.auth_failure_burst = a.limits.auth_failure_burst;
   install_stop_handlers();
   auto store = db::Store::open(a.db);
   options.routes = viewer::viewer_routes(*store);
@@ -129,8 +160,11 @@ int serve(ServeArgs& a) {
     worker = std::make_unique<engine::EngineWorker>(*store, a.engine);
     expose_worker(*worker, &options);
   }
+  db::BlobCollector collector(*store, a.gc);
+  expose_collector(collector, &options);
   ingest::Server server(*store, options);
   server.start();
+  collector.start();
   std::cout << "arscout serving " << store->backend() << " store at "
             << (server.tls() ? "https://" : "http://") << options.host << ":"
             << server.port() << std::endl;
@@ -140,6 +174,7 @@ int serve(ServeArgs& a) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   if (worker) worker->stop();
   server.stop();
+  collector.stop();
   std::cout << "arscout server stopped" << std::endl;
   return kExitOk;
 }
@@ -187,6 +222,7 @@ void add_serve_command(CLI::App& app) {
   cmd->add_flag("--with-engine", args.with_engine,
                 "also run an engine worker in this process (docs/service.md)");
   add_engine_worker_options(cmd, &args.engine);
+  add_gc_options(cmd, &args.gc);
   cmd->callback([] { run_command([] { return serve(args); }); });
 }
 

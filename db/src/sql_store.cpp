@@ -402,6 +402,8 @@ std::string SqlStore::put_blob(std::istream& in) {
         s.execute(make_sql(
             dialect_, "UPDATE blob_chunks SET blob_key = ? WHERE blob_key = ?",
             {blob.sha256, upload_id}));
+      else
+        touch_blobs(s, {blob.sha256});
       forget_upload(s, dialect_, upload_id, /*chunks_kept=*/inserted);
     });
   } catch (...) {
@@ -426,12 +428,15 @@ std::string SqlStore::put_blob(std::istream& in) {
 std::vector<std::string> SqlStore::put_blobs(
     const std::vector<std::string_view>& blobs) {
   constexpr std::size_t kInHandTransaction = 8 * kBlobChunkBytes;
-  std::vector<std::string> shas;
+  std::vector<std::string> shas, held;
   std::vector<size_t> missing;
   shas.reserve(blobs.size());
   for (size_t i = 0; i < blobs.size(); ++i) {
     shas.push_back(util::sha256_hex(blobs[i]));
-    if (blob_info(shas.back())) continue;
+    if (blob_info(shas.back())) {
+      held.push_back(shas.back());
+      continue;
+    }
     if (blobs[i].size() <= kInHandTransaction) {
       missing.push_back(i);
       continue;
@@ -452,7 +457,22 @@ std::vector<std::string> SqlStore::put_blobs(
     });
     next = end;
   }
+  if (!held.empty()) with_write([&](SqlSession& s) { touch_blobs(s, held); });
   return shas;
+}
+
+// Blobs stored again count as new for the garbage collector's grace period
+// (collect_garbage): a writer that stores bytes the store already holds,
+// unreferenced and old, and then refers to them must not find them
+// collected in between.
+void SqlStore::touch_blobs(SqlSession& s,
+                           const std::vector<std::string>& shas) {
+  const std::int64_t now = now_us();
+  for (const std::string& sha : shas)
+    s.execute(make_sql(dialect_,
+                       "UPDATE blobs SET created_us = ? WHERE sha256 = ? AND "
+                       "created_us < ?",
+                       {now, sha, now}));
 }
 
 // One whole blob under its hash, in the caller's transaction; nothing when
@@ -466,7 +486,7 @@ void SqlStore::insert_blob(SqlSession& s, const std::string& sha256,
           "VALUES (?, ?, ?, ?) ON CONFLICT (sha256) DO NOTHING",
           {sha256, static_cast<std::int64_t>(bytes.size()),
            static_cast<std::int64_t>(kBlobChunkBytes), now_us()})) == 1;
-  if (!inserted) return;
+  if (!inserted) return touch_blobs(s, {sha256});
   std::int64_t index = 0;
   for (size_t at = 0; at < bytes.size(); at += kBlobChunkBytes, ++index) {
     s.execute(make_sql(

@@ -76,6 +76,7 @@ class SqlStore : public Store {
   ChangeSignal signal_;
 
  private:
+  void touch_blobs(SqlSession& s, const std::vector<std::string>& shas);
   void insert_blob(SqlSession& s, const std::string& sha256,
                    std::string_view bytes);
   // One caller's batch waiting for, or taking part in, a group commit.

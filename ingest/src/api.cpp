@@ -65,17 +65,37 @@ HttpResponse docs_route(ApiContext& ctx, const HttpRequest& req,
   return docs_request(ctx, req, doc_path);
 }
 
+// The target as logged: a token sent as ?access_token= (however its name
+// was percent-encoded) is replaced by "***", since logs are read by more
+// people than tokens should be.
+std::string target_for_log(const HttpRequest& request) {
+  if (!request.query.count("access_token")) return request.target;
+  std::string out = request.path;
+  char separator = '?';
+  for (const auto& [key, value] : request.query) {
+    out += separator + key + "=" + (key == "access_token" ? "***" : value);
+    separator = '&';
+  }
+  return out;
+}
+
 // The access log: one line per answered request, at info (quiet by
 // default).
 void log_access(const HttpRequest& request, int status, double seconds) {
   if (!spdlog::should_log(spdlog::level::info)) return;
   spdlog::info(
       "event=request method={} target={} status={} ms={:.1f} remote={}",
-      method_label(request.method), util::quoted_log_value(request.target, 512),
-      status, seconds * 1000, request.remote.empty() ? "-" : request.remote);
+      method_label(request.method),
+      util::quoted_log_value(target_for_log(request), 512), status,
+      seconds * 1000, request.remote.empty() ? "-" : request.remote);
 }
 
 }  // namespace
+
+std::string scoped_id(const Principal& who, const std::string& id) {
+  const std::string space = who.name + ".";
+  return id.rfind(space, 0) == 0 ? id : space + id;
+}
 
 bool can_read(const Principal& who, const std::string& doc_path) {
   return who.role == Role::kAdmin ||
@@ -108,6 +128,7 @@ Api::Api(db::Store& store, Metrics& metrics, std::vector<ApiRoute> routes,
 
 Api::Api(db::Store& store, Metrics& metrics, const ServerOptions& options)
     : Api(store, metrics, options.routes, options.static_mounts) {
+  limits_ = std::make_unique<ClientLimits>(options);
   serve_api_ = options.serve_api;
   extra_metrics_ = options.extra_metrics;
   health_details_ = options.health_details;
@@ -127,7 +148,7 @@ std::vector<ApiRoute> Api::builtin_routes(std::vector<ApiRoute> added) {
     r.forbidden = std::move(forbidden);
     r.handle = [this, pattern = r.pattern, handler = std::move(handler)](
                    const HttpRequest& req, const Principal& who) {
-      ApiContext ctx{store_, metrics_, who};
+      ApiContext ctx{store_, metrics_, who, limits_.get()};
       std::string rest;
       pattern_matches(pattern, req.path, &rest);
       return handler(ctx, req, rest);
@@ -178,6 +199,11 @@ HttpResponse Api::render_metrics() const {
   return r;
 }
 
+bool Api::runs_long(const HttpRequest& request) const {
+  const RouteChoice choice = choose_route(routes_, request);
+  return choice.route && choice.route->runs_long;
+}
+
 std::string Api::route_template(const std::string& method,
                                 const std::string& path) const {
   HttpRequest request;
@@ -205,32 +231,6 @@ std::optional<std::int64_t> int_param(const HttpRequest& req,
     return std::nullopt;
   }
   return v;
-}
-
-std::optional<Json> parse_json_body(const std::string& text,
-                                    std::string* error) {
-  // Copying and serialising a JSON value recurse once per level of nesting,
-  // so some ten thousand '[' would overflow a handler thread's stack:
-  // deeper bodies are refused while they are parsed.
-  constexpr int kMaxDepth = 512;
-  struct TooDeep {};
-  auto limit_depth = [](int depth, Json::parse_event_t event, Json&) {
-    if (depth >= kMaxDepth && (event == Json::parse_event_t::object_start ||
-                               event == Json::parse_event_t::array_start))
-      throw TooDeep{};
-    return true;
-  };
-  try {
-    return Json::parse(text, limit_depth);
-  } catch (const TooDeep&) {
-    *error = "JSON nested deeper than " + std::to_string(kMaxDepth) + " levels";
-  } catch (const Json::parse_error& e) {
-    *error =
-        "malformed JSON at byte " + std::to_string(e.byte) + ": " + e.what();
-  } catch (const Json::out_of_range& e) {  // a number beyond a double's range
-    *error = std::string("unreadable JSON: ") + e.what();
-  }
-  return std::nullopt;
 }
 
 HttpResponse Api::handle(const HttpRequest& request) {
@@ -263,21 +263,51 @@ std::optional<HttpResponse> Api::refuse_before_body(const HttpRequest& head) {
   // Only /v1/ needs a token: an unknown /v1/ path too, so that no client
   // without one gets its body read.
   if (!starts_with(head.path, "/v1/")) return std::nullopt;
-  std::optional<Principal> who;
+  std::variant<Principal, HttpResponse> who;
   try {
-    who = authenticate(store_, head.header("authorization"));
+    who = authenticate_client(head.header("authorization"), head.remote);
   } catch (const std::exception&) {
     return std::nullopt;  // the store is down: the request gets its 503
   }
-  if (!who) {
-    metrics_.record_request(route_label(choice, head.method), 401, 0);
-    return unauthorized(head);
+  if (auto* refusal = std::get_if<HttpResponse>(&who)) {
+    metrics_.record_request(route_label(choice, head.method), refusal->status,
+                            0);
+    return std::move(*refusal);
   }
+  const Principal& principal = std::get<Principal>(who);
   const ApiRoute* route = choice.route;
-  if (!route || !route->min_role || role_at_least(who->role, *route->min_role))
-    return std::nullopt;
-  metrics_.record_request(route_label(choice, head.method), 403, 0);
-  return forbidden(route->forbidden);
+  if (route && route->min_role &&
+      !role_at_least(principal.role, *route->min_role)) {
+    metrics_.record_request(route_label(choice, head.method), 403, 0);
+    return forbidden(route->forbidden);
+  }
+  // An upload past its token's rate is refused before its body is read.
+  if (head.method == "POST" && head.path == "/v1/captures")
+    if (const int wait = limits_->uploads.wait(principal.name); wait > 0) {
+      metrics_.refused("uploads");
+      return uploads_refused(wait);
+    }
+  return std::nullopt;
+}
+
+std::variant<Principal, HttpResponse> Api::authenticate_client(
+    const std::string& authorization, const std::string& remote) {
+  if (const int wait = limits_->auth_failures.wait(remote); wait > 0) {
+    metrics_.refused("auth_failures");
+    return too_many_requests(
+        "too_many_failures",
+        "too many requests with unknown, revoked or expired tokens from "
+        "this address; try again later",
+        wait);
+  }
+  auto who = authenticate(store_, authorization);
+  if (who) return *who;
+  // A token that was tried and is unknown, revoked or expired; a request
+  // without one is no guess.
+  if (!authorization.empty()) limits_->auth_failures.take(remote);
+  HttpRequest request;
+  request.headers["authorization"] = authorization;
+  return unauthorized(request);
 }
 
 HttpResponse Api::dispatch(const HttpRequest& req, std::string* route) {
@@ -296,9 +326,9 @@ HttpResponse Api::dispatch(const HttpRequest& req, std::string* route) {
   *route = route_label(choice, req.method);
   Principal who{Role::kPlanner, ""};  // anonymous, for the open routes
   if (!open) {
-    auto token = authenticate(store_, req.header("authorization"));
-    if (!token) return unauthorized(req);
-    who = *token;
+    auto token = authenticate_client(req.header("authorization"), req.remote);
+    if (auto* refusal = std::get_if<HttpResponse>(&token)) return *refusal;
+    who = std::get<Principal>(token);
   }
   if (!choice.route) return method_not_allowed(choice.allowed);
   const std::optional<Role>& least = choice.route->min_role;
@@ -316,11 +346,15 @@ std::variant<Api::Subscribe, HttpResponse> Api::check_subscribe(
   if (auto it = req.query.find("access_token");
       authorization.empty() && it != req.query.end())
     authorization = "Bearer " + it->second;
-  auto who = authenticate(store_, authorization);
-  if (!who)
-    return HttpResponse::error(401, "unauthorized",
-                               "a valid Authorization: Bearer token (or "
-                               "?access_token=) is required");
+  auto checked = authenticate_client(authorization, req.remote);
+  if (auto* refusal = std::get_if<HttpResponse>(&checked)) {
+    if (refusal->status == 401)
+      return HttpResponse::error(401, "unauthorized",
+                                 "a valid Authorization: Bearer token (or "
+                                 "?access_token=) is required");
+    return *refusal;
+  }
+  const Principal* who = &std::get<Principal>(checked);
   std::string error;
   auto since = int_param(req, "since", 0, 0, INT64_MAX, &error);
   if (!since) return HttpResponse::error(400, "bad_request", error);

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <variant>
@@ -13,6 +14,7 @@
 #include "arscout/ingest/auth.h"
 #include "arscout/ingest/http_types.h"
 #include "arscout/ingest/server.h"
+#include "client_limits.h"
 #include "metrics.h"
 
 namespace arscout::ingest {
@@ -50,6 +52,9 @@ class Api {
   // when the body is needed to decide. Touches the store (the token).
   std::optional<HttpResponse> refuse_before_body(const HttpRequest& head);
 
+  // Whether the request's route runs long (ApiRoute::runs_long).
+  bool runs_long(const HttpRequest& request) const;
+
   // The metrics label of a request's route ("GET /v1/docs/*", "other").
   std::string route_template(const std::string& method,
                              const std::string& path) const;
@@ -62,8 +67,14 @@ class Api {
   std::vector<ApiRoute> builtin_routes(std::vector<ApiRoute> added);
   HttpResponse render_metrics() const;
 
+  // The token's principal, or the 401 (or, past the address's failures,
+  // the 429) to answer instead; a failure counts against the address.
+  std::variant<Principal, HttpResponse> authenticate_client(
+      const std::string& authorization, const std::string& remote);
+
   db::Store& store_;
   Metrics& metrics_;
+  std::unique_ptr<ClientLimits> limits_ = std::make_unique<ClientLimits>();
   std::vector<ApiRoute> routes_;  // /healthz, /metrics, added, ingest's /v1
   std::vector<StaticMount> static_mounts_;
   bool serve_api_ = true;

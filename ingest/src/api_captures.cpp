@@ -13,6 +13,16 @@
 namespace arscout::ingest {
 namespace {
 
+// Metadata is a few fields (docs/api.md); the cap keeps a part of up to
+// --max-body-mb from becoming a JSON value hundreds of times its size in
+// memory (a 60 MB array of zeros took 1.5 GB).
+constexpr std::size_t kMaxMetadataBytes = 64 * 1024;
+
+HttpResponse metadata_too_large() {
+  return HttpResponse::error(413, "payload_too_large",
+                             "capture metadata is at most 64 KiB");
+}
+
 struct Upload {
   std::string_view image;
   Json meta = Json::object();
@@ -39,6 +49,8 @@ std::optional<HttpResponse> read_upload(const HttpRequest& req, Upload* up) {
       seen = true;
       if (p.name == "image")
         up->image = p.body;
+      else if (p.body.size() > kMaxMetadataBytes)
+        return metadata_too_large();
       else
         meta_text = std::string(p.body);
     }
@@ -49,6 +61,7 @@ std::optional<HttpResponse> read_upload(const HttpRequest& req, Upload* up) {
     up->image = req.body;
     meta_text = req.header("x-capture-metadata");
   }
+  if (meta_text.size() > kMaxMetadataBytes) return metadata_too_large();
   if (!meta_text.empty()) {
     auto meta = parse_json_body(meta_text, &error);
     if (!meta)
@@ -91,16 +104,6 @@ HttpResponse replay_or_conflict(const db::Document& existing,
   r.headers.emplace_back("Idempotent-Replay", "true");
   r.headers.emplace_back("Location", "/v1/docs" + existing.path);
   return r;
-}
-
-// A capture's id within its scout's own space: "{scout}.{capture_id}", so
-// that no scout can take an id another one will send (docs/api.md). An id
-// that begins with the scout's "{name}." already (an id the server gave,
-// a replayed session) is kept as it is. Token names hold no '.'
-// (create_token), so two scouts' spaces never meet.
-std::string scoped_capture_id(const Principal& who, const std::string& id) {
-  const std::string space = who.name + ".";
-  return id.rfind(space, 0) == 0 ? id : space + id;
 }
 
 struct CaptureFields {
@@ -157,6 +160,25 @@ Json capture_attrs(const CaptureFields& f, const Principal& who,
   return documents::to_json(c);
 }
 
+// The token's upload rate, then its new places (docs/api.md, "Limits"). A
+// replay of a stored capture (checked before) counts against neither.
+std::optional<HttpResponse> over_limits(ApiContext& ctx,
+                                        const std::optional<GpsFix>& fix) {
+  if (!ctx.limits) return std::nullopt;
+  if (const int wait = ctx.limits->uploads.take(ctx.who.name); wait > 0) {
+    ctx.metrics.refused("uploads");
+    return uploads_refused(wait);
+  }
+  if (fix && validate_gps(*fix).empty())
+    if (const int wait = ctx.limits->new_places.admit(ctx.store, ctx.who.name,
+                                                      fix->lat, fix->lon);
+        wait > 0) {
+      ctx.metrics.refused("new_places");
+      return new_places_refused(wait);
+    }
+  return std::nullopt;
+}
+
 }  // namespace
 
 HttpResponse post_capture(ApiContext& ctx, const HttpRequest& req) {
@@ -164,14 +186,20 @@ HttpResponse post_capture(ApiContext& ctx, const HttpRequest& req) {
   if (auto bad = read_upload(req, &up)) return *bad;
   CaptureFields f;
   if (auto bad = read_fields(up.meta, &f)) return *bad;
-  if (ctx.who.name.find('.') != std::string::npos)
-    return HttpResponse::error(
-        403, "forbidden",
-        "the token's name '" + ctx.who.name +
-            "' holds a '.', which capture ids use to keep scouts apart: "
-            "upload with a token whose name has none");
+  // Capture ids are "{name}.{id}": a name with a '.' (a token made before
+  // names were checked) or none (a replayed session) would let one scout's
+  // ids meet another's.
+  if (std::string problem = token_name_problem(ctx.who.name); !problem.empty())
+    return HttpResponse::error(403, "forbidden",
+                               "the token's name '" + ctx.who.name +
+                                   "' cannot own captures (" + problem +
+                                   "): upload with a token named otherwise");
+  if (!f.camera.empty()) {
+    f.camera = capture_camera(ctx.store, ctx.who, f.camera);
+    db::validate_path("/cameras/" + f.camera);  // the name made it longer
+  }
   if (!f.id.empty()) {
-    f.id = scoped_capture_id(ctx.who, f.id);
+    f.id = scoped_id(ctx.who, f.id);
     db::validate_path("/captures/" + f.id);  // the name made it longer
   }
   // A known capture id is checked before any work: a retry costs a hash.
@@ -183,12 +211,14 @@ HttpResponse post_capture(ApiContext& ctx, const HttpRequest& req) {
   ImageProbe probe = probe_image(up.image);
   if (!probe.ok) return HttpResponse::error(422, "unprocessable", probe.error);
   ExifInfo exif = read_exif(up.image);
+  if (auto refused = over_limits(ctx, f.gps ? f.gps : exif.gps))
+    return *refused;
 
   // The blob first: the document may only refer to stored bytes. If the
   // document write then fails, the orphaned blob is collected by `db gc`.
   const std::string hash = ctx.store.put_blob(up.image);
   if (f.id.empty()) {  // named by its content: a re-upload is a replay
-    f.id = scoped_capture_id(ctx.who, hash.substr(0, 16));
+    f.id = scoped_id(ctx.who, hash.substr(0, 16));
     path = "/captures/" + f.id;
     if (auto existing = ctx.store.get(path))
       return replay_or_conflict(*existing, ctx.who, hash);

@@ -110,12 +110,15 @@ HttpResponse write_doc(ApiContext& ctx, const HttpRequest& req,
 HttpResponse docs_request(ApiContext& ctx, const HttpRequest& req,
                           const std::string& path) {
   const std::string& m = req.method;
-  if (m == "GET") return get_doc(ctx, req, path.empty() ? "/" : path);
+  // HEAD is GET's answer; the server sends its header alone.
+  if (m == "GET" || m == "HEAD")
+    return get_doc(ctx, req, path.empty() ? "/" : path);
   if (m == "PUT" || m == "PATCH" || m == "DELETE")
     return write_doc(ctx, req, path);
-  HttpResponse r = HttpResponse::error(
-      405, "method_not_allowed", "documents allow GET, PUT, PATCH, DELETE");
-  r.headers.emplace_back("Allow", "GET, PUT, PATCH, DELETE");
+  HttpResponse r =
+      HttpResponse::error(405, "method_not_allowed",
+                          "documents allow GET, HEAD, PUT, PATCH, DELETE");
+  r.headers.emplace_back("Allow", "GET, HEAD, PUT, PATCH, DELETE");
   return r;
 }
 

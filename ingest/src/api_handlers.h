@@ -9,6 +9,7 @@
 #include "arscout/db/store.h"
 #include "arscout/ingest/auth.h"
 #include "arscout/ingest/http_types.h"
+#include "client_limits.h"
 #include "metrics.h"
 
 namespace arscout::ingest {
@@ -17,6 +18,9 @@ struct ApiContext {
   db::Store& store;
   Metrics& metrics;
   const Principal& who;
+  // The server's per-client limits; null where there are none (a session
+  // replayed by an operator, the fuzz targets).
+  ClientLimits* limits = nullptr;
 };
 
 // api_captures.cpp
@@ -34,6 +38,19 @@ HttpResponse get_blob(ApiContext& ctx, const HttpRequest& req,
                       const std::string& hash);
 HttpResponse put_camera(ApiContext& ctx, const HttpRequest& req,
                         const std::string& id);
+
+// An id within its scout's own space: "{name}.{id}", so that no scout can
+// take a capture or camera id another one will send (docs/api.md). An id
+// that begins with the scout's "{name}." already (one the server gave, a
+// replayed session) is kept as it is. Token names hold no '.'
+// (token_name_problem), so two scouts' spaces never meet.
+std::string scoped_id(const Principal& who, const std::string& id);
+// The camera a capture of `who` naming camera `id` uses: the scout's own
+// (/cameras/{name}.{id}) when it exists; else the operators' /cameras/{id}
+// (no owner) or a camera stored under `id` by this scout before ids were
+// scoped; else the scout's own id, for a camera stored later.
+std::string capture_camera(db::Store& store, const Principal& who,
+                           const std::string& id);
 
 // Shared helpers (api.cpp). Store errors are answered with
 // error_response (http_types.h).

@@ -62,22 +62,29 @@ std::string TokenInfo::state(std::int64_t at_s) const {
   return "active";
 }
 
+std::string token_name_problem(const std::string& name) {
+  if (name.empty()) return "a token name is not empty";
+  if (name.find('/') != std::string::npos)
+    return "a token name is one path segment, not '" + name + "'";
+  if (name.find('.') != std::string::npos)  // capture ids are "{name}.{id}"
+    return "a token name holds no '.' (letters, digits, '_' and '-'), not '" +
+           name + "'";
+  try {
+    db::validate_path("/" + name);  // names become path segments
+  } catch (const db::StoreError& e) {
+    return std::string("a token name is a path segment: ") + e.what();
+  }
+  return "";
+}
+
 std::string create_token(db::Store& store, Role role, const std::string& name,
                          std::optional<std::int64_t> expires_s) {
   if (expires_s && *expires_s <= now_s())
     throw db::StoreError(
         db::ErrorCode::kInvalidArgument,
         "the expiry " + format_time_utc(*expires_s) + " is not in the future");
-  db::validate_path("/" + name);  // names become path segments
-  if (name.find('/') != std::string::npos)
-    throw db::StoreError(
-        db::ErrorCode::kInvalidArgument,
-        "a token name is one path segment, not '" + name + "'");
-  if (name.find('.') != std::string::npos)  // capture ids are "{name}.{id}"
-    throw db::StoreError(db::ErrorCode::kInvalidArgument,
-                         "a token name holds no '.' (letters, digits, '_' "
-                         "and '-'), not '" +
-                             name + "'");
+  if (std::string problem = token_name_problem(name); !problem.empty())
+    throw db::StoreError(db::ErrorCode::kInvalidArgument, problem);
   unsigned char random[32];
   if (RAND_bytes(random, sizeof random) != 1)
     throw db::StoreError(db::ErrorCode::kInternal,

@@ -65,10 +65,14 @@ struct Server::Impl {
       : options(std::move(opts)),
         api(store, metrics, options),
         workers(static_cast<std::size_t>(std::max(1, options.worker_threads))),
+        long_workers(
+            static_cast<std::size_t>(std::max(1, options.long_worker_threads))),
+        send_budget(options.max_send_buffer_bytes),
         watch(store, std::chrono::milliseconds(100)),
         streams(options.max_streams, options.max_streams_per_token),
         connections(connection_cap(options.max_connections),
                     options.max_connections_per_address),
+        operations_connections(kOperationsConnections, 0),
         acceptor(ioc),
         tls_context(ssl::context::tls_server) {}
 
@@ -120,7 +124,14 @@ struct Server::Impl {
   void start_session(tcp::socket socket) {
     boost::system::error_code ec;
     const auto peer = socket.remote_endpoint(ec);
-    auto slot = connections.acquire(ec ? "" : peer.address().to_string());
+    const std::string address = ec ? "" : peer.address().to_string();
+    auto slot = connections.acquire(address);
+    // Past the address's cap (not the total), a connection may still ask
+    // for /healthz: from the small pool for that, briefly.
+    const bool over_address_cap =
+        !slot && (connections.total_cap() == 0 ||
+                  connections.in_use() < connections.total_cap());
+    if (over_address_cap) slot = operations_connections.acquire(address);
     if (!slot) {
       metrics.refused("connections");
       return turn_away(socket, "too many connections (at most " +
@@ -130,8 +141,9 @@ struct Server::Impl {
                                    " in all)");
     }
     serve_connection(std::move(socket), use_tls ? &tls_context : nullptr,
-                     SessionContext{api, options, workers, watch, streams},
-                     std::move(slot));
+                     SessionContext{api, options, workers, long_workers,
+                                    send_budget, watch, streams},
+                     std::move(slot), over_address_cap);
   }
 
   ServerOptions options;
@@ -141,9 +153,14 @@ struct Server::Impl {
   // queued there when the server stops cancel their wake-ups and release
   // their slots as they go.
   asio::thread_pool workers;
+  asio::thread_pool long_workers;
+  ByteBudget send_budget;
   ChangeWatch watch;
   KeyedLimit streams;
   KeyedLimit connections;
+  // Connections past their address's cap that may ask /healthz only.
+  static constexpr std::size_t kOperationsConnections = 64;
+  KeyedLimit operations_connections;
   asio::io_context ioc;
   tcp::acceptor acceptor;
   ssl::context tls_context;
@@ -181,6 +198,7 @@ void Server::stop() {
   for (auto& t : impl_->threads) t.join();
   impl_->threads.clear();
   impl_->workers.join();
+  impl_->long_workers.join();
   impl_->watch.stop();  // no wake-up is posted to the context after this
 }
 

@@ -43,17 +43,46 @@ HttpResponse too_many_streams(const KeyedLimit& streams) {
   return r;
 }
 
+// The status line and headers every answer gets, whatever its body.
+template <typename Body>
+void set_head(http::response<Body>& out, const HttpResponse& r,
+              bool keep_alive) {
+  out.set(http::field::server, "arscout/0.1");
+  out.set(http::field::content_type, r.content_type);
+  out.set("X-Content-Type-Options", "nosniff");
+  for (auto& [k, v] : r.headers) out.set(k, v);
+  out.keep_alive(keep_alive);
+}
+
 http::response<http::string_body> to_beast(HttpResponse&& r, unsigned version,
                                            bool keep_alive) {
   http::response<http::string_body> out{static_cast<http::status>(r.status),
                                         version};
-  out.set(http::field::server, "arscout/0.1");
-  out.set(http::field::content_type, r.content_type);
-  for (auto& [k, v] : r.headers) out.set(k, v);
+  set_head(out, r, keep_alive);
   out.body() = std::move(r.body);
-  out.keep_alive(keep_alive);
   out.prepare_payload();
   return out;
+}
+
+// Api::check_subscribe, with a store that cannot answer (PostgreSQL
+// restarting) turned into its 503 like any other request's.
+std::variant<Api::Subscribe, HttpResponse> check_subscribe_safely(
+    Api& api, const HttpRequest& req) {
+  try {
+    return api.check_subscribe(req);
+  } catch (const db::StoreError& e) {
+    api.metrics().store_error();
+    return error_response(e);
+  } catch (const std::exception& e) {
+    return HttpResponse::error(500, "internal", e.what());
+  }
+}
+
+// /healthz or /metrics, with or without a query: what a connection past
+// its address's cap may still ask.
+bool is_operations(std::string_view target) {
+  const std::string_view path = target.substr(0, target.find('?'));
+  return path == "/healthz" || path == "/metrics";
 }
 
 // Socket access for both stream kinds.
@@ -91,6 +120,10 @@ class SubscribeSession
     tcp_of(beast::get_lowest_layer(ws_)).expires_never();
     ws_.set_option(
         websocket::stream_base::timeout::suggested(beast::role_type::server));
+    // A subscriber sends nothing the server reads: a frame past this is
+    // refused from its header (Beast's default let each stream buffer
+    // 16 MiB, kept while it stayed open).
+    ws_.read_message_max(kMaxIncoming);
     where_ = std::move(where);
     last_ = where_.since;
     auto self = this->shared_from_this();
@@ -103,6 +136,7 @@ class SubscribeSession
   }
 
  private:
+  static constexpr std::size_t kMaxIncoming = 4096;
   static constexpr std::size_t kBatch = 500;
   // More is read from the log only while fewer changes wait to be sent: a
   // slow client gets its changes later, and holds no more memory.
@@ -256,7 +290,7 @@ class SubscribeSession
   std::uint64_t watch_id_ = 0;
   asio::steady_timer recheck_{ws_.get_executor()};
   asio::steady_timer retry_{ws_.get_executor()};
-  beast::flat_buffer incoming_;
+  beast::flat_buffer incoming_{kMaxIncoming};
   std::deque<std::string> queue_;
 };
 
@@ -266,10 +300,11 @@ template <typename Stream>
 class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
  public:
   HttpSession(Stream&& stream, SessionContext shared,
-              std::optional<Slot> connection)
+              std::optional<Slot> connection, bool operations_only)
       : stream_(std::move(stream)),
         shared_(shared),
         connection_(std::move(connection)),
+        operations_only_(operations_only),
         body_rate_(shared.options.min_body_rate) {
     shared_.api.metrics().connection_opened();
     // Beast reads at most the buffer's free capacity (512 bytes minimum),
@@ -284,20 +319,24 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
   }
 
   void run() {
+    const std::chrono::seconds first = operations_only_
+                                           ? std::chrono::seconds(2)
+                                           : shared_.options.header_timeout;
     if constexpr (std::is_same_v<Stream, beast::tcp_stream>) {
-      read_header(shared_.options.header_timeout);
+      read_header(first);
     } else {
-      tcp_of(stream_).expires_after(shared_.options.header_timeout);
+      tcp_of(stream_).expires_after(first);
       stream_.async_handshake(
           ssl::stream_base::server,
-          [self = this->shared_from_this()](beast::error_code ec) {
-            if (!ec) self->read_header(self->shared_.options.header_timeout);
+          [self = this->shared_from_this(), first](beast::error_code ec) {
+            if (!ec) self->read_header(first);
           });
     }
   }
 
  private:
   static constexpr std::size_t kReadChunk = 64 * 1024;
+  static constexpr std::int64_t kSendPiece = 256 * 1024;
 
   void read_header(std::chrono::seconds timeout) {
     parser_.emplace();
@@ -318,6 +357,16 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
                         " bytes");
     if (ec == http::error::body_limit) return reject_too_large();
     if (ec) return;  // closed, timed out or garbage: drop the connection
+    const auto target = parser_->get().target();
+    if (operations_only_ &&
+        !is_operations(std::string_view(target.data(), target.size()))) {
+      shared_.api.metrics().refused("connections");
+      return reject(
+          503, "unavailable",
+          "too many connections from this address (at most " +
+              std::to_string(shared_.options.max_connections_per_address) +
+              "); /healthz and /metrics are still answered");
+    }
     if (std::string problem = transfer_encoding_problem(parser_->get());
         !problem.empty())
       return reject(400, "bad_request", problem);
@@ -337,6 +386,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
   // (it reads the store), then the session goes on on its own strand.
   void check_before_body() {
     HttpRequest head = head_of(parser_->get());
+    head.remote = remote_address();
     auto parsed = parse_target(head.target);
     if (!parsed) return continue_body();  // on_body answers the bad URL
     head.path = std::move(parsed->path);
@@ -431,18 +481,18 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     req.path = std::move(parsed->path);
     req.query = std::move(parsed->query);
     req.may_park = true;
-    beast::error_code peer_error;
-    const auto peer = socket_of(stream_).remote_endpoint(peer_error);
-    if (!peer_error) req.remote = peer.address().to_string();
-    answer(std::move(req), version, keep_alive);
+    req.remote = remote_address();
+    answer(std::move(req), version, keep_alive && !operations_only_);
   }
 
   // The API answers on a worker; a long-poll with nothing to show yet is
   // parked instead (park), and asked again when woken.
   void answer(HttpRequest req, unsigned version, bool keep_alive) {
     auto self = this->shared_from_this();
-    asio::post(shared_.workers, [self, req = std::move(req), version,
-                                 keep_alive]() mutable {
+    auto& pool =
+        shared_.api.runs_long(req) ? shared_.long_workers : shared_.workers;
+    asio::post(pool, [self, req = std::move(req), version,
+                      keep_alive]() mutable {
       HttpResponse response = self->shared_.api.handle(req);
       asio::post(self->stream_.get_executor(),
                  [self, req = std::move(req), response = std::move(response),
@@ -451,7 +501,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
                      return self->park(std::move(req), *response.park_after,
                                        version, keep_alive);
                    self->release_stream();
-                   self->send(std::move(response), version, keep_alive);
+                   self->send(std::move(response), version, keep_alive,
+                              req.method == "HEAD");
                  });
     });
   }
@@ -501,9 +552,13 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     shared_.api.metrics().stream_closed();
   }
 
+  // The token is looked up on a worker (it reads the store, which may be
+  // down: a 503 then, not an exception on the network thread), then the
+  // session goes on on its own strand.
   void upgrade() {
-    auto request = parser_->release();
-    HttpRequest req = to_request(http::request<http::string_body>(request));
+    auto request =
+        std::make_shared<http::request<http::string_body>>(parser_->release());
+    HttpRequest req = to_request(http::request<http::string_body>(*request));
     auto parsed = parse_target(req.target);
     if (parsed) {
       req.path = parsed->path;
@@ -512,8 +567,21 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     if (!parsed || req.path != "/v1/subscribe")
       return send(HttpResponse::error(404, "not_found",
                                       "WebSocket only at /v1/subscribe"),
-                  request.version(), false);
-    auto checked = shared_.api.check_subscribe(req);
+                  request->version(), false);
+    req.remote = remote_address();
+    auto self = this->shared_from_this();
+    asio::post(shared_.workers, [self, req = std::move(req), request] {
+      auto checked = check_subscribe_safely(self->shared_.api, req);
+      asio::post(self->stream_.get_executor(),
+                 [self, request, checked = std::move(checked)]() mutable {
+                   self->accept_upgrade(std::move(*request),
+                                        std::move(checked));
+                 });
+    });
+  }
+
+  void accept_upgrade(http::request<http::string_body> request,
+                      std::variant<Api::Subscribe, HttpResponse> checked) {
     if (auto* error = std::get_if<HttpResponse>(&checked))
       return send(std::move(*error), request.version(), false);
     auto& where = std::get<Api::Subscribe>(checked);
@@ -539,10 +607,26 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     send(HttpResponse::error(status, kind, message), 11, false);
   }
 
-  void send(HttpResponse&& response, unsigned version, bool keep_alive) {
+  // A HEAD request's answer (head_only) is the GET's header alone, with
+  // the length the body would have.
+  void send(HttpResponse&& response, unsigned version, bool keep_alive,
+            bool head_only = false) {
+    if (response.body_reader)
+      return send_streamed(std::move(response), version, keep_alive, head_only);
     auto message = std::make_shared<http::response<http::string_body>>(
         to_beast(std::move(response), version, keep_alive));
     tcp_of(stream_).expires_after(std::chrono::seconds(60));
+    if (head_only) {
+      auto serializer =
+          std::make_shared<http::response_serializer<http::string_body>>(
+              *message);
+      return http::async_write_header(
+          stream_, *serializer,
+          [self = this->shared_from_this(), message, serializer](
+              beast::error_code ec, std::size_t) {
+            if (!ec) self->after_answer(message->keep_alive());
+          });
+    }
     http::async_write(stream_, *message,
                       [self = this->shared_from_this(), message](
                           beast::error_code ec, std::size_t) {
@@ -550,6 +634,102 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
                         if (!message->keep_alive()) return self->close();
                         self->read_header(self->shared_.options.idle_timeout);
                       });
+  }
+
+  // The header, then the body a piece at a time: each piece is read on a
+  // worker once the server's budget of bytes in flight has room, written,
+  // and only then is the next one read. A slow client holds one piece.
+  void send_streamed(HttpResponse&& response, unsigned version, bool keep_alive,
+                     bool head_only) {
+    auto reader = std::make_shared<HttpResponse::BodyReader>(
+        std::move(*response.body_reader));
+    auto head = std::make_shared<http::response<http::empty_body>>(
+        static_cast<http::status>(response.status), version);
+    set_head(*head, response, keep_alive);
+    head->content_length(static_cast<std::uint64_t>(reader->size));
+    auto serializer =
+        std::make_shared<http::response_serializer<http::empty_body>>(*head);
+    tcp_of(stream_).expires_after(std::chrono::seconds(60));
+    http::async_write_header(
+        stream_, *serializer,
+        [self = this->shared_from_this(), head, serializer, reader, keep_alive,
+         head_only](beast::error_code ec, std::size_t) {
+          if (ec) return;
+          if (head_only) return self->after_answer(keep_alive);
+          self->send_piece(reader, 0, keep_alive);
+        });
+  }
+
+  void send_piece(std::shared_ptr<HttpResponse::BodyReader> reader,
+                  std::int64_t offset, bool keep_alive) {
+    if (offset >= reader->size) return after_answer(keep_alive);
+    const auto length = static_cast<std::size_t>(
+        std::min<std::int64_t>(kSendPiece, reader->size - offset));
+    auto hold = shared_.send_budget.take(length);
+    auto self = this->shared_from_this();
+    if (!hold) {  // the budget is spent: try again shortly
+      piece_timer_.expires_after(std::chrono::milliseconds(10));
+      return piece_timer_.async_wait(
+          [self, reader, offset, keep_alive](beast::error_code ec) {
+            if (!ec) self->send_piece(reader, offset, keep_alive);
+          });
+    }
+    auto piece = std::make_shared<Piece>(Piece{{}, std::move(*hold)});
+    asio::post(shared_.workers, [self, reader, offset, length, keep_alive,
+                                 piece] {
+      bool read = false;
+      try {
+        piece->bytes = reader->read(offset, length);
+        read = piece->bytes.size() == length;
+      } catch (const std::exception& e) {
+        spdlog::warn("event=body_read_failed offset={} error=\"{}\"", offset,
+                     e.what());
+      }
+      asio::post(self->stream_.get_executor(), [self, reader, offset, length,
+                                                keep_alive, piece, read] {
+        if (!read) return self->abort();  // the client sees a short body
+        self->write_piece(reader, offset + static_cast<std::int64_t>(length),
+                          keep_alive, piece);
+      });
+    });
+  }
+
+  struct Piece {
+    std::string bytes;
+    ByteBudget::Hold hold;  // given back once written (or failed)
+  };
+
+  void write_piece(std::shared_ptr<HttpResponse::BodyReader> reader,
+                   std::int64_t next, bool keep_alive,
+                   std::shared_ptr<Piece> piece) {
+    tcp_of(stream_).expires_after(std::chrono::seconds(60));
+    asio::async_write(
+        stream_, asio::buffer(piece->bytes),
+        [self = this->shared_from_this(), reader, next, keep_alive, piece](
+            beast::error_code ec, std::size_t) mutable {
+          piece.reset();
+          if (!ec) self->send_piece(reader, next, keep_alive);
+        });
+  }
+
+  // The answer is written: the next request, or the close.
+  void after_answer(bool keep_alive) {
+    if (!keep_alive) return close();
+    read_header(shared_.options.idle_timeout);
+  }
+
+  void abort() {
+    beast::error_code ignored;
+    socket_of(stream_).shutdown(tcp::socket::shutdown_both, ignored);
+    socket_of(stream_).close(ignored);
+  }
+
+  // The client's address ("" once the socket has gone): what failed
+  // authentications and the access log are counted by.
+  std::string remote_address() {
+    beast::error_code ec;
+    const auto peer = socket_of(stream_).remote_endpoint(ec);
+    return ec ? std::string() : peer.address().to_string();
   }
 
   void close() {
@@ -566,6 +746,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
   Stream stream_;
   SessionContext shared_;
   std::optional<Slot> connection_;
+  const bool operations_only_;
   beast::flat_buffer buffer_;
   std::optional<BeastRequestParser> parser_;
   BodyRate body_rate_;
@@ -576,22 +757,25 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
   std::chrono::steady_clock::time_point park_deadline_;
   std::uint64_t watch_id_ = 0;
   asio::steady_timer park_timer_{stream_.get_executor()};
+  asio::steady_timer piece_timer_{stream_.get_executor()};
 };
 
 }  // namespace
 
 void serve_connection(tcp::socket socket, ssl::context* tls,
                       const SessionContext& context,
-                      std::optional<KeyedLimit::Slot> connection) {
+                      std::optional<KeyedLimit::Slot> connection,
+                      bool operations_only) {
   if (tls) {
     std::make_shared<HttpSession<beast::ssl_stream<beast::tcp_stream>>>(
         beast::ssl_stream<beast::tcp_stream>(
             beast::tcp_stream(std::move(socket)), *tls),
-        context, std::move(connection))
+        context, std::move(connection), operations_only)
         ->run();
   } else {
     std::make_shared<HttpSession<beast::tcp_stream>>(
-        beast::tcp_stream(std::move(socket)), context, std::move(connection))
+        beast::tcp_stream(std::move(socket)), context, std::move(connection),
+        operations_only)
         ->run();
   }
 }

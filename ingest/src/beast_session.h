@@ -12,6 +12,7 @@
 
 #include "api.h"
 #include "arscout/ingest/server.h"
+#include "byte_budget.h"
 #include "change_watch.h"
 #include "keyed_limit.h"
 
@@ -22,15 +23,24 @@ struct SessionContext {
   Api& api;
   const ServerOptions& options;
   boost::asio::thread_pool& workers;
-  ChangeWatch& watch;   // long-polls and streams wait here, threadless
-  KeyedLimit& streams;  // open long-polls and streams, per token
+  // The routes Api::runs_long names (exports) run here, so that a crowd of
+  // them queues among themselves and leaves `workers` to everything else.
+  boost::asio::thread_pool& long_workers;
+  ByteBudget& send_budget;  // pieces of streamed bodies in flight
+  ChangeWatch& watch;       // long-polls and streams wait here, threadless
+  KeyedLimit& streams;      // open long-polls and streams, per token
 };
 
 // Serves `socket` (over TLS with `tls`, plain HTTP when it is null) until
-// the connection closes, holding its `connection` slot until then.
+// the connection closes, holding its `connection` slot until then. An
+// `operations_only` connection (one past its address's cap) is answered
+// once, and only for /healthz and /metrics (503 otherwise), so that a
+// monitor sharing an address with a crowd of clients still sees the server;
+// it must send its header within 2 s.
 void serve_connection(boost::asio::ip::tcp::socket socket,
                       boost::asio::ssl::context* tls,
                       const SessionContext& context,
-                      std::optional<KeyedLimit::Slot> connection);
+                      std::optional<KeyedLimit::Slot> connection,
+                      bool operations_only = false);
 
 }  // namespace arscout::ingest

@@ -44,6 +44,17 @@ HttpResponse HttpResponse::geojson(const Json& body) {
   return r;
 }
 
+HttpResponse::BodyReader shared_bytes_reader(
+    std::shared_ptr<const std::string> bytes) {
+  HttpResponse::BodyReader reader;
+  reader.size = static_cast<std::int64_t>(bytes->size());
+  reader.read = [bytes = std::move(bytes)](std::int64_t offset,
+                                           std::size_t length) {
+    return bytes->substr(static_cast<std::size_t>(offset), length);
+  };
+  return reader;
+}
+
 HttpResponse HttpResponse::json(int status, const Json& body) {
   HttpResponse r;
   r.status = status;

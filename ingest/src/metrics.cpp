@@ -12,8 +12,9 @@ void Metrics::record_request(const std::string& route, int status,
 }
 
 void Metrics::refused(const std::string& reason) {
-  const bool known =
-      reason == "connections" || reason == "streams" || reason == "slow_body";
+  const bool known = reason == "connections" || reason == "streams" ||
+                     reason == "slow_body" || reason == "auth_failures" ||
+                     reason == "uploads" || reason == "new_places";
   std::lock_guard lock(mu_);
   ++refused_[known ? reason : "other"];
 }

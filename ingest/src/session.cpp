@@ -1,7 +1,5 @@
 #include "arscout/ingest/session.h"
 
-#include <openssl/evp.h>
-
 #include <chrono>
 #include <fstream>
 #include <set>
@@ -11,36 +9,13 @@
 #include "api_handlers.h"
 #include "arscout/documents/capture.h"
 #include "arscout/ingest/gps.h"
+#include "arscout/util/base64.h"
 
 namespace arscout::ingest {
 namespace {
 
 // Attributes the engine sets on a capture after the upload.
 const char* const kEngineFields[] = {"site", "status", "status_reason"};
-
-std::string to_base64(const std::string& bytes) {
-  std::string out(4 * ((bytes.size() + 2) / 3) + 1, '\0');
-  const int n =
-      EVP_EncodeBlock(reinterpret_cast<unsigned char*>(out.data()),
-                      reinterpret_cast<const unsigned char*>(bytes.data()),
-                      static_cast<int>(bytes.size()));
-  out.resize(static_cast<size_t>(n));
-  return out;
-}
-
-std::optional<std::string> from_base64(const std::string& text) {
-  if (text.size() % 4 != 0) return std::nullopt;
-  std::string out(text.size() / 4 * 3, '\0');
-  const int n =
-      EVP_DecodeBlock(reinterpret_cast<unsigned char*>(out.data()),
-                      reinterpret_cast<const unsigned char*>(text.data()),
-                      static_cast<int>(text.size()));
-  if (n < 0) return std::nullopt;
-  size_t padding = 0;
-  for (size_t i = text.size(); i > 0 && text[i - 1] == '='; --i) ++padding;
-  out.resize(static_cast<size_t>(n) - std::min<size_t>(padding, 2));
-  return out;
-}
 
 // Which input a change is, judged by the document as it is now; "" for
 // the engine's outputs and everything else.
@@ -92,7 +67,7 @@ class SessionWriter {
     out_ << Json{{"type", "blob"},
                  {"sha256", hash},
                  {"size", bytes.size()},
-                 {"base64", to_base64(bytes)}}
+                 {"base64", util::to_base64(bytes)}}
                 .dump()
          << '\n';
     ++summary->blobs;
@@ -106,6 +81,28 @@ class SessionWriter {
 
 // ---- replay
 
+// A replay waits as long as the session took: its changes' times must
+// read as microseconds that never go back, over at most 30 days
+// (a file saying 10^18 us would otherwise wait until killed).
+constexpr std::int64_t kMaxSessionSpanUs = 30ll * 24 * 3600 * 1000000;
+
+struct SessionTimes {
+  std::int64_t first = -1, last = -1;
+};
+
+template <typename Refuse>
+void check_time(const Json& value, SessionTimes* times, const Refuse& refuse) {
+  if (!value.is_number_integer() || value.get<std::int64_t>() < 0)
+    return refuse("time_us is not a non-negative integer");
+  const std::int64_t t = value.get<std::int64_t>();
+  if (times->first < 0) times->first = t;
+  if (t < times->last) refuse("time_us goes back in time");
+  if (t - times->first > kMaxSessionSpanUs)
+    refuse("the session spans more than 30 days (time_us " + std::to_string(t) +
+           ")");
+  times->last = t;
+}
+
 [[noreturn]] void bad_line(const std::string& path, std::int64_t line,
                            const std::string& what) {
   throw std::runtime_error(path + ":" + std::to_string(line) + ": " + what);
@@ -118,6 +115,7 @@ void check_session(const std::string& path) {
   if (!in) throw std::runtime_error(path + ": cannot read");
   std::string text;
   std::int64_t line = 0, changes = 0, blobs = 0;
+  SessionTimes times;
   bool ended = false;
   while (std::getline(in, text)) {
     ++line;
@@ -136,6 +134,8 @@ void check_session(const std::string& path) {
     } else if (type == "change") {
       if (!j.contains("seq") || !j.contains("path") || !j.contains("time_us"))
         bad_line(path, line, "a change needs seq, path and time_us");
+      check_time(j.at("time_us"), &times,
+                 [&](const std::string& why) { bad_line(path, line, why); });
       ++changes;
     } else if (type == "blob") {
       ++blobs;
@@ -182,7 +182,7 @@ class Replayer {
       : store_(store), options_(options) {}
 
   void blob(const Json& j) {
-    const auto bytes = from_base64(j.at("base64").get<std::string>());
+    const auto bytes = util::from_base64(j.at("base64").get<std::string>());
     if (!bytes || bytes->size() != j.at("size").get<size_t>())
       throw std::runtime_error("blob " + j.value("sha256", "") +
                                ": bad base64 or size");
@@ -199,6 +199,10 @@ class Replayer {
     const std::string path = j.at("path");
     const Json& attrs = j.at("attrs");
     HttpResponse r;
+    // Each input is made again as the API would take it from its scout:
+    // with a scout's rights under the recorded name, which must be one a
+    // token could have (a withdrawal or camera of another scout's is then
+    // refused, as it would have been).
     if (input == "capture") {
       const Principal scout{Role::kScout, attrs.value("scout", "")};
       r = call(scout, [&](ApiContext& ctx) {
@@ -210,7 +214,7 @@ class Replayer {
       });
       if (r.status / 100 == 2) ++summary->captures;
     } else if (input == "withdrawal") {
-      const Principal who{Role::kAdmin, j.value("author", "")};
+      const Principal who{Role::kScout, j.value("author", "")};
       r = call(who, [&](ApiContext& ctx) {
         return withdraw_capture(ctx, HttpRequest{}, path.substr(10));
       });
@@ -219,7 +223,7 @@ class Replayer {
       r.status = 200;  // a second replay: PUT would only add a version
       ++summary->cameras;
     } else if (input == "camera") {
-      const Principal who{Role::kAdmin, j.value("author", "")};
+      const Principal who{Role::kScout, j.value("author", "")};
       HttpRequest req;
       req.method = "PUT";
       req.body = attrs.dump();
@@ -240,8 +244,15 @@ class Replayer {
 
   template <typename Handler>
   HttpResponse call(const Principal& who, Handler handler) {
+    if (std::string problem = token_name_problem(who.name); !problem.empty())
+      return HttpResponse::error(
+          403, "forbidden", "recorded author '" + who.name + "': " + problem);
     ApiContext ctx{store_, metrics_, who};
-    return handler(ctx);
+    try {
+      return handler(ctx);
+    } catch (const db::StoreError& e) {
+      return error_response(e);
+    }
   }
 
   // Sleeps so that inputs arrive as far apart as they were recorded,

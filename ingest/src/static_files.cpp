@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "api.h"
+#include "arscout/util/base64.h"
 
 namespace arscout::ingest {
 namespace {
@@ -29,8 +30,10 @@ std::string content_type_of(const fs::path& file) {
   return it == kTypes.end() ? "application/octet-stream" : it->second;
 }
 
-// No "." or ".." segments, backslashes or NULs: the path names a file
-// below the mount as written (links are checked after resolving).
+// No empty, "." or ".." segments, backslashes or NULs: the path names a
+// file below the mount as written (links are checked after resolving). An
+// empty segment would make "//srv/web" an absolute path, which joined to
+// the mount's folder replaces it.
 bool safe_relative(const std::string& relative) {
   if (relative.find('\\') != std::string::npos ||
       relative.find('\0') != std::string::npos)
@@ -38,8 +41,47 @@ bool safe_relative(const std::string& relative) {
   std::stringstream in(relative);
   std::string segment;
   while (std::getline(in, segment, '/'))
-    if (segment == ".." || segment == ".") return false;
+    if (segment.empty() || segment == ".." || segment == ".") return false;
   return true;
+}
+
+// The hashes of a page's inline scripts (its import map), for its
+// Content-Security-Policy: only those and the site's own files run.
+std::string inline_script_sources(const std::string& page) {
+  std::string sources;
+  for (std::size_t at = page.find("<script"); at != std::string::npos;
+       at = page.find("<script", at + 1)) {
+    const std::size_t open_end = page.find('>', at);
+    const std::size_t close = page.find("</script>", at);
+    if (open_end == std::string::npos || close == std::string::npos ||
+        close < open_end)
+      break;
+    if (page.substr(at, open_end - at).find(" src=") != std::string::npos)
+      continue;
+    sources += " 'sha256-" +
+               util::sha256_base64(std::string_view(page).substr(
+                   open_end + 1, close - open_end - 1)) +
+               "'";
+  }
+  return sources;
+}
+
+// What a browser is told about every file of the web viewer and the scout
+// app: no framing by other sites (clickjacking), no guessing of types, no
+// script or connection beyond this origin (the pages load nothing from
+// elsewhere), no referrer with tokens in it.
+void add_security_headers(HttpResponse& response, const std::string& body,
+                          bool is_page) {
+  response.headers.emplace_back("X-Frame-Options", "DENY");
+  response.headers.emplace_back("Referrer-Policy", "no-referrer");
+  response.headers.emplace_back(
+      "Content-Security-Policy",
+      "default-src 'self'; script-src 'self'" +
+          (is_page ? inline_script_sources(body) : std::string()) +
+          "; style-src 'self' 'unsafe-inline'; img-src 'self' data: blob:; "
+          "media-src 'self' blob: mediastream:; connect-src 'self' ws: wss:; "
+          "worker-src 'self'; object-src 'none'; base-uri 'none'; "
+          "frame-ancestors 'none'; form-action 'self'");
 }
 
 const StaticMount* longest_mount(const std::vector<StaticMount>& mounts,
@@ -86,12 +128,13 @@ std::optional<HttpResponse> serve_static(const std::vector<StaticMount>& mounts,
   const fs::path root = fs::canonical(mount->directory, ec);
   if (ec) return not_found(req.path);
   const fs::path file = fs::canonical(root / relative, ec);
-  if (!ec && fs::is_regular_file(file / "index.html"))
-    return to_folder(req.path);
-  if (ec || !fs::is_regular_file(file)) return not_found(req.path);
-  // A symbolic link must not lead out of the mounted folder.
+  if (ec) return not_found(req.path);
+  // A symbolic link must not lead out of the mounted folder, and no
+  // redirect names a folder outside it.
   auto [r, f] = std::mismatch(root.begin(), root.end(), file.begin());
   if (r != root.end()) return not_found(req.path);
+  if (fs::is_regular_file(file / "index.html")) return to_folder(req.path);
+  if (!fs::is_regular_file(file)) return not_found(req.path);
   std::ifstream in(file, std::ios::binary);
   std::ostringstream bytes;
   bytes << in.rdbuf();
@@ -100,6 +143,7 @@ std::optional<HttpResponse> serve_static(const std::vector<StaticMount>& mounts,
   response.content_type = content_type_of(file);
   response.headers.emplace_back("Cache-Control", "no-cache");
   response.body = bytes.str();
+  add_security_headers(response, response.body, file.extension() == ".html");
   return response;
 }
 

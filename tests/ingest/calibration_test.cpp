@@ -499,7 +499,11 @@ TEST_F(CalibrationTest, CliPutsTheCameraOverHttp) {
   ASSERT_EQ(code, 0) << arscout::testing::slurp(log);
   EXPECT_NE(arscout::testing::slurp(log).find("(HTTP 201)"), std::string::npos)
       << arscout::testing::slurp(log);
-  auto doc = store->get("/cameras/phone-1");
+  // alice's camera id is her own (docs/api.md), and the CLI says where.
+  EXPECT_NE(arscout::testing::slurp(log).find("stored /cameras/alice.phone-1"),
+            std::string::npos)
+      << arscout::testing::slurp(log);
+  auto doc = store->get("/cameras/alice.phone-1");
   ASSERT_TRUE(doc);
   EXPECT_EQ(doc->kind, "camera");
   EXPECT_NEAR(doc->attrs["fx"].get<double>(), kFocal, 0.005 * kFocal);
@@ -510,7 +514,7 @@ TEST_F(CalibrationTest, CliPutsTheCameraOverHttp) {
   EXPECT_EQ(code, 2) << arscout::testing::slurp(log);
   EXPECT_NE(arscout::testing::slurp(log).find("HTTP 401"), std::string::npos)
       << arscout::testing::slurp(log);
-  EXPECT_EQ(store->get("/cameras/phone-1")->version, 1);
+  EXPECT_EQ(store->get("/cameras/alice.phone-1")->version, 1);
   server.stop();
   std::error_code ignored;
   fs::remove_all(out, ignored);

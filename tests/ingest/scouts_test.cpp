@@ -139,7 +139,8 @@ TEST_P(ScoutsTest, CameraKStoresTheCameraFirst) {
                    "--camera-k", images + "/K.txt"});
   std::string result = finish(*ok, "k.log");
   ASSERT_EQ(result.rfind("exit 0", 0), 0u) << result;
-  auto camera = store_->get("/cameras/fp11");
+  // bob's camera id is his own (/cameras/bob.fp11, docs/api.md).
+  auto camera = store_->get("/cameras/bob.fp11");
   ASSERT_TRUE(camera);
   EXPECT_EQ(camera->attrs.value("width", 0), 3072);
   EXPECT_EQ(camera->attrs.value("height", 0), 2048);
@@ -152,7 +153,7 @@ TEST_P(ScoutsTest, CameraKStoresTheCameraFirst) {
   db::Query all;
   all.pattern = "/captures/*";
   for (const auto& doc : store_->query(all))
-    EXPECT_EQ(doc.attrs.value("camera", ""), "fp11") << doc.path;
+    EXPECT_EQ(doc.attrs.value("camera", ""), "bob.fp11") << doc.path;
 
   const std::string bad_k = dir_ + "/bad_K.txt";
   std::ofstream(bad_k) << "not a matrix\n";
@@ -160,7 +161,7 @@ TEST_P(ScoutsTest, CameraKStoresTheCameraFirst) {
                    {"--camera", "x", "--camera-k", bad_k});
   result = finish(*bad, "bad.log");
   EXPECT_EQ(result.rfind("exit 2", 0), 0u) << result;
-  EXPECT_FALSE(store_->get("/cameras/x"));
+  EXPECT_FALSE(store_->get("/cameras/alice.x"));
   EXPECT_EQ(store_->query(all).size(), count_images(images));
 }
 

@@ -122,8 +122,8 @@ TEST_F(SessionTest, ReplayReproducesTheScoutsInputsAndNotTheEnginesOutputs) {
   EXPECT_EQ(target_->get("/captures/bob.c1")->attrs.at("status_reason"),
             "withdrawn by bob");
   EXPECT_EQ(target_->get("/captures/bob.c3")->attrs.at("status"), "needs-gps");
-  EXPECT_EQ(target_->get("/cameras/phone")->attrs,
-            source_->get("/cameras/phone")->attrs);
+  EXPECT_EQ(target_->get("/cameras/alice.phone")->attrs,
+            source_->get("/cameras/alice.phone")->attrs);
   EXPECT_FALSE(target_->get("/sites/s-1"));
   // The recorded rhythm: 3 gaps of >= 150 ms between the uploads.
   EXPECT_GE(s.seconds, 0.4);
@@ -174,6 +174,56 @@ TEST_F(SessionTest, DamagedFilesAreRefusedBeforeAnythingIsApplied) {
   refused(extra, "unknown record type");
   EXPECT_THROW(replay_session(dir_ + "/missing.session", *target_, {}),
                std::runtime_error);
+}
+
+// Round two, row 14: a crafted session stored a capture of a scout named
+// "" (/captures/.z1), withdrew alice's capture in the name of a scout that
+// never had it, and a gap of 10^18 us waited until the replay was killed.
+// Each event is now taken as the API would take it from its scout, and the
+// times are checked with the rest of the file before anything is applied.
+TEST_F(SessionTest, CraftedEventsAreTakenOnlyAsTheApiWouldTakeThem) {
+  const std::string path = export_to_file();
+  std::vector<Json> records;
+  for (std::ifstream in(path); in;) {
+    std::string line;
+    if (std::getline(in, line) && !line.empty())
+      records.push_back(Json::parse(line));
+  }
+  const auto write = [&](const std::vector<Json>& lines) {
+    const std::string crafted = dir_ + "/crafted.session";
+    std::ofstream out(crafted, std::ios::trunc);
+    for (const Json& j : lines) out << j.dump() << '\n';
+    return crafted;
+  };
+  std::vector<Json> crafted = records;
+  for (Json& j : crafted) {
+    if (j.value("input", "") == "withdrawal") j["author"] = "mallory";
+    if (j.value("path", "") == "/captures/alice.c2") {
+      j["path"] = "/captures/.z1";
+      j["attrs"]["scout"] = "";
+    }
+  }
+  const ReplaySummary s = replay_session(write(crafted), *target_, {});
+  EXPECT_EQ(s.failed, 2);
+  EXPECT_FALSE(target_->get("/captures/.z1"));
+  EXPECT_EQ(target_->get("/captures/bob.c1")->attrs.at("status"), "stored");
+
+  std::vector<Json> endless = records;
+  for (Json& j : endless)
+    if (j.value("path", "") == "/captures/bob.c3")
+      j["time_us"] = 1000000000000000000ll;
+  const std::int64_t seq = target_->last_seq();
+  const auto started = std::chrono::steady_clock::now();
+  try {
+    replay_session(write(endless), *target_, {});
+    ADD_FAILURE() << "a session spanning 31,700 years was replayed";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("more than 30 days"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_LT(std::chrono::steady_clock::now() - started, 5s);
+  EXPECT_EQ(target_->last_seq(), seq);
 }
 
 }  // namespace

@@ -1,7 +1,8 @@
 // Faults under a running `arscout serve`:
 // - its PostgreSQL server stopped for seconds, then `pg_ctl restart`ed, while
 //   four `arscout scout` processes upload: the server answers 503 while the
-//   database is down, the scouts retry, and every photo is stored once;
+//   database is down (WebSocket upgrades too), the scouts retry, and every
+//   photo is stored once;
 // - its SQLite file on a disk that fills up: uploads get a clear 503, reads
 //   go on, nothing acknowledged is lost, the file passes PRAGMA
 //   integrity_check, and uploads succeed again once there is space;
@@ -24,6 +25,7 @@
 
 #include "arscout/db/store.h"
 #include "arscout/ingest/auth.h"
+#include "arscout/ingest/change_stream.h"
 #include "arscout/ingest/client.h"
 #include "scratch_disks.h"
 #include "serve_process.h"
@@ -155,9 +157,27 @@ TEST(PostgresRestart, ServerAnswers503WhileDownAndScoutsLoseNothing) {
   EXPECT_EQ(refused.status, 503) << refused.body;
   EXPECT_EQ(refused.json().value("error", ""), "unavailable") << refused.body;
   EXPECT_EQ(refused.headers["retry-after"], "1");
+  // WebSockets opened while the database is down (hostile clients round
+  // two, row 3): the upgrade looked the token up on a network thread with
+  // no handler, and the store's exception ended the server. Each is now a
+  // 503, and the server lives on.
+  for (int i = 0; i < 8; ++i) {
+    try {
+      ingest::ChangeStream stream({server.url(), tester}, 0);
+      ADD_FAILURE() << "a stream opened while the database was down";
+    } catch (const ingest::NetworkError& e) {
+      EXPECT_NE(std::string(e.what()).find("503"), std::string::npos)
+          << e.what();
+    }
+  }
+  EXPECT_TRUE(server.process().running()) << "the server ended";
   std::this_thread::sleep_for(3s);
   ASSERT_TRUE(pg.run("up"));
   EXPECT_TRUE(wait_for_health(server, 200, 30s)) << "no recovery";
+  {
+    ingest::ChangeStream stream({server.url(), tester}, 0);
+    EXPECT_TRUE(stream.next(10s)) << "no change through a stream after it";
+  }
   EXPECT_GT(store->last_seq(), seq_before - 1);
 
   // Then a plain `pg_ctl restart` while the scouts are still at it.

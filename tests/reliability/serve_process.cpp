@@ -15,9 +15,26 @@ ServeProcess::ServeProcess(const std::string& cli, const std::string& db_url,
                            const std::string& log,
                            const std::vector<std::string>& extra)
     : log_(log) {
-  std::vector<std::string> args = {
-      "serve", "--db", db_url, "--listen", "127.0.0.1:0", "--web-root", ""};
-  args.insert(args.end(), extra.begin(), extra.end());
+  // The global --log-level goes before the command; an --web-root in
+  // `extra` replaces the default of none.
+  std::vector<std::string> global, rest;
+  bool web_root = false;
+  for (std::size_t i = 0; i < extra.size(); ++i) {
+    if (extra[i] == "--log-level" && i + 1 < extra.size()) {
+      global = {extra[i], extra[i + 1]};
+      ++i;
+      continue;
+    }
+    web_root = web_root || extra[i] == "--web-root";
+    rest.push_back(extra[i]);
+  }
+  std::vector<std::string> args = global;
+  for (const char* word : {"serve", "--db"}) args.push_back(word);
+  args.push_back(db_url);
+  args.push_back("--listen");
+  args.push_back("127.0.0.1:0");
+  if (!web_root) args.insert(args.end(), {"--web-root", ""});
+  args.insert(args.end(), rest.begin(), rest.end());
   process_ = std::make_unique<ToolProcess>(cli, args, log);
   static const std::regex serving(R"(arscout serving .* at (http\S+))");
   for (int i = 0; i < 300; ++i) {

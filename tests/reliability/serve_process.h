@@ -16,7 +16,9 @@ namespace arscout::testing {
 
 class ServeProcess {
  public:
-  // Starts `arscout serve --db URL --listen 127.0.0.1:0` plus extra, logging
+  // Starts `arscout serve --db URL --listen 127.0.0.1:0 --web-root ""` plus
+  // extra (an --web-root there replaces the default; --log-level goes
+  // before the command), logging
   // to log, and waits (up to 30 s) for its "serving ... at URL" line.
   // Throws std::runtime_error, with the log, when it does not come.
   ServeProcess(const std::string& cli, const std::string& db_url,

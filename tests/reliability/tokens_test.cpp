@@ -94,13 +94,15 @@ TEST(TokenLifecycle, AnExpiredTokenIsRefused) {
   const std::string url = testing::fresh_sqlite_url();
   const std::string dir = testing::make_temp_dir("tokens-expiry");
   auto store = db::Store::open(url);
-  const std::string token = ingest::create_token(*store, ingest::Role::kScout,
-                                                 "sam", std::time(nullptr) + 2);
   testing::ServeProcess server(ARSCOUT_CLI, url, dir + "/serve.log");
+  // Expiries are whole seconds: 3 s from now is 2-3 s of validity, ample
+  // for the two requests even on a loaded machine.
+  const std::string token = ingest::create_token(*store, ingest::Role::kScout,
+                                                 "sam", std::time(nullptr) + 3);
   ingest::Client client({server.url(), token});
   EXPECT_EQ(client.get("/v1/sites").status, 200);
   ingest::ChangeStream stream({server.url(), token}, 0);
-  std::this_thread::sleep_for(3s);
+  std::this_thread::sleep_for(4s);
   EXPECT_EQ(client.get("/v1/sites").status, 401);
   EXPECT_LT(until_closed(stream), 1.5);
   EXPECT_THROW(ingest::create_token(*store, ingest::Role::kScout, "late",

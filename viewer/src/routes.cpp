@@ -16,9 +16,14 @@
 #include "arscout/viewer/exports.h"
 #include "arscout/viewer/overlay.h"
 #include "cloud_octree.h"
+#include "export_cache.h"
 
 namespace arscout::viewer {
 namespace {
+
+// Built exports kept in memory (export_cache.h): a few versions of a large
+// site's LAS and 3D Tiles files.
+constexpr std::size_t kExportCacheBytes = 256u << 20;
 
 using db::ErrorCode;
 using db::StoreError;
@@ -128,8 +133,8 @@ HttpResponse thumbnail(db::Store& store, const HttpRequest& req,
   return r;
 }
 
-HttpResponse site_export(db::Store& store, const HttpRequest& req,
-                         const std::string& site) {
+HttpResponse site_export(ExportCache& cache, db::Store& store,
+                         const HttpRequest& req, const std::string& site) {
   auto it = req.query.find("format");
   const auto format =
       it == req.query.end() ? std::nullopt : parse_export_format(it->second);
@@ -148,12 +153,22 @@ HttpResponse site_export(db::Store& store, const HttpRequest& req,
     options.crs = crs->second;
   if (auto heights = req.query.find("heights"); heights != req.query.end())
     options.heights = heights->second;
-  ExportFile file = export_site(store, site, *format, options);
+  // Keyed by the model version read now: a version committed while the
+  // file is built gets a key of its own on the next request.
+  const SiteModel model = load_site_model(store, site);
+  const std::string key =
+      model.site + "/" + std::to_string(model.version) + "/" +
+      to_string(*format) + "/" +
+      (options.cloud == Cloud::kDense ? "dense" : "sparse") + "/" +
+      options.crs + "/" + options.heights;
+  const std::shared_ptr<const ExportFile> file = cache.get(
+      key, [&] { return export_site(store, site, *format, options); });
   HttpResponse r;
-  r.content_type = file.content_type;
-  r.body = std::move(file.bytes);
+  r.content_type = file->content_type;
+  r.body_reader = ingest::shared_bytes_reader(
+      std::shared_ptr<const std::string>(file, &file->bytes));
   r.headers.emplace_back("Content-Disposition",
-                         "attachment; filename=\"" + file.filename + "\"");
+                         "attachment; filename=\"" + file->filename + "\"");
   return r;
 }
 
@@ -334,6 +349,13 @@ ingest::ApiRoute octree_node_route(db::Store& store,
 std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
   db::Store* s = &store;
   auto octrees = std::make_shared<CloudOctreeCache>();
+  auto exports = std::make_shared<ExportCache>(kExportCacheBytes);
+  ingest::ApiRoute export_route =
+      route("GET /v1/sites/*/export", "sites", "export",
+            [s, exports](const HttpRequest& req, const std::string& id) {
+              return site_export(*exports, *s, req, id);
+            });
+  export_route.runs_long = true;
   return {
       route("GET /v1/captures/*/overlay.jpg", "captures", "overlay.jpg",
             [s](const HttpRequest& req, const std::string& id) {
@@ -351,10 +373,7 @@ std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
             [s](const HttpRequest&, const std::string& id) {
               return site_cameras_geojson(*s, id);
             }),
-      route("GET /v1/sites/*/export", "sites", "export",
-            [s](const HttpRequest& req, const std::string& id) {
-              return site_export(*s, req, id);
-            }),
+      std::move(export_route),
       route("GET /v1/sites/*/octree", "sites", "octree",
             [s, octrees](const HttpRequest& req, const std::string& id) {
               return site_octree(*octrees, *s, req, id);

@@ -72,6 +72,10 @@ struct EngineWorker::Impl {
     std::vector<Work> unsaved;
     bool dense_retry = false;    // a dense phase failed: run one again
     bool refine_wanted = false;  // a refinement waits for the dense lane
+    // A refinement waits for WorkerOptions::refinement_interval since the
+    // last one published (wake_deferred_refinements).
+    bool refine_deferred = false;
+    std::chrono::steady_clock::time_point last_refinement{};
     // After an increment failed in the engine: captures one at a time, and
     // how often each failed alone (after_engine_fault).
     bool one_at_a_time = false;
@@ -289,6 +293,7 @@ struct EngineWorker::Impl {
       changed.wait_for(lock, std::chrono::seconds(1),
                        [&] { return stopping || !ready.empty(); });
       if (stopping) return;
+      wake_deferred_refinements();
       if (ready.empty()) {
         save_idle_states(lock);
         save_idle_checkpoint(lock);
@@ -811,6 +816,10 @@ struct EngineWorker::Impl {
   void run_refinement(const std::string& site, service::SiteJob& job,
                       SiteQueue& q, std::unique_lock<std::mutex>& lock) {
     const bool give_way = !options.reconstruction.deterministic;
+    if (refinement_too_soon(job, q)) {
+      q.refine_deferred = true;
+      return;
+    }
     lock.unlock();
     bool dense_due = false;
     try {
@@ -842,6 +851,7 @@ struct EngineWorker::Impl {
       } while (refined.refine_again && !give_way);
       dense_due = job.dense_due();
       lock.lock();
+      if (written > 0) q.last_refinement = std::chrono::steady_clock::now();
       if (state_saved) release_unsaved(q);
       stats.increments += written;
       // A round that used up its iterations goes on in the next call (the
@@ -863,6 +873,31 @@ struct EngineWorker::Impl {
     // work arrived (its increment's dense phase does it then).
     if (dense_due && (!give_way || q.pending.empty()))
       start_dense(site, job, lock);
+  }
+
+  // A refinement round due before the site's interval since its last one
+  // has passed (WorkerOptions::refinement_interval), and not urgent.
+  bool refinement_too_soon(const service::SiteJob& job, const SiteQueue& q) {
+    if (options.refinement_interval.count() <= 0 ||
+        options.reconstruction.deterministic || !job.refinement_due() ||
+        job.refinement_urgent())
+      return false;
+    return std::chrono::steady_clock::now() - q.last_refinement <
+           options.refinement_interval;
+  }
+
+  // Deferred refinements whose interval has passed are made ready.
+  // Called with the lock held.
+  void wake_deferred_refinements() {
+    const auto now = std::chrono::steady_clock::now();
+    for (auto& [site, q] : sites) {
+      if (!q.refine_deferred ||
+          now - q.last_refinement < options.refinement_interval)
+        continue;
+      q.refine_deferred = false;
+      q.refine_wanted = true;
+      make_ready(site, q);
+    }
   }
 
   // The dense lane asks for its turn at publication(): the sparse lane
@@ -1137,7 +1172,7 @@ bool EngineWorker::wait_idle(std::chrono::milliseconds timeout) {
     if (w.last_placed < target || !w.in_flight.empty()) return false;
     for (const auto& [id, q] : w.sites)
       if (q.running || !q.pending.empty() || q.dense_retry || q.dense_running ||
-          q.dense_queued || q.refine_wanted || q.ready)
+          q.dense_queued || q.refine_wanted || q.refine_deferred || q.ready)
         return false;
     return true;
   });

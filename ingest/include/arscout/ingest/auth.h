@@ -24,6 +24,11 @@ struct Principal {
   std::string name;  // for scouts, the scout id (/scouts/{name})
 };
 
+// Why `name` cannot name a token (and so a scout), or "": it must be one
+// non-empty path segment without '.' (capture and camera ids are
+// "{name}.{id}").
+std::string token_name_problem(const std::string& name);
+
 // Creates a token for `name` with `role` and returns it (the only time it is
 // seen). For a scout also creates /scouts/{name} if it does not exist.
 // With `expires_s` (seconds since the Unix epoch, UTC) the token stops

@@ -4,7 +4,9 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -40,6 +42,17 @@ struct HttpResponse {
   std::string content_type = "application/json";
   std::vector<std::pair<std::string, std::string>> headers;
   std::string body;
+  // A body sent in pieces instead of `body`, each read as the client takes
+  // the one before: blobs and exports, which may be far larger than one
+  // connection should hold (the server keeps one piece per connection, and
+  // a bounded sum over all). read(offset, length) runs on a worker and
+  // returns `length` bytes, fewer only at `size`; it may throw, and then
+  // the connection closes mid-body (the status is already sent).
+  struct BodyReader {
+    std::int64_t size = 0;
+    std::function<std::string(std::int64_t offset, std::size_t length)> read;
+  };
+  std::optional<BodyReader> body_reader;
   // Not an answer yet (only to a request with may_park): nothing to show;
   // ask again once the change log is past this seq, or when the wait ends.
   std::optional<std::int64_t> park_after;
@@ -52,6 +65,11 @@ struct HttpResponse {
                             const std::string& message,
                             const Json& extra = Json::object());
 };
+
+// A body reader over bytes held in memory and shared (a cached export):
+// every connection that sends them reads the one copy.
+HttpResponse::BodyReader shared_bytes_reader(
+    std::shared_ptr<const std::string> bytes);
 
 // Splits a request target into a decoded path and query parameters. Returns
 // nullopt for malformed percent-encoding.

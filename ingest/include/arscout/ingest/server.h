@@ -53,6 +53,10 @@ struct ApiRoute {
   std::optional<Role> min_role = Role::kPlanner;
   std::string forbidden;  // the 403's message for a lesser role
   std::function<HttpResponse(const HttpRequest&, const Principal&)> handle;
+  // Takes seconds (an export that builds a file): run on the server's small
+  // pool for long requests, so that many of them wait for each other and
+  // not every other request for them.
+  bool runs_long = false;
 };
 
 // Files under `directory` served without a token at `url_prefix` (ends in
@@ -80,6 +84,11 @@ struct ServerOptions {
   // Handlers (store access, image decoding) run here, off the network
   // threads. Long-polls and WebSocket streams hold none while they wait.
   int worker_threads = 32;
+  // The routes that run long (ApiRoute::runs_long) run on this many others.
+  int long_worker_threads = 2;
+  // Bodies sent in pieces (blobs, exports): the bytes read and not yet
+  // written, over all connections; one piece is 256 KiB.
+  std::size_t max_send_buffer_bytes = 32u << 20;
   // Open long-polls and WebSocket streams, in all and per token (429
   // beyond either); 0: no cap.
   std::size_t max_streams = 1000;
@@ -92,6 +101,23 @@ struct ServerOptions {
   // A request body must arrive at this many bytes per second or more,
   // over every 10 s (408 and closed otherwise); 0: no minimum.
   std::size_t min_body_rate = 1024;
+  // Per token: uploads (POST /v1/captures), at most upload_burst at once
+  // and uploads_per_hour on average; and captures in new places (a fix
+  // farther than new_place_m from every site and from the token's other
+  // recent new places: each may found a site), at most new_place_burst at
+  // once and new_places_per_hour on average. Per client address: failed
+  // authentications (an unknown, revoked or expired token), at most
+  // auth_failure_burst at once and auth_failures_per_hour on average; past
+  // that every request from the address that needs a token is refused
+  // until it may try again. Past any limit: 429 with Retry-After.
+  // 0 an hour: no limit of that kind.
+  double uploads_per_hour = 3600;
+  double upload_burst = 300;
+  double new_places_per_hour = 20;
+  double new_place_burst = 20;
+  double new_place_m = 500;
+  double auth_failures_per_hour = 3600;
+  double auth_failure_burst = 30;
   // Checked in order, before the built-in /v1 routes (a viewer route under
   // /v1/captures/ wins over DELETE /v1/captures/{id}).
   std::vector<ApiRoute> routes;

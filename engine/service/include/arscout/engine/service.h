@@ -93,6 +93,14 @@ struct WorkerOptions {
   // redoes what was unsaved. 0: at every increment (and always in
   // deterministic runs).
   std::chrono::milliseconds state_interval{30000};
+  // A site publishes a version from its global refinement (one that adds
+  // no capture) at most this often: each round is a model version, and a
+  // refinement that resumes after every photo published one every second
+  // or two (65 versions for 8 photos), each with its blobs. A round due
+  // sooner waits for the interval (the worker is not idle meanwhile); a
+  // merge or a loop closure (SiteJob::refinement_urgent) does not wait,
+  // nor do deterministic runs. 0: no bound.
+  std::chrono::milliseconds refinement_interval{0};
   // Told one line per increment and per placed capture; empty: silent.
   std::function<void(const std::string&)> progress;
 };
