@@ -8,7 +8,8 @@
 //                 [--split] [--toward] [--db URL] [--no-dense]
 //                 [--per-capture] [--dense-new-coverage S]
 //                 [--dense-long-side PX] [--site-radius M] [--settle S]
-//                 [--max-features N]
+//                 [--max-features N] [--refine-interval S]
+//                 [--gc-interval S] [--gc-min-age S]
 //
 // DIR holds images/*.jpg, images/K.txt and gps.csv: a Strecha scene
 // (fountain-P11 by default) or a rendered block walk (`arscout render-site
@@ -30,6 +31,11 @@
 // one) also gets each site's camera accuracy after a similarity fit, with
 // its worst cameras. --settle bounds the wait for the worker to go idle
 // after the last photo (a background refinement may run on for minutes).
+//
+// At the end it prints what the walk left stored against the photos' own
+// bytes, and what the blob collector (run as `arscout serve` runs it:
+// every --gc-interval, sparing blobs younger than --gc-min-age) removed;
+// --gc-interval 0 --refine-interval 0 is the service before issue 37.
 //
 // The worker runs in this process on the store (as `arscout serve
 // --with-engine` does); captures are written as the API writes them. Times
@@ -148,6 +154,7 @@ struct Observed {
   // state is not "pending" (kept to compare with earlier figures).
   std::map<std::string, std::int64_t> current_us;
   std::vector<IncrementSeen> increments;
+  int versions = 0;  // model versions seen, all kinds
 };
 
 std::string read_file(const fs::path& path) {
@@ -232,6 +239,7 @@ void on_model(arscout::db::Store& store, const arscout::db::Change& change,
   const int added =
       static_cast<int>(increment.value("added", Json::array()).size());
   std::lock_guard lock(seen.mutex);
+  ++seen.versions;
   // The sparse phase's version: the dense phase's names the same captures
   // but spent no sparse time.
   const double sparse_s =
@@ -474,7 +482,7 @@ void print_accuracy(arscout::db::Store& store, const Options& o) {
 // What the walk left in the store against the photos' own bytes, and what
 // the blob collector removed on its way (issue 37: at most 3x).
 void print_storage(arscout::db::Store& store, const std::vector<Photo>& photos,
-                   const arscout::db::BlobCollector& collector) {
+                   const arscout::db::BlobCollector& collector, int versions) {
   std::int64_t photo_bytes = 0;
   for (const Photo& photo : photos)
     photo_bytes += static_cast<std::int64_t>(fs::file_size(photo.path));
@@ -484,13 +492,13 @@ void print_storage(arscout::db::Store& store, const std::vector<Photo>& photos,
   std::printf(
       "stored: %.1f MB of blobs (%lld) for %.1f MB of photos: %.2f MB per "
       "photo, %.2fx the photos; the collector ran %lld times and removed "
-      "%lld blobs (%.1f MB)\n",
+      "%lld blobs (%.1f MB); %d model versions seen\n",
       stats.blob_bytes / 1e6, static_cast<long long>(stats.blobs),
       photo_bytes / 1e6, stats.blob_bytes / n / 1e6,
       static_cast<double>(stats.blob_bytes) /
           static_cast<double>(std::max<std::int64_t>(1, photo_bytes)),
       static_cast<long long>(gc.runs), static_cast<long long>(gc.blobs_removed),
-      gc.bytes_removed / 1e6);
+      gc.bytes_removed / 1e6, versions);
 }
 
 void print_report(arscout::db::Store& store, const Options& o,
@@ -584,7 +592,7 @@ void run(const Options& o) {
   worker.stop();
   collector.stop();
   print_report(*store, o, photos, seen);
-  print_storage(*store, photos, collector);
+  print_storage(*store, photos, collector, seen.versions);
 }
 
 }  // namespace

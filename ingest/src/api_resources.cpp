@@ -154,13 +154,19 @@ HttpResponse get_blob(ApiContext& ctx, const HttpRequest& req,
   // Read a piece at a time as the client takes it (http_types.h): a
   // 50 MB photo fetched by 150 clients that never read held 7.5 GB when it
   // was read whole into each response.
+  // Pieces end at the store's chunks (1 MiB rows), so each reads one row.
+  constexpr std::int64_t kStoreChunk = 1 << 20;
   db::Store* store = &ctx.store;
   r.body_reader = HttpResponse::BodyReader{
       info->size > 0 ? last - first + 1 : 0,
       [store, hash, first](std::int64_t offset, std::size_t length) {
+        const std::int64_t at = first + offset;
+        const std::int64_t to_chunk_end =
+            (at / kStoreChunk + 1) * kStoreChunk - at;
         std::ostringstream piece;
-        store->read_blob(hash, piece, first + offset,
-                         static_cast<std::int64_t>(length));
+        store->read_blob(
+            hash, piece, at,
+            std::min(static_cast<std::int64_t>(length), to_chunk_end));
         return std::move(piece).str();
       }};
   return r;

@@ -67,7 +67,11 @@ struct Server::Impl {
         workers(static_cast<std::size_t>(std::max(1, options.worker_threads))),
         long_workers(
             static_cast<std::size_t>(std::max(1, options.long_worker_threads))),
+        piece_workers(2),
+        operations_workers(2),
         send_budget(options.max_send_buffer_bytes),
+        bodies(0, options.max_bodies_per_token),
+        body_budget(options.max_body_buffer_bytes),
         watch(store, std::chrono::milliseconds(100)),
         streams(options.max_streams, options.max_streams_per_token),
         connections(connection_cap(options.max_connections),
@@ -140,10 +144,12 @@ struct Server::Impl {
                                    std::to_string(connections.total_cap()) +
                                    " in all)");
     }
-    serve_connection(std::move(socket), use_tls ? &tls_context : nullptr,
-                     SessionContext{api, options, workers, long_workers,
-                                    send_budget, watch, streams},
-                     std::move(slot), over_address_cap);
+    serve_connection(
+        std::move(socket), use_tls ? &tls_context : nullptr,
+        SessionContext{api, options, workers, long_workers, operations_workers,
+                       piece_workers, send_budget, bodies, body_budget, watch,
+                       streams},
+        std::move(slot), over_address_cap);
   }
 
   ServerOptions options;
@@ -154,7 +160,11 @@ struct Server::Impl {
   // their slots as they go.
   asio::thread_pool workers;
   asio::thread_pool long_workers;
+  asio::thread_pool piece_workers;
+  asio::thread_pool operations_workers;
   ByteBudget send_budget;
+  KeyedLimit bodies;
+  ByteBudget body_budget;
   ChangeWatch watch;
   KeyedLimit streams;
   KeyedLimit connections;
@@ -199,6 +209,8 @@ void Server::stop() {
   impl_->threads.clear();
   impl_->workers.join();
   impl_->long_workers.join();
+  impl_->piece_workers.join();
+  impl_->operations_workers.join();
   impl_->watch.stop();  // no wake-up is posted to the context after this
 }
 

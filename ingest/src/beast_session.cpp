@@ -17,6 +17,7 @@
 #include <optional>
 
 #include "api_handlers.h"
+#include "arscout/util/process.h"
 #include "beast_request.h"
 #include "body_rate.h"
 
@@ -76,6 +77,15 @@ std::variant<Api::Subscribe, HttpResponse> check_subscribe_safely(
   } catch (const std::exception& e) {
     return HttpResponse::error(500, "internal", e.what());
   }
+}
+
+// The threads of the long routes' pool and of the pieces of streamed
+// bodies run at nice 10, set once each.
+void lower_priority_once() {
+  thread_local bool lowered = false;
+  if (lowered) return;
+  lowered = true;
+  util::set_thread_nice(10);
 }
 
 // /healthz or /metrics, with or without a query: what a connection past
@@ -336,7 +346,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
 
  private:
   static constexpr std::size_t kReadChunk = 64 * 1024;
-  static constexpr std::int64_t kSendPiece = 256 * 1024;
+  // One chunk of the store's blobs (db keeps them in 1 MiB rows): a piece
+  // is one row read, not four reads of the same row.
+  static constexpr std::int64_t kSendPiece = 1 << 20;
 
   void read_header(std::chrono::seconds timeout) {
     parser_.emplace();
@@ -396,9 +408,45 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
       asio::post(self->stream_.get_executor(),
                  [self, refusal = std::move(refusal)]() mutable {
                    if (refusal) return self->refuse(std::move(*refusal));
+                   if (auto full = self->take_body_room())
+                     return self->refuse(std::move(*full));
                    self->continue_body();
                  });
     });
+  }
+
+  // Room for the body about to be read (SessionContext::bodies and
+  // body_budget), held until the request is answered; the refusal when
+  // there is none.
+  std::optional<HttpResponse> take_body_room() {
+    const auto& header = parser_->get();
+    auto slot =
+        shared_.bodies.acquire(std::string(header[http::field::authorization]));
+    if (!slot) {
+      shared_.api.metrics().refused("bodies");
+      HttpResponse r = HttpResponse::error(
+          429, "too_many_bodies",
+          "this token is sending " +
+              std::to_string(shared_.bodies.per_key_cap()) +
+              " request bodies already; send this one when one is answered");
+      r.headers.emplace_back("Retry-After", "1");
+      return r;
+    }
+    const auto length =
+        parser_->content_length().value_or(shared_.options.max_body_bytes);
+    auto hold = shared_.body_budget.take(static_cast<std::size_t>(length));
+    if (!hold) {
+      shared_.api.metrics().refused("bodies");
+      HttpResponse r = HttpResponse::error(
+          503, "unavailable",
+          "the server is receiving as many request bodies as it holds; "
+          "try again shortly");
+      r.headers.emplace_back("Retry-After", "1");
+      return r;
+    }
+    body_slot_.emplace(std::move(*slot));
+    body_hold_.emplace(std::move(*hold));
+    return std::nullopt;
   }
 
   void continue_body() {
@@ -489,10 +537,15 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
   // parked instead (park), and asked again when woken.
   void answer(HttpRequest req, unsigned version, bool keep_alive) {
     auto self = this->shared_from_this();
-    auto& pool =
-        shared_.api.runs_long(req) ? shared_.long_workers : shared_.workers;
-    asio::post(pool, [self, req = std::move(req), version,
-                      keep_alive]() mutable {
+    const bool long_route = shared_.api.runs_long(req);
+    auto& pool = long_route                ? shared_.long_workers
+                 : is_operations(req.path) ? shared_.operations_workers
+                                           : shared_.workers;
+    asio::post(pool, [self, req = std::move(req), version, keep_alive,
+                      long_route]() mutable {
+      // An export's build takes the cores only when the rest of the server
+      // leaves them: /healthz and the uploads go first.
+      if (long_route) lower_priority_once();
       HttpResponse response = self->shared_.api.handle(req);
       asio::post(self->stream_.get_executor(),
                  [self, req = std::move(req), response = std::move(response),
@@ -501,6 +554,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
                      return self->park(std::move(req), *response.park_after,
                                        version, keep_alive);
                    self->release_stream();
+                   self->body_slot_.reset();  // the body is answered
+                   self->body_hold_.reset();
                    self->send(std::move(response), version, keep_alive,
                               req.method == "HEAD");
                  });
@@ -675,22 +730,25 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
           });
     }
     auto piece = std::make_shared<Piece>(Piece{{}, std::move(*hold)});
-    asio::post(shared_.workers, [self, reader, offset, length, keep_alive,
-                                 piece] {
+    asio::post(shared_.piece_workers, [self, reader, offset, length, keep_alive,
+                                       piece] {
+      lower_priority_once();
       bool read = false;
       try {
         piece->bytes = reader->read(offset, length);
-        read = piece->bytes.size() == length;
+        read = !piece->bytes.empty() && piece->bytes.size() <= length;
       } catch (const std::exception& e) {
         spdlog::warn("event=body_read_failed offset={} error=\"{}\"", offset,
                      e.what());
       }
-      asio::post(self->stream_.get_executor(), [self, reader, offset, length,
-                                                keep_alive, piece, read] {
-        if (!read) return self->abort();  // the client sees a short body
-        self->write_piece(reader, offset + static_cast<std::int64_t>(length),
-                          keep_alive, piece);
-      });
+      asio::post(self->stream_.get_executor(),
+                 [self, reader, offset, keep_alive, piece, read] {
+                   // Unread, the client sees a short body.
+                   if (!read) return self->abort();
+                   const auto next =
+                       offset + static_cast<std::int64_t>(piece->bytes.size());
+                   self->write_piece(reader, next, keep_alive, piece);
+                 });
     });
   }
 
@@ -747,6 +805,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
   SessionContext shared_;
   std::optional<Slot> connection_;
   const bool operations_only_;
+  // Room taken for the request body being read (take_body_room).
+  std::optional<Slot> body_slot_;
+  std::optional<ByteBudget::Hold> body_hold_;
   beast::flat_buffer buffer_;
   std::optional<BeastRequestParser> parser_;
   BodyRate body_rate_;

@@ -26,7 +26,15 @@ struct SessionContext {
   // The routes Api::runs_long names (exports) run here, so that a crowd of
   // them queues among themselves and leaves `workers` to everything else.
   boost::asio::thread_pool& long_workers;
+  // /healthz and /metrics are answered here, so that a monitor never waits
+  // behind a crowd of requests queued for `workers`.
+  boost::asio::thread_pool& operations_workers;
+  // The pieces of streamed bodies are read here, at low priority: bulk
+  // transfers take the cores only when the rest of the server leaves them.
+  boost::asio::thread_pool& piece_workers;
   ByteBudget& send_budget;  // pieces of streamed bodies in flight
+  KeyedLimit& bodies;       // request bodies being read, per token
+  ByteBudget& body_budget;  // their bytes, by Content-Length
   ChangeWatch& watch;       // long-polls and streams wait here, threadless
   KeyedLimit& streams;      // open long-polls and streams, per token
 };

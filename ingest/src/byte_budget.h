@@ -14,6 +14,7 @@ namespace arscout::ingest {
 
 class ByteBudget {
  public:
+  // cap 0: no cap.
   explicit ByteBudget(std::size_t cap) : cap_(cap) {}
 
   // Bytes taken from the budget, given back when destroyed.
@@ -40,7 +41,7 @@ class ByteBudget {
   std::optional<Hold> take(std::size_t bytes) {
     std::size_t used = in_use_.load();
     do {
-      if (used > 0 && used + bytes > cap_) return std::nullopt;
+      if (cap_ > 0 && used > 0 && used + bytes > cap_) return std::nullopt;
     } while (!in_use_.compare_exchange_weak(used, used + bytes));
     return Hold(this, bytes);
   }

@@ -14,7 +14,8 @@ void Metrics::record_request(const std::string& route, int status,
 void Metrics::refused(const std::string& reason) {
   const bool known = reason == "connections" || reason == "streams" ||
                      reason == "slow_body" || reason == "auth_failures" ||
-                     reason == "uploads" || reason == "new_places";
+                     reason == "uploads" || reason == "new_places" ||
+                     reason == "bodies";
   std::lock_guard lock(mu_);
   ++refused_[known ? reason : "other"];
 }

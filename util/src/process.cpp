@@ -2,6 +2,11 @@
 
 #include <fcntl.h>
 #include <spawn.h>
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
 
 #include <stdexcept>
 #include <system_error>
@@ -29,6 +34,14 @@ pid_t spawn_logged(std::vector<std::string> argv, const std::string& log,
   if (rc != 0)
     throw std::system_error(rc, std::generic_category(), "spawning " + argv[0]);
   return pid;
+}
+
+void set_thread_nice(int nice) {
+#ifdef __linux__
+  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), nice);
+#else
+  (void)nice;
+#endif
 }
 
 }  // namespace arscout::util

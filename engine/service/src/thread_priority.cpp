@@ -3,23 +3,12 @@
 #include <exception>
 #include <thread>
 
-#ifdef __linux__
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
-#endif
+#include "arscout/util/process.h"
 
 namespace arscout::engine::service {
 
 void lower_thread_priority(BackgroundLane lane) {
-#ifdef __linux__
-  // Under Linux's scheduler a nice-5 thread gets a third of a normal one's
-  // share of a contended core, a nice-10 one a tenth.
-  const int nice = lane == BackgroundLane::kPrepareAhead ? 5 : 10;
-  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), nice);
-#else
-  (void)lane;
-#endif
+  util::set_thread_nice(lane == BackgroundLane::kPrepareAhead ? 5 : 10);
 }
 
 void run_at_lane_priority(BackgroundLane lane,

@@ -46,8 +46,10 @@ struct HttpResponse {
   // the one before: blobs and exports, which may be far larger than one
   // connection should hold (the server keeps one piece per connection, and
   // a bounded sum over all). read(offset, length) runs on a worker and
-  // returns `length` bytes, fewer only at `size`; it may throw, and then
-  // the connection closes mid-body (the status is already sent).
+  // returns from 1 to `length` bytes (fewer where the source prefers to
+  // stop, as at a chunk of the store; the next read goes on from there);
+  // it may throw, and then the connection closes mid-body (the status is
+  // already sent).
   struct BodyReader {
     std::int64_t size = 0;
     std::function<std::string(std::int64_t offset, std::size_t length)> read;

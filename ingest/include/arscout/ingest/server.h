@@ -84,10 +84,17 @@ struct ServerOptions {
   // Handlers (store access, image decoding) run here, off the network
   // threads. Long-polls and WebSocket streams hold none while they wait.
   int worker_threads = 32;
+  // Request bodies being read at once: at most this many per token (429
+  // beyond), and at most this many bytes (by Content-Length) over all
+  // connections (503 beyond), each refused from its header, before its body
+  // is read: a body is held in memory until its request is answered, and
+  // 32 uploads of 60 MB at once took 1.9 GB.
+  std::size_t max_bodies_per_token = 2;
+  std::size_t max_body_buffer_bytes = 256u << 20;
   // The routes that run long (ApiRoute::runs_long) run on this many others.
   int long_worker_threads = 2;
   // Bodies sent in pieces (blobs, exports): the bytes read and not yet
-  // written, over all connections; one piece is 256 KiB.
+  // written, over all connections; one piece is at most 1 MiB.
   std::size_t max_send_buffer_bytes = 32u << 20;
   // Open long-polls and WebSocket streams, in all and per token (429
   // beyond either); 0: no cap.

@@ -1,5 +1,6 @@
 // Child processes whose output goes to a log file: the tests' tool
-// processes and the benches' runs of arscout start them the same way.
+// processes and the benches' runs of arscout start them the same way; and
+// a thread's scheduling priority.
 #pragma once
 
 #include <sys/types.h>
@@ -17,5 +18,11 @@ namespace arscout::util {
 // empty argv.
 pid_t spawn_logged(std::vector<std::string> argv, const std::string& log,
                    bool append);
+
+// Lowers the calling thread's scheduling priority to `nice` (per thread on
+// Linux, where a nice-5 thread gets about a third of a normal one's share
+// of a contended core and a nice-10 one a tenth; elsewhere nothing): the
+// engine's background lanes, the server's exports.
+void set_thread_nice(int nice);
 
 }  // namespace arscout::util
