@@ -54,6 +54,10 @@ void add_limit_options(CLI::App* cmd, ingest::ServerOptions* limits) {
                   "bytes per second a request body must keep to over every "
                   "10 s (408 and closed below)")
       ->capture_default_str();
+  cmd->add_option("--max-bodies-per-token", limits->max_bodies_per_token,
+                  "request bodies one token may have read at once (429 "
+                  "beyond, from the header)")
+      ->capture_default_str();
   // Per token and per address (docs/api.md, "Limits"): 429 beyond.
   const auto rate = [cmd](const char* name, double* value, const char* what) {
     cmd->add_option(name, *value, what)
@@ -143,6 +147,7 @@ int serve(ServeArgs& a) {
   options.max_streams = a.limits.max_streams;
   options.max_streams_per_token = a.limits.max_streams_per_token;
   options.min_body_rate = a.limits.min_body_rate;
+  options.max_bodies_per_token = a.limits.max_bodies_per_token;
   options.uploads_per_hour = a.limits.uploads_per_hour;
   options.upload_burst = a.limits.upload_burst;
   options.new_places_per_hour = a.limits.new_places_per_hour;

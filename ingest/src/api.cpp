@@ -39,16 +39,16 @@ HttpResponse operations_only() {
                              "only /healthz and /metrics are served here");
 }
 
-HttpResponse health(db::Store& store, const std::function<Json()>& details) {
-  try {
-    Json body{{"status", "ok"},
-              {"backend", store.backend()},
-              {"last_seq", store.last_seq()}};
-    if (details) body.update(details());
-    return HttpResponse::json(200, body);
-  } catch (const db::StoreError& e) {
-    return HttpResponse::error(503, "unavailable", e.what());
-  }
+HttpResponse health(db::Store& store, StoreHealth& probe,
+                    const std::function<Json()>& details) {
+  const StoreHealth::Reading reading = probe.check();
+  if (!reading.ok)
+    return HttpResponse::error(503, "unavailable", reading.error);
+  Json body{{"status", "ok"},
+            {"backend", store.backend()},
+            {"last_seq", reading.last_seq}};
+  if (details) body.update(details());
+  return HttpResponse::json(200, body);
 }
 
 // A built-in route's handler: the context, the request, and what the
@@ -161,7 +161,7 @@ std::vector<ApiRoute> Api::builtin_routes(std::vector<ApiRoute> added) {
   std::vector<ApiRoute> routes = {
       row({"GET"}, "/healthz", no_token, "",
           [this](ApiContext&, R, S) {
-            return health(store_, health_details_);
+            return health(store_, store_health_, health_details_);
           }),
       row({"GET"}, "/metrics", no_token, "",
           [this](ApiContext&, R, S) { return render_metrics(); }),

@@ -16,6 +16,7 @@
 #include "arscout/ingest/server.h"
 #include "client_limits.h"
 #include "metrics.h"
+#include "store_health.h"
 
 namespace arscout::ingest {
 
@@ -60,6 +61,8 @@ class Api {
                              const std::string& path) const;
 
   db::Store& store() { return store_; }
+  // What /healthz reports; the server starts its thread.
+  StoreHealth& store_health() { return store_health_; }
   Metrics& metrics() { return metrics_; }
 
  private:
@@ -75,6 +78,7 @@ class Api {
   db::Store& store_;
   Metrics& metrics_;
   std::unique_ptr<ClientLimits> limits_ = std::make_unique<ClientLimits>();
+  StoreHealth store_health_{store_};
   std::vector<ApiRoute> routes_;  // /healthz, /metrics, added, ingest's /v1
   std::vector<StaticMount> static_mounts_;
   bool serve_api_ = true;

@@ -187,6 +187,7 @@ Server::~Server() { stop(); }
 void Server::start() {
   impl_->load_tls();
   impl_->listen();
+  impl_->api.store_health().start(std::chrono::milliseconds(250));
   impl_->accept();
   for (int i = 0; i < std::max(1, impl_->options.io_threads); ++i)
     impl_->threads.emplace_back([this] { impl_->ioc.run(); });
@@ -212,6 +213,7 @@ void Server::stop() {
   impl_->piece_workers.join();
   impl_->operations_workers.join();
   impl_->watch.stop();  // no wake-up is posted to the context after this
+  impl_->api.store_health().stop();
 }
 
 std::uint16_t Server::port() const { return impl_->bound_port; }

@@ -22,23 +22,14 @@
 #include "flaky_upload.h"
 #include "png_bomb.h"
 #include "raw_http.h"
+#include "sanitized.h"
 #include "serve_process.h"
 #include "test_stores.h"
 
 namespace arscout {
 namespace {
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
-#else
-constexpr bool kSanitized = false;
-#endif
+using testing::kSanitized;
 
 int count_of(const std::string& text, const std::string& what) {
   int n = 0;
