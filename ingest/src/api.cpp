@@ -27,9 +27,9 @@ HttpResponse forbidden(const std::string& why) {
   return HttpResponse::error(403, "forbidden", why);
 }
 
-HttpResponse unauthorized(const HttpRequest& request) {
+HttpResponse unauthorized(const std::string& authorization) {
   return HttpResponse::error(401, "unauthorized",
-                             request.header("authorization").empty()
+                             authorization.empty()
                                  ? "an Authorization: Bearer token is required"
                                  : "the bearer token is not valid");
 }
@@ -305,9 +305,7 @@ std::variant<Principal, HttpResponse> Api::authenticate_client(
   // A token that was tried and is unknown, revoked or expired; a request
   // without one is no guess.
   if (!authorization.empty()) limits_->auth_failures.take(remote);
-  HttpRequest request;
-  request.headers["authorization"] = authorization;
-  return unauthorized(request);
+  return unauthorized(authorization);
 }
 
 HttpResponse Api::dispatch(const HttpRequest& req, std::string* route) {
@@ -354,13 +352,13 @@ std::variant<Api::Subscribe, HttpResponse> Api::check_subscribe(
                                  "?access_token=) is required");
     return *refusal;
   }
-  const Principal* who = &std::get<Principal>(checked);
+  const Principal& who = std::get<Principal>(checked);
   std::string error;
   auto since = int_param(req, "since", 0, 0, INT64_MAX, &error);
   if (!since) return HttpResponse::error(400, "bad_request", error);
   Subscribe s;
   s.since = *since;
-  s.who = *who;
+  s.who = who;
   s.authorization = authorization;
   if (auto it = req.query.find("pattern"); it != req.query.end())
     s.pattern = it->second;

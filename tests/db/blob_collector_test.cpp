@@ -9,22 +9,14 @@
 
 #include "arscout/db/blob_collector.h"
 #include "arscout/db/store.h"
-#include "test_stores.h"
+#include "store_fixture.h"
 
 namespace arscout::db {
 namespace {
 
 using namespace std::chrono_literals;
 
-class BlobCollectorTest : public ::testing::TestWithParam<std::string> {
- protected:
-  void SetUp() override {
-    ARSCOUT_FRESH_STORE_OR_SKIP(url_, GetParam());
-    store_ = Store::open(url_);
-  }
-  std::string url_;
-  std::unique_ptr<Store> store_;
-};
+using BlobCollectorTest = ::arscout::testing::FreshStoreTest;
 
 TEST_P(BlobCollectorTest, UnreferencedBlobsPastTheGraceGoAndTheRestStays) {
   const std::string orphan = store_->put_blob(std::string(3000, 'o'));

@@ -27,6 +27,7 @@
 #include <gtest/gtest.h>
 
 #include "arscout/db/store.h"
+#include "store_fixture.h"
 #include "test_stores.h"
 #include "tool_process.h"
 
@@ -367,16 +368,7 @@ class ThreadWriter {
   int lost_races_ = 0;
 };
 
-class ConcurrencyTest : public ::testing::TestWithParam<std::string> {
- protected:
-  void SetUp() override {
-    ARSCOUT_FRESH_STORE_OR_SKIP(url_, GetParam());
-    store_ = Store::open(url_);
-  }
-
-  std::string url_;
-  std::unique_ptr<Store> store_;
-};
+using ConcurrencyTest = ::arscout::testing::FreshStoreTest;
 
 TEST_P(ConcurrencyTest, ThreadsWithConflictsKeepTheLogExact) {
   Recorder everything(*store_, "/**");
