@@ -10,6 +10,7 @@
 //                 [--dense-long-side PX] [--site-radius M] [--settle S]
 //                 [--max-features N] [--refine-interval S]
 //                 [--gc-interval S] [--gc-min-age S]
+//                 [--dense-tile-interval S]
 //
 // DIR holds images/*.jpg, images/K.txt and gps.csv: a Strecha scene
 // (fountain-P11 by default) or a rendered block walk (`arscout render-site
@@ -35,7 +36,8 @@
 // At the end it prints what the walk left stored against the photos' own
 // bytes, and what the blob collector (run as `arscout serve` runs it:
 // every --gc-interval, sparing blobs younger than --gc-min-age) removed;
-// --gc-interval 0 --refine-interval 0 is the service before issue 37.
+// --gc-interval 0 --refine-interval 0 --dense-tile-interval 0 is the
+// service before issue 37.
 //
 // The worker runs in this process on the store (as `arscout serve
 // --with-engine` does); captures are written as the API writes them. Times
@@ -116,10 +118,12 @@ struct Options {
   // As `arscout serve --with-engine` runs (docs/service.md, "Storage"):
   // refinement versions at most one per this many seconds, and the blob
   // collector every gc_interval_s with a grace of gc_min_age_s (0: off,
-  // as before issue 37).
+  // as before issue 37), the dense tiles stored at most every
+  // dense_tile_interval_s while the lane has work left over.
   double refine_interval_s = 10;
-  double gc_interval_s = 300;
-  double gc_min_age_s = 900;
+  double gc_interval_s = 60;
+  double gc_min_age_s = 300;
+  double dense_tile_interval_s = 30;
 };
 
 struct Photo {
@@ -568,6 +572,8 @@ void run(const Options& o) {
   };
   options.refinement_interval = std::chrono::milliseconds(
       static_cast<std::int64_t>(o.refine_interval_s * 1000));
+  options.dense_tile_interval = std::chrono::milliseconds(
+      static_cast<std::int64_t>(o.dense_tile_interval_s * 1000));
   arscout::engine::EngineWorker worker(*store, options);
   arscout::db::BlobCollector collector(
       *store,
@@ -637,6 +643,11 @@ int main(int argc, char** argv) {
   app.add_option("--refine-interval", o.refine_interval_s,
                  "seconds: at most one refinement version per site this "
                  "often, as `arscout serve` (0: no bound)")
+      ->capture_default_str();
+  app.add_option("--dense-tile-interval", o.dense_tile_interval_s,
+                 "seconds: a site's dense tiles stored at most this often "
+                 "while its dense lane has work left over, as `arscout "
+                 "serve` (0: every dense phase)")
       ->capture_default_str();
   app.add_option("--gc-interval", o.gc_interval_s,
                  "seconds between blob collections during the walk (0: none)")

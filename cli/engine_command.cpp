@@ -59,6 +59,18 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
          "(one that adds no photo) at most this often; a merge or a loop "
          "closure does not wait (0: no bound; default 10)")
       ->check(CLI::Range(0.0, 3600.0));
+  o->dense_tile_interval = std::chrono::seconds(30);
+  cmd->add_option_function<double>(
+         "--dense-tile-interval",
+         [o](double seconds) {
+           o->dense_tile_interval = std::chrono::milliseconds(
+               static_cast<std::int64_t>(seconds * 1000));
+         },
+         "seconds: while a site's dense lane has work left over, it stores "
+         "its cloud's changed tiles at most this often (the depth maps at "
+         "every phase; the lane's last phase always stores them; 0: every "
+         "phase; default 30)")
+      ->check(CLI::Range(0.0, 3600.0));
   cmd->add_option("--prepare-ahead", o->prepare_ahead,
                   "photos decoded and described ahead of their increments, "
                   "on a thread of their own, at most this many held (0: "
@@ -133,14 +145,31 @@ void add_gc_options(CLI::App* cmd, db::BlobCollectorOptions* o) {
            o->interval = std::chrono::seconds(seconds);
          },
          "seconds between collections of blobs no document refers to "
-         "(0: none; `arscout db gc` by hand; default 300)")
+         "(0: none; `arscout db gc` by hand; default 60)")
       ->check(CLI::Range(0LL, 86400LL));
   cmd->add_option_function<long long>(
          "--gc-min-age",
          [o](long long seconds) { o->min_age = std::chrono::seconds(seconds); },
          "seconds a new blob is kept unreferenced before it may be "
-         "collected (default 900)")
+         "collected (at least twice --state-interval and a minute where an "
+         "engine runs; default 300)")
       ->check(CLI::Range(60LL, 30LL * 86400));
+}
+
+void check_gc_grace(const db::BlobCollectorOptions& gc,
+                    const engine::WorkerOptions& worker) {
+  const auto needed = 2 * std::chrono::duration_cast<std::chrono::seconds>(
+                              worker.state_interval) +
+                      std::chrono::seconds(60);
+  if (gc.interval.count() > 0 && gc.min_age < needed)
+    throw db::StoreError(
+        db::ErrorCode::kInvalidArgument,
+        "--gc-min-age " + std::to_string(gc.min_age.count()) +
+            " is too short for --state-interval " +
+            std::to_string(worker.state_interval.count() / 1000.0) +
+            ": a capture's features wait for the next engine state to refer "
+            "to them; give at least " +
+            std::to_string(needed.count()) + " seconds");
 }
 
 void expose_collector(const db::BlobCollector& collector,
@@ -199,6 +228,7 @@ std::unique_ptr<ingest::Server> start_endpoint(
 }
 
 int run_engine(EngineArgs& a) {
+  check_gc_grace(a.gc, a.worker);
   install_stop_handlers();
   auto store = db::Store::open(a.db);
   log_worker_progress(&a.worker);

@@ -28,10 +28,20 @@ void expose_worker(const engine::EngineWorker& worker,
 // --gc-interval and --gc-min-age: the blob collector that `arscout serve`
 // and `arscout engine` run (docs/service.md, "Storage").
 void add_gc_options(CLI::App* cmd, db::BlobCollectorOptions* options);
-// Their defaults: every 300 s, a grace of 900 s.
+// Their defaults: every 60 s, a grace of 300 s. The garbage waiting at any
+// time is what the writers discard in about interval + grace, so both are
+// short; the grace still covers every wait between a blob's store and its
+// reference in this project (the longest: a capture's features, referenced
+// by the next engine state, --state-interval).
 inline db::BlobCollectorOptions default_gc_options() {
-  return {std::chrono::seconds(300), std::chrono::seconds(900)};
+  return {std::chrono::seconds(60), std::chrono::seconds(300)};
 }
+
+// Throws StoreError(kInvalidArgument) when the collector runs and its grace
+// is shorter than twice the worker's --state-interval plus a minute: the
+// features the engine stores wait for the next state to refer to them.
+void check_gc_grace(const db::BlobCollectorOptions& gc,
+                    const engine::WorkerOptions& worker);
 
 // A server's /metrics then also carries the collector's (arscout_gc_*,
 // arscout_store_blob*). The collector must outlive the server.

@@ -155,6 +155,7 @@ int serve(ServeArgs& a) {
   options.new_place_m = a.limits.new_place_m;
   options.auth_failures_per_hour = a.limits.auth_failures_per_hour;
   options.auth_failure_burst = a.limits.auth_failure_burst;
+  if (a.with_engine) check_gc_grace(a.gc, a.engine);
   install_stop_handlers();
   auto store = db::Store::open(a.db);
   options.routes = viewer::viewer_routes(*store);

@@ -195,16 +195,16 @@ TEST_F(DensePersistence, OriginalSweptEveryView) {
 
 TEST_F(DensePersistence, SerializedBytesDescribeTheMap) {
   const std::string& blob = (*blobs_)[2];
-  // "ARSDEPTH", version 2, the size; 12 bytes a pixel and a short header.
+  // "ARSDEPTH", version 3, the size; the planes' 12 bytes a pixel deflated
+  // (losslessly: the pixels below are the swept ones).
   ASSERT_GT(blob.size(), 20u);
   EXPECT_EQ(blob.substr(0, 8), "ARSDEPTH");
-  EXPECT_EQ(blob.substr(8, 4), std::string("\x02\0\0\0", 4));
+  EXPECT_EQ(blob.substr(8, 4), std::string("\x03\0\0\0", 4));
   uint64_t size = 0;
   for (int i = 0; i < 8; ++i)
     size |= uint64_t{static_cast<unsigned char>(blob[12 + i])} << (8 * i);
   EXPECT_EQ(size, blob.size());
-  EXPECT_GE(blob.size(), 12u * kWidth * kHeight);
-  EXPECT_LT(blob.size(), 12u * kWidth * kHeight + 300);
+  EXPECT_LT(blob.size(), 9u * kWidth * kHeight);
   std::cout << "one serialized " << kWidth << "x" << kHeight
             << " map: " << blob.size() << " bytes\n";
 
@@ -336,6 +336,63 @@ std::string error_of(DenseReconstruction* dense,
   return "";
 }
 
+// Maps are kept rounded (round_to_kept_precision): within 2^-16 of the
+// depth and 2^-8 of the score and margin, the same after a second rounding,
+// and in well under half the bytes of the unrounded planes.
+TEST(DepthMapPrecision, RoundingIsBoundedIdempotentAndCompact) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> unit(0, 1);
+  SweptDepthMap swept;
+  DepthMap& map = swept.map;
+  map.id = "v";
+  map.K = Eigen::Matrix3d::Identity();
+  map.R = Eigen::Matrix3d::Identity();
+  map.t = Eigen::Vector3d::Zero();
+  map.depth = cv::Mat(120, 160, CV_32F);
+  map.score = cv::Mat(120, 160, CV_32F);
+  map.margin = cv::Mat(120, 160, CV_32F);
+  for (int y = 0; y < 120; ++y)
+    for (int x = 0; x < 160; ++x) {
+      // A slanted wall with sensor noise, a third of it sky.
+      map.depth.at<float>(y, x) =
+          y < 40 ? 0.0f : 5.0f + 0.05f * x + 0.01f * unit(rng);
+      map.score.at<float>(y, x) = y < 40 ? 0.0f : 2 * unit(rng) - 1;
+      map.margin.at<float>(y, x) = y < 40 ? 0.0f : 2 * unit(rng);
+    }
+  DepthMap raw = map;
+  raw.depth = map.depth.clone();
+  raw.score = map.score.clone();
+  raw.margin = map.margin.clone();
+  const std::string unrounded = encode_depth_map(swept);
+  round_to_kept_precision(map);
+  const auto within = [](const cv::Mat& a, const cv::Mat& b, double share) {
+    for (int y = 0; y < a.rows; ++y)
+      for (int x = 0; x < a.cols; ++x) {
+        const double u = a.at<float>(y, x), v = b.at<float>(y, x);
+        if (std::abs(u - v) > share * std::abs(u)) return false;
+      }
+    return true;
+  };
+  EXPECT_TRUE(within(raw.depth, map.depth, std::ldexp(1.0, -16)));
+  EXPECT_TRUE(within(raw.score, map.score, std::ldexp(1.0, -8)));
+  EXPECT_TRUE(within(raw.margin, map.margin, std::ldexp(1.0, -8)));
+  EXPECT_FALSE(within(raw.depth, map.depth, 0));  // it did round
+  DepthMap again = map;
+  again.depth = map.depth.clone();
+  again.score = map.score.clone();
+  again.margin = map.margin.clone();
+  round_to_kept_precision(again);
+  EXPECT_TRUE(same_pixels(again.depth, map.depth));
+  EXPECT_TRUE(same_pixels(again.score, map.score));
+  EXPECT_TRUE(same_pixels(again.margin, map.margin));
+  const std::string rounded = encode_depth_map(swept);
+  std::cout << "12 bytes a pixel: " << 12 * 160 * 120 << ", deflated "
+            << unrounded.size() << ", rounded and deflated " << rounded.size()
+            << std::endl;
+  EXPECT_LT(rounded.size(), unrounded.size() / 2);
+  EXPECT_TRUE(same_pixels(decode_depth_map(rounded).map.depth, map.depth));
+}
+
 // (d) Damaged bytes throw, name the damage, and leave the object as it was.
 TEST_F(DensePersistence, CorruptBytesThrowAndChangeNothing) {
   const std::string& good = (*blobs_)[1];
@@ -353,10 +410,10 @@ TEST_F(DensePersistence, CorruptBytesThrowAndChangeNothing) {
   }
   {
     std::string b = good;
-    put_u32(&b, 8, 3);
-    cases.push_back({"version 3", b, "version 3"});
+    put_u32(&b, 8, 4);
+    cases.push_back({"version 4", b, "version 4"});
     cases.push_back(
-        {"version 3, checksum right", with_checksum(b), "version 3"});
+        {"version 4, checksum right", with_checksum(b), "version 4"});
   }
   for (size_t length : {size_t{0}, size_t{5}, size_t{8}, size_t{11}, size_t{12},
                         size_t{19}, size_t{20}, size_t{40}, size_t{300},
@@ -568,11 +625,43 @@ TEST_F(DensePersistence, AModelThatChangesScaleRescalesTheMaps) {
                             original_->raw_depth_map(image.id)->depth));
 }
 
-// Maps written by version 1 (no sparse ratio) still restore; they take the
-// ratio of the model they are restored into as their reference.
-TEST_F(DensePersistence, VersionOneMapsStillRestore) {
-  std::vector<std::string> version1;
+// `blob` as version 2 wrote it: the planes' floats as they are where
+// version 3 has their deflated size and bytes.
+std::string as_version_2(const std::string& blob) {
+  const SweptDepthMap swept = decode_depth_map(blob);
+  // The planes follow rows, cols, K, R, t and the sparse ratio.
+  std::string b = blob.substr(0, rows_offset(blob) + 8 + 2 * 9 * 8 + 4 * 8);
+  for (const cv::Mat* plane :
+       {&swept.map.depth, &swept.map.score, &swept.map.margin}) {
+    const cv::Mat whole = plane->clone();  // continuous
+    b.append(reinterpret_cast<const char*>(whole.ptr<float>(0)),
+             whole.total() * sizeof(float));
+  }
+  b.append(4, '\0');  // the checksum's place
+  put_u32(&b, 8, 2);
+  const uint64_t size = b.size();
+  for (size_t i = 0; i < 8; ++i)
+    b[12 + i] = static_cast<char>((size >> (8 * i)) & 0xff);
+  return with_checksum(b);
+}
+
+// Maps written by version 2 (planes not deflated) restore as they were;
+// those of version 1 (no sparse ratio) too, taking the ratio of the model
+// they are restored into as their reference.
+TEST_F(DensePersistence, VersionOneAndTwoMapsStillRestore) {
+  std::vector<std::string> version2;
   for (const std::string& blob : *blobs_) {
+    version2.push_back(as_version_2(blob));
+    EXPECT_GT(version2.back().size(), 12u * kWidth * kHeight);
+    EXPECT_TRUE(same_pixels(decode_depth_map(version2.back()).map.score,
+                            decode_depth_map(blob).map.score));
+  }
+  DenseReconstruction dense2(small_dense_options());
+  dense2.restore_depth_maps(version2, *model_, street_images());
+  expect_same_state(*original_, dense2);
+
+  std::vector<std::string> version1;
+  for (const std::string& blob : version2) {
     // The ratio lies after rows, cols, K, R and t.
     const size_t ratio_at = rows_offset(blob) + 8 + 2 * 9 * 8 + 3 * 8;
     std::string b = blob.substr(0, ratio_at) + blob.substr(ratio_at + 8);

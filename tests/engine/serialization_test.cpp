@@ -3,6 +3,8 @@
 // std::runtime_error, never a crash or a scene that would crash later.
 #include "io/serialization.h"
 
+#include "arscout/util/bytes.h"
+#include "features/feature_extractor.h"
 #include "features/keypoint_refinement.h"
 
 #include <algorithm>
@@ -293,22 +295,113 @@ TEST(SerializationTest, FeaturesKeptApartRestoreBitExactly) {
   EXPECT_EQ(serialize_scene(restored), whole);
 }
 
-// Features stored before patches were kept (magic ARSFEAT1, no patch
-// count at the end) still attach, without patches.
-TEST(SerializationTest, FeaturesWithoutPatchesStillAttach) {
-  Scene scene = make_rich_scene(3, 20, 0);
-  for (SceneImage& image : scene.images) image.patches = cv::Mat();
-  const std::string bytes = serialize_scene(scene, true);
-  std::map<std::string, std::string> old;
-  for (const auto& [id, b] : features_by_id(scene)) {
-    ASSERT_EQ(b.substr(0, 8), "ARSFEAT2");
-    std::string v1 = b.substr(0, b.size() - 4);  // the patch count, 0
-    v1[7] = '1';
-    old[id] = v1;
+// An image's features as ARSFEAT2 wrote them (ARSFEAT1: without the
+// patches' count): the id, the keypoints, the descriptors as floats and
+// the colours, each a little-endian count and then the values.
+std::string features_as_written_before(const SceneImage& image, int magic) {
+  util::ByteWriter w;
+  w.append(std::string("ARSFEAT") + std::to_string(magic));
+  w.put<uint64_t>(image.id.size());
+  w.append(image.id);
+  w.put<uint64_t>(image.keypoints.size());
+  for (const Eigen::Vector2d& p : image.keypoints) {
+    w.put(p.x());
+    w.put(p.y());
   }
-  const Scene restored = deserialize_scene(
-      bytes, [&](const std::string& id) { return old.at(id); });
-  expect_identical(scene, restored);
+  w.put<int32_t>(image.descriptors.rows);
+  if (image.descriptors.rows > 0) {
+    w.put<uint64_t>(image.descriptors.total());
+    w.append(image.descriptors.ptr<float>(0),
+             image.descriptors.total() * sizeof(float));
+  }
+  w.put<uint64_t>(image.colors.size());
+  w.append(image.colors.data(), image.colors.size() * 3);
+  if (magic >= 2) {
+    w.put<int32_t>(image.patches.rows);
+    if (image.patches.rows > 0) {
+      w.put<uint64_t>(image.patches.total());
+      w.append(image.patches.ptr<uint8_t>(0), image.patches.total());
+    }
+  }
+  return w.take();
+}
+
+// Features stored before the compact form (ARSFEAT2) and before patches
+// were kept (ARSFEAT1) still attach, the latter without patches.
+TEST(SerializationTest, FeaturesWrittenBeforeStillAttach) {
+  for (const int magic : {1, 2}) {
+    SCOPED_TRACE("ARSFEAT" + std::to_string(magic));
+    Scene scene = make_rich_scene(3, 20, 0);
+    if (magic == 1)
+      for (SceneImage& image : scene.images) image.patches = cv::Mat();
+    const std::string bytes = serialize_scene(scene, true);
+    std::map<std::string, std::string> old;
+    for (const SceneImage& image : scene.images)
+      old[image.id] = features_as_written_before(image, magic);
+    const Scene restored = deserialize_scene(
+        bytes, [&](const std::string& id) { return old.at(id); });
+    expect_identical(scene, restored);
+  }
+}
+
+// Extracted descriptors (whole steps) are stored a byte per component and
+// read back to the same bits: without patches (the synthetic ones are
+// noise, which nothing compresses), a third of what floats took.
+TEST(SerializationTest, QuantizedDescriptorsAreStoredCompactlyAndExactly) {
+  for (const bool patches : {true, false}) {
+    SCOPED_TRACE(patches ? "with patches" : "without patches");
+    Scene scene = make_rich_scene(3, 200, 100);
+    for (SceneImage& image : scene.images) {
+      quantize_descriptors(image.descriptors);
+      if (!patches) image.patches = cv::Mat();
+    }
+    const std::string bytes = serialize_scene(scene, true);
+    const auto features = features_by_id(scene);
+    for (const SceneImage& image : scene.images) {
+      const std::string& compact = features.at(image.id);
+      EXPECT_EQ(compact.substr(0, 8), "ARSFEAT3");
+      if (!patches)
+        EXPECT_LT(compact.size(),
+                  features_as_written_before(image, 2).size() / 3)
+            << image.id;
+    }
+    const Scene restored = deserialize_scene(
+        bytes, [&](const std::string& id) { return features.at(id); });
+    expect_identical(scene, restored);
+    EXPECT_EQ(features_by_id(restored), features);
+  }
+}
+
+// A compact blob whose stated size or deflated bytes are wrong is refused.
+TEST(SerializationTest, DamagedCompactFeaturesAreRefused) {
+  Scene scene = make_rich_scene(3, 20, 0);
+  for (SceneImage& image : scene.images)
+    quantize_descriptors(image.descriptors);
+  const std::string bytes = serialize_scene(scene, true);
+  const auto features = features_by_id(scene);
+  const std::string& id0 = scene.images[0].id;
+  const size_t size_at = 8 + 8 + id0.size();
+  for (const int change : {-1, +1, 1 << 30}) {
+    std::string damaged = features.at(id0);
+    uint64_t size = 0;
+    std::memcpy(&size, damaged.data() + size_at, 8);
+    size += change;
+    std::memcpy(damaged.data() + size_at, &size, 8);
+    EXPECT_THROW(deserialize_scene(bytes,
+                                   [&](const std::string& id) {
+                                     return id == id0 ? damaged
+                                                      : features.at(id);
+                                   }),
+                 std::runtime_error)
+        << change;
+  }
+  std::string flipped = features.at(id0);
+  flipped[flipped.size() / 2] ^= 0x5a;
+  EXPECT_THROW(deserialize_scene(bytes,
+                                 [&](const std::string& id) {
+                                   return id == id0 ? flipped : features.at(id);
+                                 }),
+               std::runtime_error);
 }
 
 TEST(SerializationTest, FeaturesKeptApartMustBeGivenAndBeTheirs) {

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <iostream>
 #include <mutex>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -345,6 +346,57 @@ TEST(EngineWorker,
             all.size() - 1);
   const auto after = store->get(sites[0].path + "/model");
   EXPECT_EQ(after->attrs.at("statistics").value("registered", 0), 7);
+}
+
+// While a site's dense lane has work left over (views to sweep, moved maps
+// to re-fuse), its phases store the depth maps but leave the tiles to a
+// later phase (WorkerOptions::dense_tile_interval, here an hour): only the
+// lane's first phase and those with nothing left over write tiles, and the
+// cloud ends current, the tiles holding every point the model counts.
+TEST(EngineWorker, DenseTilesWaitWhileTheLaneHasWorkLeftOver) {
+  auto store = db::Store::open(testing::fresh_sqlite_url());
+  const std::string dir = render_street(*store, 8);
+  engine::WorkerOptions options;
+  options.dense_tile_interval = std::chrono::hours(1);
+  options.dense_options.sweep_budget = 1;  // one view a phase: work left
+  std::mutex lines_mutex;
+  int phases = 0, left_over = 0;
+  options.progress = [&](const std::string& line) {
+    if (line.find(": dense ") == std::string::npos) return;
+    std::lock_guard lock(lines_mutex);
+    ++phases;
+    if (line.find("to sweep next") != std::string::npos ||
+        line.find("left for later") != std::string::npos)
+      ++left_over;
+  };
+  engine::EngineWorker worker(*store, options);
+  worker.start();
+  upload_street(*store, dir);
+  ASSERT_TRUE(worker.wait_idle(std::chrono::minutes(5)));
+  worker.stop();
+  std::set<std::int64_t> tile_commits, map_commits;
+  for (const db::Change& c : store->changes(0, "/**", 100000)) {
+    if (c.op != db::OpType::kPut) continue;
+    if (c.kind == "dense-tile") tile_commits.insert(c.time_us);
+    if (c.kind == "depth-map") map_commits.insert(c.time_us);
+  }
+  std::cout << phases << " dense phases, " << left_over
+            << " with work left over; tiles written by " << tile_commits.size()
+            << ", depth maps by " << map_commits.size() << std::endl;
+  ASSERT_GE(left_over, 2);
+  EXPECT_LE(static_cast<int>(tile_commits.size()), phases - left_over + 1);
+  EXPECT_GT(map_commits.size(), tile_commits.size());
+  const auto sites = store->list_children("/sites");
+  ASSERT_EQ(sites.size(), 1u);
+  const auto model = store->get(sites[0].path + "/model");
+  ASSERT_TRUE(model);
+  EXPECT_EQ(model->attrs.value("dense_state", ""), "current");
+  const auto cloud =
+      engine::load_dense_cloud(*store, engine::dense_cloud_blobs(*model));
+  EXPECT_GT(cloud.size(), 20000u);
+  EXPECT_LE(
+      cloud.size(),
+      model->attrs.at("statistics").value("dense_points", std::size_t{0}));
 }
 
 // While photos keep coming, increments leave the engine state unsaved

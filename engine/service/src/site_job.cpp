@@ -567,13 +567,26 @@ void SiteJob::compute_dense(DenseTask& task) {
   task.views.insert(task.kept_maps.begin(), task.kept_maps.end());
   const std::vector<std::string> covered = dense.covered_ids();
   task.views.insert(covered.begin(), covered.end());
-  task.tiles = store_dense_tiles(
-      dense.points(), dense_tile_size(dense.voxel_size()), task.published,
-      [this](const std::string& bytes) { return store_.put_blob(bytes); },
-      kIsolatedRadiusVoxels * dense.voxel_size(),
-      dense.voxel_size() > 0 ? kIsolatedMinNeighbours : 0);
+  task.tiles_held = tiles_wait(task.update);
+  if (!task.tiles_held) {
+    task.tiles = store_dense_tiles(
+        dense.points(), dense_tile_size(dense.voxel_size()), task.published,
+        [this](const std::string& bytes) { return store_.put_blob(bytes); },
+        kIsolatedRadiusVoxels * dense.voxel_size(),
+        dense.voxel_size() > 0 ? kIsolatedMinNeighbours : 0);
+    tiles_stored_at_ = Clock::now();
+  }
   task.voxel_size = dense.voxel_size();
   task.seconds = seconds_since(start);
+}
+
+// Only the dense lane reads and sets tiles_stored_at_ (one phase at a time).
+bool SiteJob::tiles_wait(const DenseUpdate& update) const {
+  const bool more_to_come =
+      update.deferred_maps > 0 || update.deferred_views > 0;
+  return more_to_come && options_.dense_tile_interval.count() > 0 &&
+         !options_.reconstruction.deterministic && tiles_stored_at_ &&
+         Clock::now() - *tiles_stored_at_ < options_.dense_tile_interval;
 }
 
 Increment SiteJob::finish_dense(DenseTask& task) {
@@ -596,12 +609,12 @@ Increment SiteJob::finish_dense(DenseTask& task) {
     ops.push_back(db::WriteOp::remove(site_path(id_, "depth/" + map)));
     pending_removed_maps_.insert(map);
   }
-  add_tile_ops(task.tiles, &ops);
+  if (!task.tiles_held) add_tile_ops(task.tiles, &ops);
   IncrementReport report;
   report.added = task.added;
   report.withdrawn = task.withdrawn;
   report.dense = task.update;
-  report.dense_points = task.update.points;
+  report.dense_points = task.tiles_held ? dense_points_ : task.update.points;
   report.total_s = task.seconds;
   // Moved maps or views left for later: the lane runs again, and the
   // cloud is published as pending until then.
@@ -612,8 +625,9 @@ Increment SiteJob::finish_dense(DenseTask& task) {
   const bool publish_model = !model.images.empty() || model_version_ > 0;
   if (publish_model) {
     pending_dense_points_ = report.dense_points;
-    ops.push_back(
-        model_op(model, sparse_->captures(), report, &task.tiles, &task.views));
+    ops.push_back(model_op(model, sparse_->captures(), report,
+                           task.tiles_held ? nullptr : &task.tiles,
+                           task.tiles_held ? nullptr : &task.views));
     increment.model_written = true;
   }
   // Fenced like the sparse phase: a patch on the version this job wrote.

@@ -71,6 +71,9 @@ struct DenseTask {
   std::set<std::string> views;  // the cloud covers them (model_attrs)
   DenseTiles published;         // the tiles as published when it began
   DenseTiles tiles;
+  // The tiles were not stored (WorkerOptions::dense_tile_interval): the
+  // model keeps the published cloud, and a later phase stores the change.
+  bool tiles_held = false;
   double voxel_size = 0;
   double seconds = 0;
 };
@@ -215,6 +218,10 @@ class SiteJob {
   std::string dense_summary(const DenseTask& task, bool model_published) const;
   void add_tile_ops(const DenseTiles& tiles,
                     std::vector<db::WriteOp>* ops) const;
+  // Whether a dense phase with `update` leaves its tiles unstored for now
+  // (WorkerOptions::dense_tile_interval): more of the lane's work follows
+  // and the last store is recent.
+  bool tiles_wait(const DenseUpdate& update) const;
   // Deletions of this site's engine documents (it was merged away).
   void add_departure_ops(std::vector<db::WriteOp>* ops) const;
   std::string image_bytes(const std::string& capture);
@@ -223,6 +230,8 @@ class SiteJob {
   db::Store& store_;
   const WorkerOptions& options_;
   CapturePreparer* const preparer_;
+  // When the dense lane last stored tiles (none yet: the first phase does).
+  std::optional<std::chrono::steady_clock::time_point> tiles_stored_at_;
   bool loaded_ = false;
   std::unique_ptr<Reconstruction> sparse_;
   std::shared_ptr<DenseReconstruction> dense_;

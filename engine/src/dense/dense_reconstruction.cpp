@@ -541,6 +541,7 @@ bool DenseReconstruction::Impl::sweep(const Model& model, int key,
   for (const DenseView& v : neighbour_views) neighbours.push_back(&v);
   Entry entry;
   entry.map = sweep_planes(key_view, neighbours, sweep_options);
+  round_to_kept_precision(entry.map);  // as stored: a restore is exact
   entry.swept_R = entry.map.R;
   entry.swept_t = entry.map.t;
   entry.sparse_ratio = sparse_depth_ratio(entry.map, entry.map.depth,

@@ -4,11 +4,13 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <initializer_list>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 
 #include "arscout/util/bytes.h"
+#include "arscout/util/compress.h"
 
 namespace arscout::engine {
 namespace {
@@ -54,6 +56,16 @@ class Writer {
         for (int x = 0; x < mat.cols; ++x) put(row[x]);
       }
     }
+  }
+  // Version 3: the planes' floats one after another, their bytes shuffled
+  // (util/compress.h) and deflated, as the deflated size and the bytes.
+  void deflated_planes(std::initializer_list<const cv::Mat*> planes) {
+    Writer raw;
+    for (const cv::Mat* p : planes) raw.plane(*p);
+    const std::string deflated = util::deflate_bytes(
+        util::shuffle_bytes(raw.bytes().bytes(), sizeof(float)));
+    put(static_cast<uint64_t>(deflated.size()));
+    out_.append(deflated);
   }
   util::ByteWriter& bytes() { return out_; }
 
@@ -101,6 +113,23 @@ class Reader {
     }
     return mat;
   }
+  // The inverse of Writer::deflated_planes: `size` bytes of planes, in
+  // the order written, unshuffled.
+  std::string inflated_planes(uint64_t size) {
+    const uint64_t deflated = get<uint64_t>("deflated size");
+    if (deflated != left())
+      fail("sizes inconsistent: " + std::to_string(deflated) +
+           " deflated bytes of planes stated, " + std::to_string(left()) +
+           " are there");
+    try {
+      return util::unshuffle_bytes(
+          util::inflate_bytes(in_.take(deflated), size), sizeof(float));
+    } catch (const std::runtime_error& e) {
+      fail("sizes inconsistent: the planes do not inflate to the " +
+           std::to_string(size) + " bytes their pixels need (" + e.what() +
+           ")");
+    }
+  }
   size_t left() const { return in_.left(); }
 
  private:
@@ -123,13 +152,51 @@ constexpr std::array<uint32_t, 256> crc_table() {
   return table;
 }
 
+std::string planes_missing(uint32_t rows, uint32_t cols, size_t there) {
+  return "sizes inconsistent: " + std::to_string(cols) + " x " +
+         std::to_string(rows) + " pixels need " +
+         std::to_string(3 * sizeof(float) * uint64_t{rows} * cols) +
+         " bytes of depth, score and margin, " + std::to_string(there) +
+         " are there";
+}
+
+void read_planes(Reader& r, uint32_t rows, uint32_t cols, DepthMap& map) {
+  map.depth = r.plane(rows, cols, "depth");
+  map.score = r.plane(rows, cols, "score");
+  map.margin = r.plane(rows, cols, "margin");
+}
+
 void check_plane(const cv::Mat& mat, cv::Size size, const char* what) {
   if (mat.type() != CV_32F || mat.size() != size)
     throw std::invalid_argument(std::string("depth map ") + what +
                                 " is not CV_32F of the depth's size");
 }
 
+// `value` to `kept` bits of mantissa, to nearest (a carry into the
+// exponent is the next binade, as it should be).
+float round_mantissa(float value, int kept) {
+  if (!std::isfinite(value) || value == 0) return value;
+  const int dropped = 23 - kept;
+  const uint32_t bits = std::bit_cast<uint32_t>(value);
+  const uint32_t rounded =
+      (bits + (uint32_t{1} << (dropped - 1))) & ~((uint32_t{1} << dropped) - 1);
+  return std::bit_cast<float>(rounded);
+}
+
+void round_plane(cv::Mat& plane, int kept) {
+  for (int y = 0; y < plane.rows; ++y) {
+    float* row = plane.ptr<float>(y);
+    for (int x = 0; x < plane.cols; ++x) row[x] = round_mantissa(row[x], kept);
+  }
+}
+
 }  // namespace
+
+void round_to_kept_precision(DepthMap& map) {
+  round_plane(map.depth, 15);
+  round_plane(map.score, 7);
+  round_plane(map.margin, 7);
+}
 
 uint32_t depth_map_crc32(std::string_view bytes) {
   static constexpr std::array<uint32_t, 256> kTable = crc_table();
@@ -151,7 +218,7 @@ std::string encode_depth_map(const SweptDepthMap& swept) {
   check_plane(map.margin, map.depth.size(), "margin");
 
   Writer w;
-  w.bytes().reserve(256 + 3 * sizeof(float) * map.depth.total());
+  w.bytes().reserve(256 + 2 * sizeof(float) * map.depth.total());
   w.bytes().append(kDepthMapMagic, sizeof(kDepthMapMagic));
   w.put(kDepthMapFormatVersion);
   w.put(uint64_t{0});  // the size, filled in below
@@ -165,9 +232,7 @@ std::string encode_depth_map(const SweptDepthMap& swept) {
   w.row_major(map.R);
   w.row_major(map.t);
   w.put(swept.sparse_depth_ratio);
-  w.plane(map.depth);
-  w.plane(map.score);
-  w.plane(map.margin);
+  w.deflated_planes({&map.depth, &map.score, &map.margin});
 
   util::ByteWriter& out = w.bytes();
   out.put_at<uint64_t>(sizeof(kDepthMapMagic) + 4, out.size() + kChecksumBytes);
@@ -187,7 +252,7 @@ SweptDepthMap decode_depth_map(std::string_view bytes) {
     fail("truncated: " + std::to_string(bytes.size()) +
          " bytes, shorter than the header");
   const uint32_t version = r.get<uint32_t>("version");
-  if (version != 1 && version != kDepthMapFormatVersion)
+  if (version < 1 || version > kDepthMapFormatVersion)
     fail("format version " + std::to_string(version) +
          ", this build reads versions 1 to " +
          std::to_string(kDepthMapFormatVersion));
@@ -236,14 +301,14 @@ SweptDepthMap decode_depth_map(std::string_view bytes) {
       fail("a sparse ratio of " + std::to_string(swept.sparse_depth_ratio));
   }
   const uint64_t planes = 3 * sizeof(float) * uint64_t{rows} * cols;
-  if (b.left() != planes)
-    fail("sizes inconsistent: " + std::to_string(cols) + " x " +
-         std::to_string(rows) + " pixels need " + std::to_string(planes) +
-         " bytes of depth, score and margin, " + std::to_string(b.left()) +
-         " are there");
-  map.depth = b.plane(rows, cols, "depth");
-  map.score = b.plane(rows, cols, "score");
-  map.margin = b.plane(rows, cols, "margin");
+  if (version >= 3) {
+    const std::string raw = b.inflated_planes(planes);
+    Reader p(raw);
+    read_planes(p, rows, cols, map);
+  } else {
+    if (b.left() != planes) fail(planes_missing(rows, cols, b.left()));
+    read_planes(b, rows, cols, map);
+  }
   return swept;
 }
 

@@ -41,6 +41,15 @@ void root_sift(cv::Mat& descriptors) {
 
 }  // namespace
 
+void quantize_descriptors(cv::Mat& descriptors) {
+  for (int r = 0; r < descriptors.rows; ++r) {
+    float* row = descriptors.ptr<float>(r);
+    for (int c = 0; c < descriptors.cols; ++c)
+      row[c] = std::min(255.0f, std::round(row[c] * kDescriptorSteps)) /
+               kDescriptorSteps;
+  }
+}
+
 Features extract_features(const cv::Mat& gray, const cv::Mat& color,
                           const FeatureOptions& options) {
   const std::vector<cv::Point2f> corners = harris_corners(gray, options);
@@ -60,6 +69,7 @@ Features extract_features(const cv::Mat& gray, const cv::Mat& color,
   const cv::Ptr<cv::SIFT> sift = cv::SIFT::create();
   sift->compute(gray, keypoints, features.descriptors);
   root_sift(features.descriptors);
+  quantize_descriptors(features.descriptors);
   features.keypoints.reserve(keypoints.size());
   features.colors.reserve(keypoints.size());
   for (const cv::KeyPoint& kp : keypoints) {

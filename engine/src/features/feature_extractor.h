@@ -23,9 +23,22 @@ struct FeatureOptions {
   float descriptor_size = 6;
 };
 
+// Descriptors are kept to steps of 1 / kDescriptorSteps, at most
+// 255 / kDescriptorSteps, so that one byte stores each component exactly
+// (COLMAP's scale): a RootSIFT component larger than 0.5 needs a quarter of
+// the histogram's mass in one bin, which SIFT's clipping at 0.2 rules out.
+// The matcher's 12-bit dot product (matcher.h) loses nothing more.
+inline constexpr float kDescriptorSteps = 512;
+
+// Each component of `descriptors` (CV_32F) rounded to the nearest step of
+// 1 / kDescriptorSteps, at most 255 steps.
+void quantize_descriptors(cv::Mat& descriptors);
+
 struct Features {
-  std::vector<Eigen::Vector2d> keypoints;      // sub-pixel, image pixels
-  cv::Mat descriptors;                         // CV_32F, one unit row each
+  std::vector<Eigen::Vector2d> keypoints;  // sub-pixel, image pixels
+  // CV_32F, one row each, unit length to within the steps' rounding, every
+  // component a whole number of steps (quantize_descriptors).
+  cv::Mat descriptors;
   std::vector<std::array<uint8_t, 3>> colors;  // RGB at each keypoint
   // The gray patch around each keypoint (keypoint_refinement.h).
   cv::Mat patches;

@@ -2,12 +2,15 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 #include <string_view>
 #include <type_traits>
 
 #include "arscout/util/bytes.h"
+#include "arscout/util/compress.h"
+#include "features/feature_extractor.h"
 #include "features/keypoint_refinement.h"
 
 namespace arscout::engine {
@@ -24,8 +27,17 @@ constexpr char kMagic[8] = {'A', 'R', 'S', 'C', 'E', 'N', 'E', '1'};
 // reading rebuilds them.
 constexpr uint32_t kVersion = 5;
 constexpr char kFeaturesMagic[8] = {'A', 'R', 'S', 'F', 'E', 'A', 'T', '1'};
-// Features with patches; the form written now.
+// Features with patches.
 constexpr char kFeaturesMagic2[8] = {'A', 'R', 'S', 'F', 'E', 'A', 'T', '2'};
+// The form written now: after the id, the size of the features' bytes and
+// those bytes deflated; in them the descriptors as one byte per component
+// where they are whole steps (feature_extractor.h), a third of the size.
+constexpr char kFeaturesMagic3[8] = {'A', 'R', 'S', 'F', 'E', 'A', 'T', '3'};
+// How the descriptors of ARSFEAT3 are written.
+enum class DescriptorForm : uint8_t { kFloats = 0, kBytes = 1 };
+// Deflate expands no stream by more than this: a larger stated size is
+// damage, refused before anything is allocated for it.
+constexpr uint64_t kMaxDeflateRatio = 1032;
 constexpr int kPatchBytes = kPatchSide * kPatchSide;
 
 // The state's raw pieces (vectors of pods, structs, std::arrays) are their
@@ -223,32 +235,101 @@ cv::Mat read_rows(Reader& r, int cols, int type, const std::string& what) {
   return m;
 }
 
-void write_features(Writer& w, const SceneImage& image) {
+// True when every component is a whole number of steps from 0 to 255, so
+// that a byte holds it exactly.
+bool in_whole_steps(const cv::Mat& descriptors) {
+  for (int r = 0; r < descriptors.rows; ++r) {
+    const float* row = descriptors.ptr<float>(r);
+    for (int c = 0; c < descriptors.cols; ++c) {
+      const float steps = row[c] * kDescriptorSteps;
+      if (!(steps >= 0 && steps <= 255 && steps == std::round(steps)))
+        return false;
+    }
+  }
+  return true;
+}
+
+// Extracted descriptors as bytes; any others (made by hand, or extracted
+// before they were quantized) as their floats, so that every one reads
+// back to the same bits.
+void write_descriptors(Writer& w, const cv::Mat& descriptors) {
+  if (descriptors.rows == 0 || !in_whole_steps(descriptors)) {
+    w.pod(DescriptorForm::kFloats);
+    write_rows<float>(w, descriptors);
+    return;
+  }
+  w.pod(DescriptorForm::kBytes);
+  cv::Mat steps;
+  descriptors.convertTo(steps, CV_8U, kDescriptorSteps);
+  write_rows<uint8_t>(w, steps);
+}
+
+cv::Mat read_descriptors(Reader& r) {
+  const auto form = r.pod<DescriptorForm>();
+  if (form == DescriptorForm::kFloats)
+    return read_rows<float>(r, 128, CV_32F, "descriptor");
+  if (form != DescriptorForm::kBytes) r.fail("descriptor form");
+  const cv::Mat steps = read_rows<uint8_t>(r, 128, CV_8U, "descriptor");
+  cv::Mat descriptors;
+  steps.convertTo(descriptors, CV_32F, 1.0 / kDescriptorSteps);
+  return descriptors;
+}
+
+// `compact`: the descriptors as write_descriptors writes them (ARSFEAT3);
+// else as floats (the scene's inline features).
+void write_features(Writer& w, const SceneImage& image, bool compact) {
   w.points2(image.keypoints);
-  write_rows<float>(w, image.descriptors);
+  if (compact)
+    write_descriptors(w, image.descriptors);
+  else
+    write_rows<float>(w, image.descriptors);
   w.vec(image.colors);
   write_rows<uint8_t>(w, image.patches);
 }
 
-void read_features(Reader& r, SceneImage& image, bool with_patches) {
+void read_features(Reader& r, SceneImage& image, bool with_patches,
+                   bool compact = false) {
   image.keypoints = r.points2();
-  image.descriptors = read_rows<float>(r, 128, CV_32F, "descriptor");
+  image.descriptors = compact ? read_descriptors(r)
+                              : read_rows<float>(r, 128, CV_32F, "descriptor");
   image.colors = r.vec<std::array<uint8_t, 3>>();
   image.patches = with_patches
                       ? read_rows<uint8_t>(r, kPatchBytes, CV_8U, "patch")
                       : cv::Mat();
 }
 
+// ARSFEAT3's deflated part, after the id.
+void read_deflated_features(Reader& r, SceneImage& image) {
+  const auto size = r.pod<uint64_t>();
+  const std::string deflated = r.str();
+  if (size > kMaxDeflateRatio * (deflated.size() + 1))
+    r.fail("the features of " + image.id + " state an impossible size");
+  std::string raw;
+  try {
+    raw = util::inflate_bytes(deflated, static_cast<size_t>(size));
+  } catch (const std::runtime_error& e) {
+    r.fail("the features of " + image.id + ": " + e.what());
+  }
+  Reader inner(raw);
+  read_features(inner, image, /*with_patches=*/true, /*compact=*/true);
+  if (!inner.done()) r.fail("trailing bytes in the features of " + image.id);
+}
+
 // An image's features from their own bytes (serialize_features).
 void attach_features(const std::string& bytes, SceneImage& image) {
   Reader r(bytes);
   const auto magic = r.pod<std::array<char, 8>>();
-  const bool with_patches = std::memcmp(magic.data(), kFeaturesMagic2, 8) == 0;
-  if (!with_patches && std::memcmp(magic.data(), kFeaturesMagic, 8) != 0)
+  const auto is = [&](const char* m) {
+    return std::memcmp(magic.data(), m, 8) == 0;
+  };
+  if (!is(kFeaturesMagic) && !is(kFeaturesMagic2) && !is(kFeaturesMagic3))
     r.fail("the features of " + image.id + " are not features");
   if (r.str() != image.id)
     r.fail("the features of " + image.id + " are another's");
-  read_features(r, image, with_patches);
+  if (is(kFeaturesMagic3))
+    read_deflated_features(r, image);
+  else
+    read_features(r, image, is(kFeaturesMagic2));
   if (!r.done()) r.fail("trailing bytes after the features of " + image.id);
 }
 
@@ -262,7 +343,7 @@ void write_image(Writer& w, const SceneImage& image, bool features_apart) {
   w.matrix(image.gps_enu);
   const bool apart = features_apart && !image.keypoints.empty();
   w.pod<uint8_t>(apart ? 0 : 1);
-  if (!apart) write_features(w, image);
+  if (!apart) write_features(w, image, /*compact=*/false);
   w.size(image.refined_keypoints.size());
   for (const auto& [keypoint, position] : image.refined_keypoints) {
     w.pod(keypoint);
@@ -417,10 +498,14 @@ void check_indices(const Reader& r, Scene& scene, bool link_tracks) {
 }  // namespace
 
 std::string serialize_features(const SceneImage& image) {
+  Writer features;
+  write_features(features, image, /*compact=*/true);
+  const std::string raw = features.take();
   Writer w;
-  w.pod(kFeaturesMagic2);
+  w.pod(kFeaturesMagic3);
   w.str(image.id);
-  write_features(w, image);
+  w.pod<uint64_t>(raw.size());
+  w.str(util::deflate_bytes(raw));
   return w.take();
 }
 

@@ -26,7 +26,9 @@ Scene deserialize_scene(const std::string& bytes,
                         const FeatureSource& features = {});
 
 // One image's features: its id, keypoints, descriptors, colours and
-// patches. Features written before patches were kept still read (without).
+// patches, deflated, with extracted descriptors at a byte per component
+// (ARSFEAT3: about a third of the floats' size). Features written before
+// (floats, ARSFEAT2; before patches were kept, ARSFEAT1) still read.
 std::string serialize_features(const SceneImage& image);
 
 }  // namespace arscout::engine

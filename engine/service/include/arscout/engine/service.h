@@ -101,6 +101,14 @@ struct WorkerOptions {
   // merge or a loop closure (SiteJob::refinement_urgent) does not wait,
   // nor do deterministic runs. 0: no bound.
   std::chrono::milliseconds refinement_interval{0};
+  // A site stores its dense cloud's changed tiles at most this often while
+  // its dense lane has work left over (views to sweep, moved maps to
+  // re-fuse): every store of a tile is a new blob of the whole tile, and a
+  // lane that runs behind the photos rewrote the same tiles every few
+  // seconds (5 MB/s of garbage on a 400-photo walk). The lane's last phase,
+  // with nothing left over, always stores them, as do deterministic runs.
+  // The depth maps are stored by every phase either way. 0: every phase.
+  std::chrono::milliseconds dense_tile_interval{0};
   // Told one line per increment and per placed capture; empty: silent.
   std::function<void(const std::string&)> progress;
 };
