@@ -31,6 +31,9 @@ int main(int argc, char** argv) {
       "engine reconstructs each site incrementally and writes models back."};
   app.set_version_flag("--version", std::string("arscout ") + ARSCOUT_VERSION);
   app.require_subcommand(1);
+  // Global options also after the command (`arscout serve --log-level
+  // info`): the commands, made after this, pass what they do not know up.
+  app.fallthrough();
   std::string log_level;
   app.add_option(
          "--log-level", log_level,

@@ -27,11 +27,44 @@ HttpResponse forbidden(const std::string& why) {
   return HttpResponse::error(403, "forbidden", why);
 }
 
-HttpResponse unauthorized(const std::string& authorization) {
-  return HttpResponse::error(401, "unauthorized",
-                             authorization.empty()
-                                 ? "an Authorization: Bearer token is required"
-                                 : "the bearer token is not valid");
+const char* failure_message(AuthFailure failure) {
+  switch (failure) {
+    case AuthFailure::kMissing:
+      return "an Authorization: Bearer token is required";
+    case AuthFailure::kMalformed:
+      return "the Authorization header is not \"Bearer \" and a token of at "
+             "most 200 characters";
+    case AuthFailure::kUnknown:
+      return "this server knows no such token";
+    case AuthFailure::kRevoked:
+      return "the token has been revoked";
+    case AuthFailure::kExpired:
+      return "the token has expired";
+  }
+  return "the bearer token is not valid";
+}
+
+// A 401 that says what is wrong with the token, by name in "reason" (a
+// client tells its user what to do: ask for a new token, sign in again),
+// with RFC 6750's WWW-Authenticate.
+HttpResponse unauthorized(AuthFailure failure) {
+  HttpResponse r =
+      HttpResponse::error(401, "unauthorized", failure_message(failure),
+                          Json{{"reason", to_string(failure)}});
+  r.headers.emplace_back("WWW-Authenticate", failure == AuthFailure::kMissing
+                                                 ? "Bearer realm=\"arscout\""
+                                                 : "Bearer realm=\"arscout\", "
+                                                   "error=\"invalid_token\"");
+  return r;
+}
+
+// GET /v1/me: who the token is, so that a client can check it at sign-in.
+HttpResponse me_route(ApiContext& ctx, const HttpRequest&, const std::string&) {
+  return HttpResponse::json(
+      200, Json{{"name", ctx.who.name},
+                {"role", to_string(ctx.who.role)},
+                {"expires", ctx.who.expires.empty() ? Json(nullptr)
+                                                    : Json(ctx.who.expires)}});
 }
 
 HttpResponse operations_only() {
@@ -182,6 +215,7 @@ std::vector<ApiRoute> Api::builtin_routes(std::vector<ApiRoute> added) {
           [](ApiContext& ctx, R req, S) { return get_changes(ctx, req); }),
       row({"GET"}, "/v1/sites", any, "",
           [](ApiContext& ctx, R req, S) { return get_sites(ctx, req); }),
+      row({"GET"}, "/v1/me", any, "", me_route),
       row({}, "/v1/subscribe", any, "",
           [](ApiContext&, R, S) {
             return HttpResponse::error(
@@ -300,12 +334,12 @@ std::variant<Principal, HttpResponse> Api::authenticate_client(
         "this address; try again later",
         wait);
   }
-  auto who = authenticate(store_, authorization);
-  if (who) return *who;
+  auto checked = check_token(store_, authorization);
+  if (auto* who = std::get_if<Principal>(&checked)) return *who;
   // A token that was tried and is unknown, revoked or expired; a request
   // without one is no guess.
   if (!authorization.empty()) limits_->auth_failures.take(remote);
-  return unauthorized(authorization);
+  return unauthorized(std::get<AuthFailure>(checked));
 }
 
 HttpResponse Api::dispatch(const HttpRequest& req, std::string* route) {
@@ -346,10 +380,12 @@ std::variant<Api::Subscribe, HttpResponse> Api::check_subscribe(
     authorization = "Bearer " + it->second;
   auto checked = authenticate_client(authorization, req.remote);
   if (auto* refusal = std::get_if<HttpResponse>(&checked)) {
-    if (refusal->status == 401)
-      return HttpResponse::error(401, "unauthorized",
-                                 "a valid Authorization: Bearer token (or "
-                                 "?access_token=) is required");
+    if (refusal->status == 401 && authorization.empty())
+      return HttpResponse::error(
+          401, "unauthorized",
+          "a valid Authorization: Bearer token (or ?access_token=) is "
+          "required",
+          Json{{"reason", to_string(AuthFailure::kMissing)}});
     return *refusal;
   }
   const Principal& who = std::get<Principal>(checked);

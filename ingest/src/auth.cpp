@@ -104,19 +104,46 @@ std::string create_token(db::Store& store, Role role, const std::string& name,
   return token;
 }
 
+const char* to_string(AuthFailure failure) {
+  switch (failure) {
+    case AuthFailure::kMissing:
+      return "missing";
+    case AuthFailure::kMalformed:
+      return "malformed";
+    case AuthFailure::kUnknown:
+      return "unknown";
+    case AuthFailure::kRevoked:
+      return "revoked";
+    case AuthFailure::kExpired:
+      return "expired";
+  }
+  return "unknown";
+}
+
+std::variant<Principal, AuthFailure> check_token(
+    db::Store& store, const std::string& authorization) {
+  static const std::string kPrefix = "Bearer ";
+  if (authorization.empty()) return AuthFailure::kMissing;
+  if (authorization.compare(0, kPrefix.size(), kPrefix) != 0)
+    return AuthFailure::kMalformed;
+  std::string token = authorization.substr(kPrefix.size());
+  if (token.empty() || token.size() > 200) return AuthFailure::kMalformed;
+  auto doc = store.get(token_path(token));
+  if (!doc) return AuthFailure::kUnknown;
+  auto role = role_from_string(doc->attrs.value("role", ""));
+  if (!role) return AuthFailure::kUnknown;
+  const TokenInfo info = token_info(*doc);
+  const std::string state = info.state(now_s());
+  if (state == "revoked") return AuthFailure::kRevoked;
+  if (state == "expired") return AuthFailure::kExpired;
+  return Principal{*role, info.name, info.expires};
+}
+
 std::optional<Principal> authenticate(db::Store& store,
                                       const std::string& authorization) {
-  static const std::string kPrefix = "Bearer ";
-  if (authorization.compare(0, kPrefix.size(), kPrefix) != 0)
-    return std::nullopt;
-  std::string token = authorization.substr(kPrefix.size());
-  if (token.empty() || token.size() > 200) return std::nullopt;
-  auto doc = store.get(token_path(token));
-  if (!doc) return std::nullopt;
-  auto role = role_from_string(doc->attrs.value("role", ""));
-  if (!role) return std::nullopt;
-  if (token_info(*doc).state(now_s()) != "active") return std::nullopt;
-  return Principal{*role, doc->attrs.value("name", "")};
+  auto checked = check_token(store, authorization);
+  if (auto* who = std::get_if<Principal>(&checked)) return *who;
+  return std::nullopt;
 }
 
 std::vector<TokenInfo> list_tokens(db::Store& store) {
@@ -142,9 +169,9 @@ std::vector<TokenInfo> revoke_tokens(db::Store& store,
                            : t.id.compare(0, id_prefix.size(), id_prefix) == 0;
     if (match) chosen.push_back(t);
   }
-  if (chosen.empty())
+  if (chosen.empty())  // nothing to revoke: "no such", as docs/cli.md says
     throw db::StoreError(
-        db::ErrorCode::kInvalidArgument,
+        db::ErrorCode::kNotFound,
         "no token matches " +
             (id_prefix.empty() ? "the name " + name : "the id " + id_prefix));
   if (!id_prefix.empty() && chosen.size() > 1)

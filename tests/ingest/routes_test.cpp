@@ -5,6 +5,8 @@
 // these are rules about requests, not sockets.
 #include <gtest/gtest.h>
 
+#include <chrono>
+
 #include "api.h"
 #include "arscout/db/errors.h"
 #include "arscout/db/store.h"
@@ -209,6 +211,65 @@ TEST(RoutesOperationsOnly, OnlyHealthAndMetricsWithoutTheApi) {
   const auto early = api.refuse_before_body(request("POST", "/v1/sites", ""));
   ASSERT_TRUE(early.has_value());
   EXPECT_EQ(early->status, 404);
+}
+
+}  // namespace
+}  // namespace arscout::ingest
+
+namespace arscout::ingest {
+namespace {
+
+std::string header_of(const HttpResponse& r, const std::string& name) {
+  for (const auto& [n, value] : r.headers)
+    if (n == name) return value;
+  return "";
+}
+
+// GET /v1/me says who a token is; every 401 says why there is no one, by a
+// reason a client can act on (issue 38: the scout app's sign-in).
+TEST_F(RoutesTest, MeNamesTheTokenAndEvery401SaysWhy) {
+  const HttpResponse sam = as("scout", "GET", "/v1/me");
+  ASSERT_EQ(sam.status, 200) << sam.body;
+  EXPECT_EQ(Json::parse(sam.body),
+            (Json{{"name", "sam"}, {"role", "scout"}, {"expires", nullptr}}));
+  EXPECT_EQ(Json::parse(as("planner", "GET", "/v1/me").body)["role"],
+            "planner");
+  const std::int64_t now_s =
+      std::chrono::duration_cast<std::chrono::seconds>(
+          std::chrono::system_clock::now().time_since_epoch())
+          .count();
+  const std::string soon =
+      create_token(*store_, Role::kScout, "kim", now_s + 3600);
+  tokens_["kim"] = soon;
+  const Json kim = Json::parse(as("kim", "GET", "/v1/me").body);
+  EXPECT_EQ(kim["name"], "kim");
+  EXPECT_TRUE(kim["expires"].is_string());
+  EXPECT_EQ(as("scout", "POST", "/v1/me").status, 405);
+
+  const auto reason = [&](const HttpRequest& r) {
+    const HttpResponse answer = api_->handle(r);
+    EXPECT_EQ(answer.status, 401) << answer.body;
+    EXPECT_NE(header_of(answer, "WWW-Authenticate").find("Bearer"),
+              std::string::npos);
+    return Json::parse(answer.body).value("reason", "");
+  };
+  EXPECT_EQ(reason(request("GET", "/v1/me", "")), "missing");
+  HttpRequest basic = request("GET", "/v1/me", "");
+  basic.headers["authorization"] = "Basic YTpi";
+  EXPECT_EQ(reason(basic), "malformed");
+  EXPECT_EQ(reason(request("GET", "/v1/me", std::string(201, 'x'))),
+            "malformed");
+  EXPECT_EQ(reason(request("GET", "/v1/me", "ars_nosuchtoken")), "unknown");
+  revoke_tokens(*store_, "", "sam");
+  EXPECT_EQ(reason(request("GET", "/v1/me", tokens_.at("scout"))), "revoked");
+  EXPECT_EQ(reason(request("GET", "/v1/sites", tokens_.at("scout"))),
+            "revoked");  // every route, not only /v1/me
+  // An expired token: its stored expiry moved into the past.
+  for (const TokenInfo& t : list_tokens(*store_))
+    if (t.name == "kim")
+      store_->patch("/auth/tokens/" + t.id,
+                    Json{{"expires", "2020-01-01T00:00:00Z"}});
+  EXPECT_EQ(reason(request("GET", "/v1/me", soon)), "expired");
 }
 
 }  // namespace

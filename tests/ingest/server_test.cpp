@@ -281,7 +281,7 @@ TEST_P(ServerTest, BadInputGetsItsOwnStatusAndChangesNothing) {
        "",
        {},
        401,
-       "not valid"},
+       "no such token"},
       {"no token", "GET", "/v1/docs/sites/s1", "", "", {}, 401, "required"},
       {"unknown capture on DELETE",
        "DELETE",

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "arscout/db/store.h"
@@ -21,8 +22,21 @@ std::optional<Role> role_from_string(const std::string& text);
 
 struct Principal {
   Role role;
-  std::string name;  // for scouts, the scout id (/scouts/{name})
+  std::string name;          // for scouts, the scout id (/scouts/{name})
+  std::string expires = "";  // RFC 3339 UTC, or "" for a token that never does
 };
+
+// Why a request's token was refused (GET /v1/me and every 401 name it, so
+// that a client can tell its user what to do).
+enum class AuthFailure {
+  kMissing,    // no Authorization header
+  kMalformed,  // not "Bearer " and a token of at most 200 characters
+  kUnknown,    // no such token (or its document is not a token's)
+  kRevoked,
+  kExpired,
+};
+// "missing", "malformed", "unknown", "revoked", "expired".
+const char* to_string(AuthFailure failure);
 
 // Why `name` cannot name a token (and so a scout), or "": it must be one
 // non-empty path segment without '.' (capture and camera ids are
@@ -38,9 +52,11 @@ std::string create_token(db::Store& store, Role role, const std::string& name,
                          std::optional<std::int64_t> expires_s = std::nullopt);
 
 // The principal for an "Authorization" header value ("Bearer TOKEN"), or
-// nullopt for a missing, malformed, unknown, revoked or expired token. It
-// reads the store on every call, so a revocation or expiry holds at once
-// on every server sharing the database.
+// why there is none. It reads the store on every call, so a revocation or
+// expiry holds at once on every server sharing the database.
+std::variant<Principal, AuthFailure> check_token(
+    db::Store& store, const std::string& authorization);
+// check_token's principal, or nullopt.
 std::optional<Principal> authenticate(db::Store& store,
                                       const std::string& authorization);
 
@@ -63,8 +79,9 @@ std::vector<TokenInfo> list_tokens(db::Store& store);
 // Revokes the tokens whose id starts with `id_prefix` (at least 8 hex
 // digits, and it must name exactly one token) or, with an empty prefix,
 // every token of `name`. Returns the tokens revoked now (already revoked
-// ones are left as they are). Throws db::StoreError (kInvalidArgument)
-// when the selection is ambiguous or matches nothing.
+// ones are left as they are). Throws db::StoreError: kInvalidArgument when
+// the selection is ambiguous or the prefix too short, kNotFound when it
+// matches nothing.
 std::vector<TokenInfo> revoke_tokens(db::Store& store,
                                      const std::string& id_prefix,
                                      const std::string& name);
