@@ -55,6 +55,15 @@ check bad-url 2 "$arscout" db get "mysql://x" /a
 check unopenable 5 "$arscout" db get "sqlite:$dir/no/such/dir.db" /a
 check bad-pattern 2 "$arscout" db changes "$url" --pattern '/a*'
 check no-args 2 "$arscout" db put "$url"
+# The global --log-level after the command, as before it (issue 38).
+check log-level-after 0 "$arscout" db stats "$url" --log-level info
+check log-level-before 0 "$arscout" --log-level info db stats "$url"
+check log-level-bad 2 "$arscout" db stats "$url" --log-level loud
+# Nothing to revoke is "no such" (4), as the exit-code table says.
+check revoke-nothing 4 "$arscout" token revoke --db "$url" --id abcdef0123
+contains revoke-nothing "no token matches"
+check export-no-site 4 "$arscout" export --db "$url" --site nosuchsite --format ply --output "$dir/x.ply"
+contains export-no-site "no site nosuchsite"
 after=$("$arscout" db changes "$url"; "$arscout" db stats "$url")
 if [ "$before" != "$after" ]; then
   echo "FAIL: rejected commands changed the store"; failures=$((failures + 1))
