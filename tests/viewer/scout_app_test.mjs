@@ -151,6 +151,39 @@ async function openScout(browser, token, name) {
   return { context, page, name };
 }
 
+/**
+ * A wrong token at sign-in (issue 38): the dialog says exactly what is
+ * wrong, the token is not kept, and nothing is sent.
+ */
+async function checkSignInRefusesAnUnknownToken(browser) {
+  const context = await browser.newContext({
+    viewport: { width: 390, height: 844 },
+    deviceScaleFactor: 2,
+    isMobile: true,
+    hasTouch: true,
+  });
+  await context.addInitScript(installFakes);
+  const page = await context.newPage();
+  const sent = [];
+  page.on('request', (r) => {
+    if (new URL(r.url()).pathname.startsWith('/v1/captures')) sent.push(`${r.method()} ${r.url()}`);
+  });
+  await page.goto(`${server}/scout/`);
+  await page.waitForSelector('body[data-ready="true"]');
+  await page.waitForSelector('#sign-in[open]');
+  await page.fill('#token-input', `ars_${'0'.repeat(64)}`);
+  await page.tap('#sign-in-ok');
+  await page.waitForSelector('#sign-in[open] #sign-in-problem:not([hidden])', { timeout: 10000 });
+  const problem = await page.textContent('#sign-in-problem');
+  if (!/^unknown token/.test(problem)) fail(`an unknown token at sign-in says "${problem}"`);
+  const kept = await page.evaluate(() => localStorage.getItem('arscout.scout.token'));
+  if (kept) fail('a token the server refused was kept');
+  await sleep(1000);
+  if (sent.length) fail(`a refused sign-in sent ${sent.join(', ')}`);
+  await context.close();
+  log('sign-in: an unknown token is named, not kept, and nothing is sent');
+}
+
 /** Shows a photo on the fake camera, sets the fix, waits for frames, shoots. */
 async function shoot(scout, imagePath, fix) {
   const { page } = scout;
@@ -365,6 +398,7 @@ async function main() {
   let alice;
   let bob;
   try {
+    await checkSignInRefusesAnUnknownToken(browser);
     alice = await openScout(browser, env.ALICE_TOKEN, 'alice');
     await checkInstallable(alice);
     await checkLayout(alice);

@@ -11,6 +11,7 @@ import { debounce, serialized } from '../util.js';
 import { Camera } from './camera.js';
 import { describe } from './feedback.js';
 import { Position } from './position.js';
+import { checkToken } from './sign_in.js';
 import { SiteMap } from './site_map.js';
 import { PhotoStore } from './store.js';
 import { TOKEN_REJECTED, Uploader } from './uploader.js';
@@ -78,14 +79,35 @@ function tokenRejected(message) {
   if (uploader) uploader.halt(message);
 }
 
-function onTokenEntered() {
+/** Keeps a token only once the server has said who it is (or cannot say). */
+async function onTokenEntered() {
   const token = $('token-input').value.trim();
   if (!token) return;
-  tokens.set(token);
   $('token-input').value = '';
-  hideNotice();
+  const checked = await checkToken(token);
+  if (!checked.me && !checked.keep) {
+    askForToken(checked.problem);
+    return;
+  }
+  tokens.set(token);
+  if (checked.me) learnScout(checked.me.name);
+  if (checked.problem) showNotice(checked.problem);
+  else hideNotice();
   uploader.resume();
   follow();
+}
+
+/** A stored token is asked about again at start: it may have been revoked. */
+async function recheckToken() {
+  const checked = await checkToken(tokens.get());
+  if (checked.me) learnScout(checked.me.name);
+  else if (!checked.keep) tokenRejected(checked.problem);
+}
+
+function learnScout(name) {
+  if (!name || state.scout === name) return;
+  state.scout = name;
+  store.setSetting('scout', name).catch(() => {});
 }
 
 // ---- status bar and notices -------------------------------------------------
@@ -467,6 +489,7 @@ async function main() {
   else {
     follow();
     uploader.kick();
+    recheckToken();
   }
   renderStatus();
   document.body.dataset.ready = 'true';

@@ -5,7 +5,7 @@
 // The API (/v1/, /healthz) is never cached: photos wait in IndexedDB
 // (store.js), not here.
 
-const CACHE = 'arscout-scout-v1';
+const CACHE = 'arscout-scout-v2';
 const SHELL = [
   './',
   'index.html',
@@ -14,6 +14,7 @@ const SHELL = [
   'camera.js',
   'feedback.js',
   'position.js',
+  'sign_in.js',
   'site_map.js',
   'store.js',
   'uploader.js',

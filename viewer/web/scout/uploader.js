@@ -91,7 +91,8 @@ export class Uploader {
   async run() {
     this.running = true;
     try {
-      for (let photo = await this.next(); photo && !this.stopped; photo = await this.next()) {
+      // Without a token (none given yet) nothing is sent: photos wait.
+      for (let photo = await this.next(); photo && !this.stopped && this.token(); photo = await this.next()) {
         const outcome = await this.send(photo);
         if (outcome === 'retry') await this.backOff();
         else this.delay = MIN_DELAY_MS;
