@@ -241,6 +241,13 @@ async function captureWalk(alice, scene, fixes) {
       if (connection !== 'offline') fail(`the status bar says "${connection}" while offline`);
       log('offline: shots 4-7 wait on the phone; network back');
       await alice.context.setOffline(false);
+      // The link follows the real connection at once (issue 38), not the
+      // feed's back-off (up to 30 s) or the offline event's leftover state.
+      const back = Date.now();
+      await alice.page
+        .waitForSelector('#connection[data-state="live"]', { timeout: 2000 })
+        .catch(() => fail('the link did not show "live" within 2 s of the network coming back'));
+      log(`link live ${Date.now() - back} ms after the network came back`);
     }
   }
   await alice.page.waitForFunction(() => document.getElementById('queue-counts').dataset.sent === '11', null,

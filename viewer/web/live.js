@@ -49,6 +49,18 @@ export class LiveFeed {
     this.onState('offline');
   }
 
+  /**
+   * Reconnects at once, cutting a back-off short (the network came back,
+   * the app came to the foreground); a connection that is open stays.
+   */
+  reconnectNow() {
+    if (!this.running) return;
+    if (this.socket && this.socket.readyState <= WebSocket.OPEN) return;
+    clearTimeout(this.retryTimer);
+    this.delay = MIN_DELAY_MS;
+    this.connect('reconnecting');
+  }
+
   url() {
     const scheme = location.protocol === 'https:' ? 'wss:' : 'ws:';
     const query = new URLSearchParams({

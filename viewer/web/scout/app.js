@@ -162,10 +162,26 @@ function renderStatus() {
   if (document.body.dataset.view === 'map') siteMap.draw();
 }
 
-function setConnection(feedState) {
-  const online = navigator.onLine ? feedState : 'offline';
-  $('connection').dataset.state = online;
-  $('connection').textContent = online;
+// The feed's own state (LiveFeed's onState), kept apart from what is shown:
+// the browser's offline event overrides it only while it lasts.
+let feedState = 'connecting';
+
+function setConnection(state) {
+  feedState = state;
+  showConnection();
+}
+
+function showConnection() {
+  const shown = navigator.onLine ? feedState : 'offline';
+  $('connection').dataset.state = shown;
+  $('connection').textContent = shown;
+}
+
+/** The network is back or the app is in front again: try now, not after a back-off. */
+function reconnectNow() {
+  showConnection();
+  if (feed) feed.reconnectNow();
+  if (uploader) uploader.kick();
 }
 
 // ---- photos list ------------------------------------------------------------
@@ -452,8 +468,11 @@ function wire() {
   }
   $('sign-in').addEventListener('close', onTokenEntered);
   $('notice-sign-in').addEventListener('click', () => askForToken());
-  window.addEventListener('online', () => setConnection($('connection').dataset.state));
-  window.addEventListener('offline', () => setConnection('offline'));
+  window.addEventListener('online', reconnectNow);
+  window.addEventListener('offline', showConnection);
+  document.addEventListener('visibilitychange', () => {
+    if (document.visibilityState === 'visible') reconnectNow();
+  });
   window.addEventListener('resize', debounce(() => siteMap.draw(), 200));
   setInterval(renderGps, 1000);
 }
@@ -480,7 +499,12 @@ async function main() {
   if (placed) state.site = placed.site;
   uploader = new Uploader({
     store, token: tokens.get, prepare: ensureCamera,
-    onChange: renderPhoto, onStopped: (message) => showNotice(message, { signIn: true }),
+    onChange: (record) => {
+      renderPhoto(record);
+      // An upload got through: the feed need not wait out its back-off.
+      if (record.state === 'sent' && feedState !== 'live') reconnectNow();
+    },
+    onStopped: (message) => showNotice(message, { signIn: true }),
   });
   if ('serviceWorker' in navigator) navigator.serviceWorker.register('sw.js').catch(() => {});
   position.start();
