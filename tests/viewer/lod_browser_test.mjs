@@ -277,6 +277,23 @@ async function checkComponents(page) {
   if (!(await page.textContent('#site-title')).includes(site)) fail('the title does not name the site it grew into');
 }
 
+/**
+ * After a switch of site the last site's measurement and picked point are
+ * gone (issue 38): figures in one site's frame mean nothing in another's.
+ */
+async function checkSwitchClearsMeasurement(page) {
+  const left = await page.evaluate(() => ({
+    result: JSON.parse(document.getElementById('measure-result').dataset.result || '{}'),
+    labels: document.getElementById('measure-labels').childElementCount,
+    picked: document.getElementById('picked-point').textContent.trim(),
+    points: window.arscoutViewer.measurement.points.length,
+  }));
+  if (left.result.kind || left.result.points?.length || left.labels || left.picked || left.points) {
+    fail(`the last site's measurement or pick stayed after the switch: ${JSON.stringify(left)}`);
+  }
+  log('switching site cleared the measurement and the picked point');
+}
+
 async function run(browser, page) {
   await page.goto(`${config.server}/`, { waitUntil: 'load' });
   await page.waitForSelector('#token-input', { state: 'visible', timeout: 30000 });
@@ -317,6 +334,7 @@ async function run(browser, page) {
   figures.roof_plan_m2 = area.plan;
   await checkShading(page);
   const smallAfter = await timedSite(page, config.smallSite);
+  await checkSwitchClearsMeasurement(page);
   figures.small_frame_ms = (smallBefore.frameMs + smallAfter.frameMs) / 2;
   figures.ratio = figures.big_frame_ms / figures.small_frame_ms;
   log(`frame time: ${figures.big_frame_ms.toFixed(1)} ms (big) vs ${smallBefore.frameMs.toFixed(1)} and ` +

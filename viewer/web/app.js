@@ -209,6 +209,10 @@ function resetSiteState() {
   state.thumbnails = null;
   viewer.clearCloud();
   viewer.frusta.clear();
+  // A measurement or a picked point of one site means nothing in another's
+  // frame (issue 38: they stayed on screen after a switch).
+  measurement.clear();
+  clearPickedPoint();
   progress.hide();
 }
 
@@ -500,6 +504,12 @@ function showMeasurement(result) {
   for (const button of document.querySelectorAll('#measure-tools button[data-tool]')) {
     button.classList.toggle('active', measurement.active && button.dataset.tool === result.kind);
   }
+}
+
+function clearPickedPoint() {
+  const out = $('picked-point');
+  out.textContent = '';
+  for (const key of ['enu', 'crs', 'coordinates']) delete out.dataset[key];
 }
 
 /** The coordinates of a picked point in the chosen CRS, from the server. */
