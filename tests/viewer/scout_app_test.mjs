@@ -127,7 +127,8 @@ function installFakes() {
   Object.defineProperty(navigator, 'geolocation', { value: geolocation, configurable: true });
 }
 
-async function openScout(browser, token, name) {
+/** A phone (viewport, touch) with the fake camera and geolocation. */
+async function phoneContext(browser) {
   const context = await browser.newContext({
     viewport: { width: 390, height: 844 },
     deviceScaleFactor: 2,
@@ -135,6 +136,11 @@ async function openScout(browser, token, name) {
     hasTouch: true,
   });
   await context.addInitScript(installFakes);
+  return context;
+}
+
+async function openScout(browser, token, name) {
+  const context = await phoneContext(browser);
   const page = await context.newPage();
   page.on('console', (m) => {
     if (m.type() === 'error') console.log(`  [${name} console] ${m.text()}`);
@@ -156,13 +162,7 @@ async function openScout(browser, token, name) {
  * wrong, the token is not kept, and nothing is sent.
  */
 async function checkSignInRefusesAnUnknownToken(browser) {
-  const context = await browser.newContext({
-    viewport: { width: 390, height: 844 },
-    deviceScaleFactor: 2,
-    isMobile: true,
-    hasTouch: true,
-  });
-  await context.addInitScript(installFakes);
+  const context = await phoneContext(browser);
   const page = await context.newPage();
   const sent = [];
   page.on('request', (r) => {
