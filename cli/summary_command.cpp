@@ -131,7 +131,9 @@ void print_site(db::Store& store, const SummaryArgs& a,
                 const db::Document& site_doc) {
   const std::string id(db::leaf_name(site_doc.path));
   const documents::Site site = documents::site_from_json(site_doc.attrs, id);
-  std::cout << "\nsite " << id << " (" << site.name << ")";
+  std::cout << "\nsite " << id;
+  if (site.name != id)
+    std::cout << " (" << site.name << ")";  // once, not twice
   if (site.centre)
     std::cout << std::fixed << std::setprecision(6) << ", centre "
               << site.centre->lat << ", " << site.centre->lon

@@ -344,9 +344,9 @@ TEST(SerializationTest, FeaturesWrittenBeforeStillAttach) {
   }
 }
 
-// Extracted descriptors (whole steps) are stored a byte per component and
-// read back to the same bits: without patches (the synthetic ones are
-// noise, which nothing compresses), a third of what floats took.
+// Extracted descriptors (whole steps) are stored two bytes per component
+// and read back to the same bits: without patches (the synthetic ones are
+// noise, which nothing compresses), well under 0.6 of what floats took.
 TEST(SerializationTest, QuantizedDescriptorsAreStoredCompactlyAndExactly) {
   for (const bool patches : {true, false}) {
     SCOPED_TRACE(patches ? "with patches" : "without patches");
@@ -361,8 +361,8 @@ TEST(SerializationTest, QuantizedDescriptorsAreStoredCompactlyAndExactly) {
       const std::string& compact = features.at(image.id);
       EXPECT_EQ(compact.substr(0, 8), "ARSFEAT3");
       if (!patches)
-        EXPECT_LT(compact.size(),
-                  features_as_written_before(image, 2).size() / 3)
+        EXPECT_LT(compact.size() * 10,
+                  features_as_written_before(image, 2).size() * 6)
             << image.id;
     }
     const Scene restored = deserialize_scene(

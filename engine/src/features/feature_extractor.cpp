@@ -45,8 +45,9 @@ void quantize_descriptors(cv::Mat& descriptors) {
   for (int r = 0; r < descriptors.rows; ++r) {
     float* row = descriptors.ptr<float>(r);
     for (int c = 0; c < descriptors.cols; ++c)
-      row[c] = std::min(255.0f, std::round(row[c] * kDescriptorSteps)) /
-               kDescriptorSteps;
+      row[c] =
+          std::min(kMaxDescriptorSteps, std::round(row[c] * kDescriptorSteps)) /
+          kDescriptorSteps;
   }
 }
 

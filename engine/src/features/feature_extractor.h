@@ -24,14 +24,16 @@ struct FeatureOptions {
 };
 
 // Descriptors are kept to steps of 1 / kDescriptorSteps, at most
-// 255 / kDescriptorSteps, so that one byte stores each component exactly
-// (COLMAP's scale): a RootSIFT component larger than 0.5 needs a quarter of
-// the histogram's mass in one bin, which SIFT's clipping at 0.2 rules out.
-// The matcher's 12-bit dot product (matcher.h) loses nothing more.
-inline constexpr float kDescriptorSteps = 512;
+// kMaxDescriptorSteps of them, so that two bytes store each component
+// exactly (a unit row's components are at most 1). One byte (COLMAP's 1/512)
+// was tried: matching moved enough that the temple ring's sparse test lost
+// most of its cameras; 1/65536 is below the matcher's own 12-bit rows
+// (matcher.h).
+inline constexpr float kDescriptorSteps = 65536;
+inline constexpr float kMaxDescriptorSteps = 65535;
 
 // Each component of `descriptors` (CV_32F) rounded to the nearest step of
-// 1 / kDescriptorSteps, at most 255 steps.
+// 1 / kDescriptorSteps, at most kMaxDescriptorSteps steps.
 void quantize_descriptors(cv::Mat& descriptors);
 
 struct Features {

@@ -30,11 +30,11 @@ constexpr char kFeaturesMagic[8] = {'A', 'R', 'S', 'F', 'E', 'A', 'T', '1'};
 // Features with patches.
 constexpr char kFeaturesMagic2[8] = {'A', 'R', 'S', 'F', 'E', 'A', 'T', '2'};
 // The form written now: after the id, the size of the features' bytes and
-// those bytes deflated; in them the descriptors as one byte per component
-// where they are whole steps (feature_extractor.h), a third of the size.
+// those bytes deflated; in them the descriptors as two bytes per component
+// where they are whole steps (feature_extractor.h), half the size.
 constexpr char kFeaturesMagic3[8] = {'A', 'R', 'S', 'F', 'E', 'A', 'T', '3'};
 // How the descriptors of ARSFEAT3 are written.
-enum class DescriptorForm : uint8_t { kFloats = 0, kBytes = 1 };
+enum class DescriptorForm : uint8_t { kFloats = 0, kSteps = 1 };
 // Deflate expands no stream by more than this: a larger stated size is
 // damage, refused before anything is allocated for it.
 constexpr uint64_t kMaxDeflateRatio = 1032;
@@ -235,21 +235,22 @@ cv::Mat read_rows(Reader& r, int cols, int type, const std::string& what) {
   return m;
 }
 
-// True when every component is a whole number of steps from 0 to 255, so
-// that a byte holds it exactly.
+// True when every component is a whole number of steps from 0 to
+// kMaxDescriptorSteps, so that two bytes hold it exactly.
 bool in_whole_steps(const cv::Mat& descriptors) {
   for (int r = 0; r < descriptors.rows; ++r) {
     const float* row = descriptors.ptr<float>(r);
     for (int c = 0; c < descriptors.cols; ++c) {
       const float steps = row[c] * kDescriptorSteps;
-      if (!(steps >= 0 && steps <= 255 && steps == std::round(steps)))
+      if (!(steps >= 0 && steps <= kMaxDescriptorSteps &&
+            steps == std::round(steps)))
         return false;
     }
   }
   return true;
 }
 
-// Extracted descriptors as bytes; any others (made by hand, or extracted
+// Extracted descriptors as 16-bit steps; any others (made by hand, or extracted
 // before they were quantized) as their floats, so that every one reads
 // back to the same bits.
 void write_descriptors(Writer& w, const cv::Mat& descriptors) {
@@ -258,18 +259,18 @@ void write_descriptors(Writer& w, const cv::Mat& descriptors) {
     write_rows<float>(w, descriptors);
     return;
   }
-  w.pod(DescriptorForm::kBytes);
+  w.pod(DescriptorForm::kSteps);
   cv::Mat steps;
-  descriptors.convertTo(steps, CV_8U, kDescriptorSteps);
-  write_rows<uint8_t>(w, steps);
+  descriptors.convertTo(steps, CV_16U, kDescriptorSteps);
+  write_rows<uint16_t>(w, steps);
 }
 
 cv::Mat read_descriptors(Reader& r) {
   const auto form = r.pod<DescriptorForm>();
   if (form == DescriptorForm::kFloats)
     return read_rows<float>(r, 128, CV_32F, "descriptor");
-  if (form != DescriptorForm::kBytes) r.fail("descriptor form");
-  const cv::Mat steps = read_rows<uint8_t>(r, 128, CV_8U, "descriptor");
+  if (form != DescriptorForm::kSteps) r.fail("descriptor form");
+  const cv::Mat steps = read_rows<uint16_t>(r, 128, CV_16U, "descriptor");
   cv::Mat descriptors;
   steps.convertTo(descriptors, CV_32F, 1.0 / kDescriptorSteps);
   return descriptors;

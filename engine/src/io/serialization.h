@@ -26,8 +26,8 @@ Scene deserialize_scene(const std::string& bytes,
                         const FeatureSource& features = {});
 
 // One image's features: its id, keypoints, descriptors, colours and
-// patches, deflated, with extracted descriptors at a byte per component
-// (ARSFEAT3: about a third of the floats' size). Features written before
+// patches, deflated, with extracted descriptors at two bytes per component
+// (ARSFEAT3: about half the floats' size). Features written before
 // (floats, ARSFEAT2; before patches were kept, ARSFEAT1) still read.
 std::string serialize_features(const SceneImage& image);
 
