@@ -1,6 +1,7 @@
 // `arscout engine`: a standalone engine worker (docs/service.md).
 #include <chrono>
 #include <iostream>
+#include <sstream>
 #include <thread>
 
 #include <spdlog/spdlog.h>
@@ -15,6 +16,22 @@
 #include "engine_options.h"
 
 namespace arscout::cli {
+namespace {
+
+// An option in seconds (fractions allowed) kept as milliseconds.
+CLI::Option* add_seconds_option(CLI::App* cmd, const std::string& name,
+                                std::chrono::milliseconds* kept,
+                                const std::string& help) {
+  return cmd->add_option_function<double>(
+      name,
+      [kept](double seconds) {
+        *kept = std::chrono::milliseconds(
+            static_cast<std::int64_t>(seconds * 1000));
+      },
+      help);
+}
+
+}  // namespace
 
 void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
   cmd->add_option("--engine-name", o->name,
@@ -29,47 +46,30 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
                   "sites reconstructed at the same time")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
-  cmd->add_option_function<double>(
-         "--lease-ttl",
-         [o](double seconds) {
-           o->lease_ttl = std::chrono::milliseconds(
-               static_cast<std::int64_t>(seconds * 1000));
-         },
-         "seconds a site lease lasts unrenewed: when a worker dies, others "
-         "take its sites over after this (renewed every third; default 15)")
+  add_seconds_option(cmd, "--lease-ttl", &o->lease_ttl,
+                     "seconds a site lease lasts unrenewed: when a worker "
+                     "dies, others take its sites over after this (renewed "
+                     "every third; default 15)")
       ->check(CLI::Range(0.3, 3600.0));
-  cmd->add_option_function<double>(
-         "--state-interval",
-         [o](double seconds) {
-           o->state_interval = std::chrono::milliseconds(
-               static_cast<std::int64_t>(seconds * 1000));
-         },
-         "seconds a site's engine state may stay unsaved while photos keep "
-         "coming (also saved after a quiet second; a crash redoes what was "
-         "unsaved; 0: at every increment; default 30)")
+  add_seconds_option(cmd, "--state-interval", &o->state_interval,
+                     "seconds a site's engine state may stay unsaved while "
+                     "photos keep coming (also saved after a quiet second; a "
+                     "crash redoes what was unsaved; 0: at every increment; "
+                     "default 30)")
       ->check(CLI::Range(0.0, 3600.0));
   o->refinement_interval = std::chrono::seconds(10);
-  cmd->add_option_function<double>(
-         "--refine-interval",
-         [o](double seconds) {
-           o->refinement_interval = std::chrono::milliseconds(
-               static_cast<std::int64_t>(seconds * 1000));
-         },
-         "seconds: a site publishes a version of its global refinement "
-         "(one that adds no photo) at most this often; a merge or a loop "
-         "closure does not wait (0: no bound; default 10)")
+  add_seconds_option(cmd, "--refine-interval", &o->refinement_interval,
+                     "seconds: a site publishes a version of its global "
+                     "refinement (one that adds no photo) at most this often; "
+                     "a merge or a loop closure does not wait (0: no bound; "
+                     "default 10)")
       ->check(CLI::Range(0.0, 3600.0));
   o->dense_tile_interval = std::chrono::seconds(30);
-  cmd->add_option_function<double>(
-         "--dense-tile-interval",
-         [o](double seconds) {
-           o->dense_tile_interval = std::chrono::milliseconds(
-               static_cast<std::int64_t>(seconds * 1000));
-         },
-         "seconds: while a site's dense lane has work left over, it stores "
-         "its cloud's changed tiles at most this often (the depth maps at "
-         "every phase; the lane's last phase always stores them; 0: every "
-         "phase; default 30)")
+  add_seconds_option(cmd, "--dense-tile-interval", &o->dense_tile_interval,
+                     "seconds: while a site's dense lane has work left over, "
+                     "it stores its cloud's changed tiles at most this often "
+                     "(the depth maps at every phase; the lane's last phase "
+                     "always stores them; 0: every phase; default 30)")
       ->check(CLI::Range(0.0, 3600.0));
   cmd->add_option("--prepare-ahead", o->prepare_ahead,
                   "photos decoded and described ahead of their increments, "
@@ -166,7 +166,8 @@ void check_gc_grace(const db::BlobCollectorOptions& gc,
         db::ErrorCode::kInvalidArgument,
         "--gc-min-age " + std::to_string(gc.min_age.count()) +
             " is too short for --state-interval " +
-            std::to_string(worker.state_interval.count() / 1000.0) +
+            (std::ostringstream() << worker.state_interval.count() / 1000.0)
+                .str() +
             ": a capture's features wait for the next engine state to refer "
             "to them; give at least " +
             std::to_string(needed.count()) + " seconds");

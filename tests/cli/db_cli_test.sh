@@ -62,6 +62,9 @@ check log-level-bad 2 "$arscout" db stats "$url" --log-level loud
 # Nothing to revoke is "no such" (4), as the exit-code table says.
 check revoke-nothing 4 "$arscout" token revoke --db "$url" --id abcdef0123
 contains revoke-nothing "no token matches"
+# A collector's grace shorter than the engine's state interval allows.
+check gc-grace 2 "$arscout" engine --db "$url" --state-interval 200
+contains gc-grace "give at least 460 seconds"
 check export-no-site 4 "$arscout" export --db "$url" --site nosuchsite --format ply --output "$dir/x.ply"
 contains export-no-site "no site nosuchsite"
 after=$("$arscout" db changes "$url"; "$arscout" db stats "$url")
