@@ -19,6 +19,17 @@ void check_width(std::string_view bytes, std::size_t width) {
                                 std::to_string(width) + " bytes");
 }
 
+// `bytes` as a rows x cols matrix (row by row), written column by column:
+// the shuffle, and with rows and cols swapped its inverse.
+std::string transpose(std::string_view bytes, std::size_t rows,
+                      std::size_t cols) {
+  std::string out(bytes.size(), '\0');
+  for (std::size_t r = 0; r < rows; ++r)
+    for (std::size_t c = 0; c < cols; ++c)
+      out[c * rows + r] = bytes[r * cols + c];
+  return out;
+}
+
 }  // namespace
 
 std::string deflate_bytes(std::string_view bytes, int level) {
@@ -72,22 +83,12 @@ std::string inflate_bytes(std::string_view deflated, std::size_t size) {
 
 std::string shuffle_bytes(std::string_view bytes, std::size_t width) {
   check_width(bytes, width);
-  const std::size_t count = bytes.size() / width;
-  std::string out(bytes.size(), '\0');
-  for (std::size_t i = 0; i < count; ++i)
-    for (std::size_t b = 0; b < width; ++b)
-      out[b * count + i] = bytes[i * width + b];
-  return out;
+  return transpose(bytes, bytes.size() / width, width);
 }
 
 std::string unshuffle_bytes(std::string_view bytes, std::size_t width) {
   check_width(bytes, width);
-  const std::size_t count = bytes.size() / width;
-  std::string out(bytes.size(), '\0');
-  for (std::size_t i = 0; i < count; ++i)
-    for (std::size_t b = 0; b < width; ++b)
-      out[i * width + b] = bytes[b * count + i];
-  return out;
+  return transpose(bytes, width, bytes.size() / width);
 }
 
 }  // namespace arscout::util
