@@ -500,5 +500,64 @@ TEST_F(FountainSite, OctreeAndCoordinatesEndpoints) {
   server->stop();
 }
 
+// Coverage on the fountain: photographed from one arc in front of it, so
+// its facade has cells and the suggestions ask for more of it.
+TEST_F(FountainSite, CoverageIsGeoJsonWithClearErrors) {
+  const auto server = serve();
+  ingest::Client client(planner_client(*server, "coverage"));
+  const std::string base = "/v1/sites/" + site_ + "/coverage";
+  const auto got = client.get(base);
+  ASSERT_EQ(got.status, 200) << got.body;
+  EXPECT_EQ(got.headers.at("content-type"), "application/geo+json");
+  const Json body = got.json();
+  EXPECT_EQ(body.at("type"), "FeatureCollection");
+  EXPECT_EQ(body.at("model_version"), model_.version);
+  const Json& o = model_.attrs.at("enu_origin");
+  int cells = 0, suggestions = 0;
+  for (const Json& f : body.at("features")) {
+    const std::string kind = f.at("properties").at("feature");
+    if (kind == "cell") {
+      ++cells;
+      EXPECT_GE(f["properties"]["views"].get<int>(), 2);
+      EXPECT_GE(f["properties"]["directions"].get<int>(), 1);
+      const Json& corner = f["geometry"]["coordinates"][0][0];
+      // Within a few hundred metres of the site's origin.
+      EXPECT_NEAR(corner[0].get<double>(), o.at("lon").get<double>(), 0.005);
+      EXPECT_NEAR(corner[1].get<double>(), o.at("lat").get<double>(), 0.005);
+    } else if (kind == "suggestion") {
+      EXPECT_EQ(f["properties"]["rank"], ++suggestions);
+      EXPECT_FALSE(f["properties"]["reason"].get<std::string>().empty());
+      const double heading = f["properties"]["heading_deg"];
+      EXPECT_TRUE(heading >= 0 && heading <= 360) << heading;
+    } else {
+      EXPECT_EQ(kind, "unseen_facade");
+    }
+  }
+  EXPECT_GT(cells, 3);
+  EXPECT_GT(suggestions, 0);
+  EXPECT_LE(suggestions, 5);
+  const auto one = client.get(base + "?max=1&near=" +
+                              std::to_string(o.at("lat").get<double>()) + "," +
+                              std::to_string(o.at("lon").get<double>()));
+  ASSERT_EQ(one.status, 200) << one.body;
+  int ranked = 0;
+  const Json ranked_body = one.json();
+  for (const Json& f : ranked_body.at("features"))
+    ranked += f["properties"]["feature"] == "suggestion";
+  EXPECT_EQ(ranked, 1) << one.body;
+  for (const char* bad : {"?near=91,0", "?near=55.7", "?near=a,b",
+                          "?near=1,2,3", "?max=21", "?max=-1", "?max=x"}) {
+    const auto r = client.get(base + bad);
+    EXPECT_EQ(r.status, 400) << bad;
+    EXPECT_EQ(r.json().at("error"), "bad_request") << bad;
+  }
+  const auto missing = client.get("/v1/sites/nowhere/coverage");
+  EXPECT_EQ(missing.status, 404);
+  EXPECT_NE(missing.json().at("message").get<std::string>().find("nowhere"),
+            std::string::npos);
+  EXPECT_EQ(client.request("POST", base, "{}").status, 405);
+  server->stop();
+}
+
 }  // namespace
 }  // namespace arscout::viewer

@@ -48,19 +48,6 @@ class ScratchDir {
   fs::path path_;
 };
 
-// The full model, read again if the engine committed in between.
-engine::Model consistent_full_model(db::Store& store, const std::string& site,
-                                    SiteModel* model) {
-  for (int attempt = 0;; ++attempt) {
-    *model = load_site_model(store, site);
-    try {
-      return load_full_model(store, *model);
-    } catch (const StoreError& e) {
-      if (e.code() != ErrorCode::kUnavailable || attempt == 4) throw;
-    }
-  }
-}
-
 engine::Geodetic origin_of(const SiteModel& model) {
   const auto& origin = model.document.enu_origin;
   if (!model.document.geo_registered || !origin)
@@ -74,7 +61,7 @@ engine::Geodetic origin_of(const SiteModel& model) {
 
 ExportFile colmap_tar(db::Store& store, const std::string& site) {
   SiteModel model;
-  const engine::Model full = consistent_full_model(store, site, &model);
+  const engine::Model full = load_consistent_full_model(store, site, &model);
   ScratchDir scratch;
   engine::write_colmap_text(full, scratch.path().string());
   // The model's commit time, so the same version always exports the same
@@ -90,7 +77,7 @@ ExportFile colmap_tar(db::Store& store, const std::string& site) {
 
 ExportFile geo_csv(db::Store& store, const std::string& site) {
   SiteModel model;
-  const engine::Model full = consistent_full_model(store, site, &model);
+  const engine::Model full = load_consistent_full_model(store, site, &model);
   origin_of(model);  // refuses a model without geography
   ScratchDir scratch;
   const fs::path file = scratch.path() / "cameras_geo.csv";

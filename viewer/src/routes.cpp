@@ -17,6 +17,7 @@
 #include "arscout/viewer/overlay.h"
 #include "cloud_octree.h"
 #include "export_cache.h"
+#include "site_coverage.h"
 
 namespace arscout::viewer {
 namespace {
@@ -382,6 +383,13 @@ std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
       route("GET /v1/sites/*/coordinates", "sites", "coordinates",
             [s](const HttpRequest& req, const std::string& id) {
               return site_coordinates(*s, req, id);
+            }),
+      route("GET /v1/sites/*/coverage", "sites", "coverage",
+            [s](const HttpRequest& req, const std::string& id) {
+              std::optional<HttpResponse> bad;
+              const int max = int_query(req, "max", 5, 0, 20, &bad);
+              if (bad) return *bad;
+              return site_coverage(*s, req, id, max);
             }),
   };
 }

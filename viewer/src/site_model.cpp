@@ -94,6 +94,19 @@ engine::Model load_full_model(db::Store& store, const SiteModel& model) {
   return full;
 }
 
+engine::Model load_consistent_full_model(db::Store& store,
+                                         const std::string& site,
+                                         SiteModel* model) {
+  for (int attempt = 0;; ++attempt) {
+    *model = load_site_model(store, site);
+    try {
+      return load_full_model(store, *model);
+    } catch (const StoreError& e) {
+      if (e.code() != ErrorCode::kUnavailable || attempt == 4) throw;
+    }
+  }
+}
+
 std::vector<engine::ColoredPoint> load_cloud(db::Store& store,
                                              const SiteModel& model,
                                              Cloud which) {

@@ -51,6 +51,13 @@ SiteModel load_site_model(db::Store& store, const std::string& requested);
 // images (the engine committed between the two reads: read both again).
 engine::Model load_full_model(db::Store& store, const SiteModel& model);
 
+// load_site_model then load_full_model, both read again (up to 5 times)
+// while the engine commits between the two reads; *model is the document
+// the returned model goes with.
+engine::Model load_consistent_full_model(db::Store& store,
+                                         const std::string& site,
+                                         SiteModel* model);
+
 enum class Cloud { kDense, kSparse };
 
 // The dense cloud when the model has one (and `which` is kDense), else the
