@@ -12,7 +12,7 @@ import { Camera } from './camera.js';
 import { describe } from './feedback.js';
 import { Position } from './position.js';
 import { checkToken } from './sign_in.js';
-import { SiteMap } from './site_map.js';
+import { SiteMap, scoutColour } from './site_map.js';
 import { PhotoStore } from './store.js';
 import { TOKEN_REJECTED, Uploader } from './uploader.js';
 
@@ -159,6 +159,7 @@ function renderStatus() {
   $('model-version').dataset.version = String(version);
   $('model-version').textContent = version ? `model v${version}` : '';
   siteMap.setSelf(position.fix, position.heading);
+  renderNextShot();
   if (document.body.dataset.view === 'map') siteMap.draw();
 }
 
@@ -349,7 +350,64 @@ async function loadMapData(model) {
   siteMap.setSelf(position.fix, position.heading);
   $('site-map').dataset.cameras = String(siteMap.cameras.length);
   $('site-map').dataset.scouts = [...siteMap.scouts].sort().join(',');
+  renderLegend();
+  await loadCoverage();
   if (document.body.dataset.view === 'map') siteMap.draw();
+}
+
+/** The site's coverage and next shots, ranked from where the scout is. */
+async function loadCoverage() {
+  const fix = position.fix;
+  const near = fix ? `?near=${fix.lat.toFixed(7)},${fix.lon.toFixed(7)}` : '';
+  const coverage = await api.json(`/v1/sites/${encodeURIComponent(state.site)}/coverage${near}`).catch(() => null);
+  siteMap.setCoverage(coverage);
+  const el = $('site-map');
+  el.dataset.coverageCells = String(siteMap.coverage.cells.length);
+  el.dataset.unseen = String(siteMap.coverage.unseen.length);
+  el.dataset.suggestions = String(siteMap.coverage.suggestions.length);
+  renderNextShot();
+}
+
+/** Each scout's name in the colour of their cameras on the map. */
+function renderLegend() {
+  const list = $('scout-legend');
+  const scouts = [...siteMap.scouts].filter(Boolean).sort();
+  list.replaceChildren(...scouts.map((name) => {
+    const item = document.createElement('li');
+    const swatch = document.createElement('span');
+    swatch.className = 'swatch';
+    swatch.style.background = scoutColour(name, scouts);
+    item.append(swatch, document.createTextNode(name === state.scout ? `${name} (you)` : name));
+    item.dataset.scout = name;
+    item.dataset.colour = scoutColour(name, scouts);
+    return item;
+  }));
+}
+
+/**
+ * The arrow over the camera view toward the first suggested shot: its
+ * direction relative to where the phone points (to north without a
+ * compass), the distance and the reason; at the spot, which way to look.
+ */
+function renderNextShot() {
+  const el = $('next-shot');
+  const next = siteMap.coverage.suggestions[0];
+  const self = siteMap.self;
+  if (!next || !self) {
+    el.hidden = true;
+    return;
+  }
+  const east = next.east - self.east, north = next.north - self.north;
+  const metres = Math.hypot(east, north);
+  const arrived = metres < Math.max(3, self.accuracy || 0);
+  const bearing = arrived ? next.heading : ((Math.atan2(east, north) * 180) / Math.PI + 360) % 360;
+  const facing = Number.isFinite(self.heading) ? self.heading : 0;
+  $('next-shot-arrow').style.transform = `rotate(${bearing - facing}deg)`;
+  $('next-shot-text').textContent = arrived
+    ? `here: look ${Math.round(next.heading)}° · ${next.reason}`
+    : `${Math.round(metres)} m · ${next.reason}`;
+  Object.assign(el.dataset, { bearing: bearing.toFixed(0), distance: metres.toFixed(1), kind: next.kind });
+  el.hidden = false;
 }
 
 const modelChanged = debounce(() => loadModel(), 300);

@@ -1,19 +1,32 @@
 // A small top-down map of the site, north up: the sparse points, every
-// scout's cameras (a colour per scout, each with its viewing wedge) and
-// the scout's own position, accuracy circle and heading.
+// scout's cameras (a colour per scout, each with its viewing wedge), the
+// site's coverage (GET /v1/sites/{id}/coverage, docs/coverage.md) and the
+// scout's own position, accuracy circle and heading.
 //
-// Where coverage is thin shows as darkness: each camera's wedge is drawn
-// faintly and the wedges add up, so ground seen by many photos is bright
-// and ground seen by one or none stays dark.
+// Coverage: each facade cell is coloured by how many directions it was
+// photographed from (red one, orange two, yellow three, green four or
+// more), a side nobody photographed is a dashed red line, and the
+// suggested shots are numbered arrows, the first one largest.
 
 const WEDGE_M = 12; // how far a wedge reaches, metres
 const EARTH_RADIUS_M = 6378137;
 
-/** A stable colour for a scout's name. */
-export function scoutColour(name) {
-  let h = 0;
-  for (const c of String(name)) h = (h * 31 + c.codePointAt(0)) % 360;
-  return `hsl(${h}, 85%, 60%)`;
+// Scouts' colours, far apart in hue and lightness (Okabe and Ito's
+// colour-blind-safe set on a dark map), given in order of name.
+const SCOUT_PALETTE = ['#e69f00', '#56b4e9', '#f0e442', '#cc79a7', '#009e73', '#ffffff', '#d55e00', '#0072b2'];
+// Directions a facade cell was seen from -> its colour.
+const DIRECTION_COLOURS = ['#d7301f', '#d7301f', '#fc8d59', '#fdcc8a', '#1a9850'];
+
+/** The colour of a scout: by its place among the site's scouts' names. */
+export function scoutColour(name, scouts = [name]) {
+  const sorted = [...new Set(scouts)].sort();
+  const index = Math.max(0, sorted.indexOf(name));
+  return SCOUT_PALETTE[index % SCOUT_PALETTE.length];
+}
+
+/** The colour of a facade cell seen from `directions` compass sectors. */
+export function directionColour(directions) {
+  return DIRECTION_COLOURS[Math.min(directions, DIRECTION_COLOURS.length - 1)];
 }
 
 /**
@@ -47,6 +60,34 @@ export class SiteMap {
     this.points = new Float32Array(0); // east, north pairs
     this.self = null; // { east, north, accuracy, heading }
     this.scouts = new Set();
+    this.coverage = { cells: [], unseen: [], suggestions: [], cell: 2 };
+  }
+
+  /** The coverage GeoJSON (docs/api.md) in the map's metres. */
+  setCoverage(geojson) {
+    const coverage = { cells: [], unseen: [], suggestions: [], cell: (geojson && geojson.cell_m) || 2 };
+    if (!this.origin || !geojson) {
+      this.coverage = coverage;
+      return;
+    }
+    const at = ([lon, lat]) => enuOf(this.origin, lat, lon);
+    for (const f of geojson.features || []) {
+      const p = f.properties || {};
+      const c = f.geometry.coordinates;
+      if (p.feature === 'cell') {
+        const ring = c[0].map(at);
+        coverage.cells.push({
+          east: (ring[0].east + ring[2].east) / 2, north: (ring[0].north + ring[2].north) / 2,
+          directions: p.directions, views: p.views,
+        });
+      } else if (p.feature === 'unseen_facade') {
+        coverage.unseen.push(c.map(at));
+      } else if (p.feature === 'suggestion') {
+        coverage.suggestions.push({ ...at(c), heading: p.heading_deg, rank: p.rank, reason: p.reason, kind: p.kind });
+      }
+    }
+    coverage.suggestions.sort((a, b) => a.rank - b.rank);
+    this.coverage = coverage;
   }
 
   /** The model document's images placed on the map, with their scouts. */
@@ -127,17 +168,20 @@ export class SiteMap {
     g.fillRect(0, 0, width, height);
     if (!this.cameras.length && !this.self) return;
     const f = this.frame(width, height);
-    this.drawCoverage(g, f);
+    this.drawWedges(g, f);
+    this.drawCells(g, f);
     this.drawPoints(g, f);
+    this.drawUnseen(g, f);
     this.drawCameras(g, f);
+    this.drawSuggestions(g, f);
     this.drawSelf(g, f);
     this.drawScale(g, f, width, height);
   }
 
-  drawCoverage(g, f) {
+  drawWedges(g, f) {
     g.save();
     g.globalCompositeOperation = 'lighter';
-    g.fillStyle = 'rgba(60, 90, 130, 0.10)';
+    g.fillStyle = 'rgba(70, 110, 160, 0.16)';
     for (const c of this.cameras) {
       const heading = Math.atan2(c.look.east, c.look.north);
       const reach = WEDGE_M * f.scale;
@@ -158,11 +202,58 @@ export class SiteMap {
     }
   }
 
+  drawCells(g, f) {
+    const side = Math.max(2, this.coverage.cell * f.scale);
+    g.save();
+    g.globalAlpha = 0.75;
+    for (const c of this.coverage.cells) {
+      g.fillStyle = directionColour(c.directions);
+      g.fillRect(f.x(c.east) - side / 2, f.y(c.north) - side / 2, side, side);
+    }
+    g.restore();
+  }
+
+  drawUnseen(g, f) {
+    g.save();
+    g.strokeStyle = '#ff3b30';
+    g.lineWidth = 4;
+    g.setLineDash([8, 5]);
+    for (const [a, b] of this.coverage.unseen) {
+      g.beginPath();
+      g.moveTo(f.x(a.east), f.y(a.north));
+      g.lineTo(f.x(b.east), f.y(b.north));
+      g.stroke();
+    }
+    g.restore();
+  }
+
+  drawSuggestions(g, f) {
+    g.save();
+    for (const s of this.coverage.suggestions) {
+      const x = f.x(s.east), y = f.y(s.north);
+      const a = (s.heading * Math.PI) / 180;
+      const size = s.rank === 1 ? 16 : 11;
+      g.fillStyle = s.rank === 1 ? '#ffffff' : 'rgba(255, 255, 255, 0.7)';
+      g.strokeStyle = '#000';
+      g.beginPath();
+      g.moveTo(x + size * Math.sin(a), y - size * Math.cos(a));
+      g.lineTo(x + (size / 2) * Math.sin(a + 2.5), y - (size / 2) * Math.cos(a + 2.5));
+      g.lineTo(x + (size / 2) * Math.sin(a - 2.5), y - (size / 2) * Math.cos(a - 2.5));
+      g.closePath();
+      g.fill();
+      g.stroke();
+      g.font = 'bold 12px system-ui, sans-serif';
+      g.fillText(String(s.rank), x - size * Math.sin(a) - 4, y + size * Math.cos(a) + 4);
+    }
+    g.restore();
+  }
+
   drawCameras(g, f) {
+    const scouts = [...this.scouts];
     for (const c of this.cameras) {
       const x = f.x(c.east), y = f.y(c.north);
       const len = Math.hypot(c.look.east, c.look.north) || 1;
-      g.strokeStyle = g.fillStyle = scoutColour(c.scout);
+      g.strokeStyle = g.fillStyle = scoutColour(c.scout, scouts);
       g.beginPath();
       g.arc(x, y, 3, 0, 2 * Math.PI);
       g.fill();

@@ -5,7 +5,7 @@
 // The API (/v1/, /healthz) is never cached: photos wait in IndexedDB
 // (store.js), not here.
 
-const CACHE = 'arscout-scout-v2';
+const CACHE = 'arscout-scout-v3';
 const SHELL = [
   './',
   'index.html',
