@@ -8,12 +8,14 @@
 // carry for evaluation: a gps.csv from a simulated receiver (the true centre
 // plus Gaussian noise), gps_truth.csv without the noise, and
 // gt_dense_cameras/*.camera with the exact poses.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <sstream>
 #include <string>
 
 #include <opencv2/imgcodecs.hpp>
@@ -37,6 +39,7 @@ struct RenderSiteArgs {
   int width = 1024;
   int height = 768;
   uint32_t seed = 1;
+  bool leave_unseen = false;
   double lat = 47.05870, lon = 15.46010, alt = 360;  // a street in Graz
 };
 
@@ -106,6 +109,25 @@ int run_street(const RenderSiteArgs& a, int views) {
   return kExitOk;
 }
 
+// unseen_facade.json: the wall --leave-unseen left out, its bottom edge's
+// ends on WGS84 and the bearing it faces, for the coverage test to compare
+// the suggestions with.
+void write_unseen_wall(const fs::path& path, const syn::UnseenWall& wall,
+                       const engine::EnuFrame& frame, int left_out) {
+  const auto point = [&](const Eigen::Vector3d& p) {
+    const engine::Geodetic g = frame.to_geodetic({p.x(), p.y(), p.z()});
+    std::ostringstream text;
+    text << std::setprecision(10) << "{\"lat\": " << g.lat
+         << ", \"lon\": " << g.lon << "}";
+    return text.str();
+  };
+  std::ofstream out(path);
+  out << "{\"from\": " << point(wall.from) << ", \"to\": " << point(wall.to)
+      << ", \"facing_deg\": " << std::setprecision(6) << wall.facing_deg
+      << ", \"photos_left_out\": " << left_out << "}\n";
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
 int run_block(const RenderSiteArgs& a, int views) {
   const fs::path out(a.out);
   const fs::path images = out / "images", cameras = out / "gt_dense_cameras";
@@ -119,10 +141,24 @@ int run_block(const RenderSiteArgs& a, int views) {
   std::ofstream truth = open_gps_csv(out / "gps_truth.csv");
   // Its own stream, so the noise does not shift with the scene's draws.
   syn::SplitMix64 noise(a.seed ^ 0x6a09e667f3bcc909ull);
+  std::vector<bool> left_out(scene.views.size(), false);
+  if (a.leave_unseen) {
+    const syn::UnseenWall wall = syn::unseen_inner_wall(scene);
+    left_out = wall.seen_by;
+    write_unseen_wall(out / "unseen_facade.json", wall, frame,
+                      static_cast<int>(std::count(left_out.begin(),
+                                                  left_out.end(), true)));
+  }
   double render_seconds = 0;
   for (size_t i = 0; i < scene.views.size(); ++i) {
     const syn::PinholeView& view = scene.views[i];
     const std::string name = image_name(static_cast<int>(i));
+    // The GPS noise is drawn for every view, so the others' fixes are the
+    // same with and without --leave-unseen.
+    const double east = kGpsHorizontalSigma * noise.gaussian();
+    const double north = kGpsHorizontalSigma * noise.gaussian();
+    const double up = kGpsVerticalSigma * noise.gaussian();
+    if (left_out[i]) continue;
     const auto start = std::chrono::steady_clock::now();
     const syn::Rendering rendering = syn::render(scene.site, view);
     render_seconds +=
@@ -135,9 +171,6 @@ int run_block(const RenderSiteArgs& a, int views) {
     const Eigen::Vector3d c = view.centre();
     write_gps_row(truth, name, frame.to_geodetic({c.x(), c.y(), c.z()}),
                   "0.00,0.00");
-    const double east = kGpsHorizontalSigma * noise.gaussian();
-    const double north = kGpsHorizontalSigma * noise.gaussian();
-    const double up = kGpsVerticalSigma * noise.gaussian();
     write_gps_row(gps, name,
                   frame.to_geodetic({c.x() + east, c.y() + north, c.z() + up}),
                   "1.50,3.00");
@@ -145,10 +178,14 @@ int run_block(const RenderSiteArgs& a, int views) {
   }
   write_k(images / "K.txt", scene.views.front().K);
   if (!gps || !truth) throw std::runtime_error("cannot write into " + a.out);
-  std::cout << views << " photos of the synthetic block (seed " << a.seed
+  const long rendered =
+      views - std::count(left_out.begin(), left_out.end(), true);
+  std::cout << rendered << " photos of the synthetic block (seed " << a.seed
             << ") in " << a.out
-            << " (gps.csv, gps_truth.csv, gt_dense_cameras/, images/K.txt), "
-            << std::fixed << std::setprecision(2) << render_seconds / views
+            << " (gps.csv, gps_truth.csv, gt_dense_cameras/, images/K.txt"
+            << (a.leave_unseen ? ", unseen_facade.json" : "") << "), "
+            << std::fixed << std::setprecision(2)
+            << render_seconds / std::max(1L, rendered)
             << " s per photo to render" << std::endl;
   return kExitOk;
 }
@@ -175,7 +212,9 @@ void add_render_site_command(CLI::App& app) {
           Also writes gps.csv from a simulated receiver (1.5 m of noise per
           horizontal axis, 3 m vertically), gps_truth.csv without the noise,
           and gt_dense_cameras/*.camera (Strecha layout: the exact poses in
-          the east-north-up frame at --lat/--lon/--alt).)");
+          the east-north-up frame at --lat/--lon/--alt). With
+          --leave-unseen, the photos that see one wall are not written and
+          unseen_facade.json names that wall.)");
   cmd->add_option("--out", args.out, "folder to write")->required();
   cmd->add_option("--scene", args.scene, "street or block")
       ->capture_default_str()
@@ -186,6 +225,11 @@ void add_render_site_command(CLI::App& app) {
   cmd->add_option("--seed", args.seed,
                   "block only: its layout, walk, textures and GPS noise")
       ->capture_default_str();
+  cmd->add_flag("--leave-unseen", args.leave_unseen,
+               "block only, 60-80 views: leave out the stretch of the walk "
+               "that looks at one wall of the building it goes round, so "
+               "that facade is never photographed, and name it in "
+               "unseen_facade.json");
   cmd->add_option("--width", args.width, "photo width, px")
       ->capture_default_str()
       ->check(CLI::Range(64, 8192));

@@ -64,7 +64,8 @@ Json suggestion_feature(const engine::Coverage& c,
                   {"rank", rank},
                   {"kind", s.kind},
                   {"heading_deg", std::round(s.heading_deg)},
-                  {"reason", s.reason}});
+                  {"reason", s.reason},
+                  {"score", std::round(s.score * 100) / 100}});
 }
 
 // "lat,lon" in degrees, else nullopt.

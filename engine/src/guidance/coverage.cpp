@@ -18,10 +18,13 @@ using guidance::GroundGrid;
 using guidance::unit_of_bearing;
 using guidance::Vec2;
 
-// What a suggestion adds, per metre of facade: a facade nobody saw counts
-// four times one seen from a single direction. A gap between components
-// outranks both: until it is bridged the site is two models.
-constexpr double kOneDirectionWeight = 0.25;
+// What a suggestion adds, per metre of facade: a side nobody saw counts
+// ten times a facade seen from a single direction (a hole against a weak
+// spot), and a run of the latter counts for at most kOneDirectionMetres.
+// A gap between components outranks both: until it is bridged the site is
+// two models.
+constexpr double kOneDirectionWeight = 0.1;
+constexpr double kOneDirectionMetres = 10;
 constexpr double kComponentGapScore = 1000;
 // A second direction: the oblique view beside the one the facade has.
 constexpr double kObliqueDeg = 40;
@@ -31,12 +34,22 @@ Vec2 along(const Vec2& from, double bearing_deg, double metres) {
   return {from[0] + metres * u[0], from[1] + metres * u[1]};
 }
 
+// From `from` toward `bearing_deg`, the standoff out or, when facade cells
+// come first (the other side of a street), a metre short of them.
+Vec2 standpoint(const GroundGrid& g, const Vec2& from, double bearing_deg) {
+  const double step = g.grid.cell / 2;
+  for (double d = 2 * g.grid.cell; d <= g.standoff; d += step)
+    if (g.facade_cell(g.grid.index(along(from, bearing_deg, d))))
+      return along(from, bearing_deg, std::max(step, d - 1));
+  return along(from, bearing_deg, g.standoff);
+}
+
 ShotSuggestion unseen_suggestion(const guidance::OutlineGap& gap,
-                                 double standoff) {
+                                 const GroundGrid& g) {
   const UnseenFacade& f = gap.facade;
   const Vec2 middle{(f.from[0] + f.to[0]) / 2, (f.from[1] + f.to[1]) / 2};
   ShotSuggestion s;
-  s.position = along(middle, f.facing_deg, standoff);
+  s.position = standpoint(g, middle, f.facing_deg);
   s.heading_deg = std::fmod(f.facing_deg + 180, 360);
   s.kind = "unseen_facade";
   s.reason = "the " + compass_name(f.facing_deg) +
@@ -83,16 +96,17 @@ ShotSuggestion one_direction_suggestion(
     middle[1] += c->centre[1] / run.size();
   }
   const double facing = run.front()->facing_deg;
-  Vec2 position = along(middle, facing + kObliqueDeg, g.standoff);
+  Vec2 position = standpoint(g, middle, facing + kObliqueDeg);
   const int i = g.grid.index(position);
   if (i < 0 || !g.cells[i].seen_empty)
-    position = along(middle, facing - kObliqueDeg, g.standoff);
+    position = standpoint(g, middle, facing - kObliqueDeg);
   ShotSuggestion s;
   s.position = position;
   s.heading_deg = bearing_of({middle[0] - position[0], middle[1] - position[1]});
   s.kind = "one_direction";
   s.reason = compass_name(facing) + " facade seen from one direction only";
-  s.score = kOneDirectionWeight * run.size() * g.grid.cell;
+  s.score = kOneDirectionWeight *
+            std::min(kOneDirectionMetres, run.size() * g.grid.cell);
   return s;
 }
 
@@ -132,13 +146,27 @@ std::vector<ShotSuggestion> component_gap_suggestions(const Model& model) {
   return out;
 }
 
+// How easily a scout gets to a standpoint: 1 where photos were taken,
+// half a standoff from the nearest photo 0.8, two standoffs away 0.2. The
+// back of a building across the street is as unseen as the side of one
+// the scouts walked past, but only the latter is a few steps away.
+double reach(const GroundGrid& g, const Vec2& position) {
+  double nearest = std::numeric_limits<double>::infinity();
+  for (const Vec2& camera : g.cameras)
+    nearest = std::min(nearest, distance(camera, position));
+  const double r = nearest / g.standoff;
+  return 1 / (1 + r * r);
+}
+
 // Best first; with the scout's position, a suggestion four standoffs away
 // counts half.
-void rank(std::vector<ShotSuggestion>& suggestions, double standoff,
+void rank(std::vector<ShotSuggestion>& suggestions, const GroundGrid& g,
           const CoverageOptions& options) {
+  for (ShotSuggestion& s : suggestions)
+    if (s.kind != "component_gap") s.score *= reach(g, s.position);
   if (options.near)
     for (ShotSuggestion& s : suggestions)
-      s.score /= 1 + distance(s.position, *options.near) / (4 * standoff);
+      s.score /= 1 + distance(s.position, *options.near) / (4 * g.standoff);
   std::stable_sort(suggestions.begin(), suggestions.end(),
                    [](const ShotSuggestion& a, const ShotSuggestion& b) {
                      return a.score > b.score;
@@ -176,13 +204,13 @@ Coverage analyse_coverage(const Model& model, const CoverageOptions& options) {
   for (const guidance::OutlineGap& gap :
        guidance::unseen_outline_edges(g, options.min_unseen_facade_m)) {
     out.unseen.push_back(gap.facade);
-    out.suggestions.push_back(unseen_suggestion(gap, g.standoff));
+    out.suggestions.push_back(unseen_suggestion(gap, g));
   }
   for (const auto& run : one_direction_runs(out.cells))
     out.suggestions.push_back(one_direction_suggestion(run, g));
   for (ShotSuggestion& s : component_gap_suggestions(model))
     out.suggestions.push_back(std::move(s));
-  rank(out.suggestions, g.standoff, options);
+  rank(out.suggestions, g, options);
   return out;
 }
 

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <set>
 
+#include <Eigen/Dense>
+
 namespace arscout::engine::guidance {
 namespace {
 
@@ -33,16 +35,56 @@ std::vector<Sighted> sighted_points(const Model& model) {
 
 bool is_facade(const GroundGrid& g, const Sighted& p,
                const CoverageOptions& options) {
-  return p.z > g.ground_z + options.min_facade_height_m;
+  return p.z > g.ground_at(p.xy) + options.min_facade_height_m;
+}
+
+// Least squares over the photos, then again without those more than a
+// metre off (a photo from a balcony); level through the median when the
+// photos do not span both ground directions by a few metres.
+std::array<double, 3> fit_ground(const Model& model, double camera_height) {
+  std::vector<double> heights;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const ModelImage& image : model.images) {
+    heights.push_back(image.centre[2] - camera_height);
+    mean += Eigen::Vector2d(image.centre[0], image.centre[1]) /
+            static_cast<double>(model.images.size());
+  }
+  std::array<double, 3> plane{0, 0, median(heights)};
+  for (int pass = 0; pass < 2; ++pass) {
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+    Eigen::Matrix2d spread = Eigen::Matrix2d::Zero();
+    for (std::size_t i = 0; i < heights.size(); ++i) {
+      const auto& c = model.images[i].centre;
+      if (std::abs(plane[0] * c[0] + plane[1] * c[1] + plane[2] -
+                   heights[i]) > 1.0)
+        continue;
+      const Eigen::Vector3d row(c[0], c[1], 1);
+      normal += row * row.transpose();
+      rhs += row * heights[i];
+      const Eigen::Vector2d d(c[0] - mean.x(), c[1] - mean.y());
+      spread += d * d.transpose();
+    }
+    if (normal(2, 2) < 6 ||
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(spread / normal(2, 2))
+                .eigenvalues()
+                .minCoeff() < 4.0)
+      break;  // fewer than 6 photos, or spread less than 2 m across
+    const Eigen::Vector3d x = normal.ldlt().solve(rhs);
+    plane = {x.x(), x.y(), x.z()};
+  }
+  return plane;
 }
 
 void measure_ground_and_standoff(const Model& model,
                                  const CoverageOptions& options,
                                  GroundGrid& g) {
-  std::vector<double> heights;
+  g.ground = fit_ground(model, options.camera_height_m);
+  Vec2 centroid{0, 0};
   for (const ModelImage& image : model.images)
-    heights.push_back(image.centre[2]);
-  g.ground_z = median(heights) - options.camera_height_m;
+    for (int a = 0; a < 2; ++a)
+      centroid[a] += image.centre[a] / static_cast<double>(model.images.size());
+  g.ground_z = g.ground_at(centroid);
   std::vector<double> ranges;
   for (const Sighted& p : g.points) {
     if (!is_facade(g, p, options)) continue;
@@ -113,13 +155,18 @@ void carve(GroundGrid& g, const Vec2& from, const Vec2& to) {
 }
 
 void carve_sight_lines(const Model& model, GroundGrid& g) {
+  for (const ModelImage& image : model.images)
+    g.cameras.push_back(centre_xy(image));
   std::size_t lines = 0;
   for (const Sighted& p : g.points) lines += p.images.size();
   const std::size_t stride = lines / kMaxSightLines + 1;
   std::size_t n = 0;
-  for (const Sighted& p : g.points)
-    for (int image : p.images)
-      if (n++ % stride == 0) carve(g, centre_xy(model.images[image]), p.xy);
+  for (std::size_t k = 0; k < g.points.size(); ++k)
+    for (int image : g.points[k].images)
+      if (n++ % stride == 0) {
+        carve(g, g.cameras[image], g.points[k].xy);
+        g.sight_lines.emplace_back(image, static_cast<int>(k));
+      }
 }
 
 }  // namespace

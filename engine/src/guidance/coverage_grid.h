@@ -50,11 +50,25 @@ struct CellState {
 
 struct GroundGrid {
   std::vector<Sighted> points;
-  double ground_z = 0;
+  // The ground: z = a x + b y + c through the photos' heights less the
+  // camera height (a level plane when the photos lie along a line). A
+  // plane rather than one height: a model placed by GPS fixes with metres
+  // of vertical noise can lean by a degree or more, which over a block is
+  // as much as the facade threshold.
+  std::array<double, 3> ground{0, 0, 0};
+  double ground_z = 0;  // at the photos' centroid
   double standoff = 0;  // median photo-to-facade distance, metres
   Grid grid;
   std::vector<CellState> cells;
+  // Every sight line carved (at most kMaxSightLines, evenly thinned):
+  // (index into Model::images, index into points), and the photos' ground
+  // positions by image index.
+  std::vector<std::pair<int, int>> sight_lines;
+  std::vector<Vec2> cameras;
 
+  double ground_at(const Vec2& p) const {
+    return ground[0] * p[0] + ground[1] * p[1] + ground[2];
+  }
   bool facade_cell(int i) const { return i >= 0 && cells[i].points > 0; }
   // Cell i or one of its 8 neighbours holds facade.
   bool facade_near(int i) const;

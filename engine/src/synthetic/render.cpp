@@ -34,6 +34,7 @@ struct Target {
   Texture texture = Texture::kNoise;
   uint32_t seed = 0;
   float brightness = 1;
+  int index = 0;  // in Site::quads
 };
 
 // A fixed light direction gives each orientation its own constant
@@ -66,6 +67,7 @@ std::vector<Target> prepare(const Site& site, const PinholeView& view,
     target.texture = quad.texture;
     target.seed = quad.seed;
     target.brightness = brightness_of(normal / std::sqrt(area2));
+    target.index = static_cast<int>(&quad - site.quads.data());
     targets.push_back(target);
     const Eigen::Vector3d far = quad.corner + quad.edge_u + quad.edge_v;
     corners->push_back({view.R * quad.corner + view.t,
@@ -234,6 +236,24 @@ class Caster {
 };
 
 }  // namespace
+
+std::vector<int> quads_seen(const Site& site, const PinholeView& view,
+                            int step_px) {
+  if (step_px < 1) throw std::invalid_argument("quads_seen: step_px < 1");
+  std::vector<Corners> corners;
+  const std::vector<Target> targets = prepare(site, view, &corners);
+  const Eigen::Matrix3d to_world = view.R.transpose();
+  const Eigen::Matrix3d k_inverse = view.K.inverse();
+  std::vector<int> rays(site.quads.size(), 0);
+  for (int y = step_px / 2; y < view.size.height; y += step_px)
+    for (int x = step_px / 2; x < view.size.width; x += step_px) {
+      const Eigen::Vector3d camera = k_inverse * Eigen::Vector3d(x, y, 1);
+      const Hit hit =
+          cast(targets, view.centre(), to_world * (camera / camera.z()));
+      if (hit.target) ++rays[hit.target->index];
+    }
+  return rays;
+}
 
 Rendering render(const Site& site, const PinholeView& view, int supersampling) {
   if (supersampling < 1) {

@@ -30,17 +30,20 @@
 namespace arscout::engine {
 
 struct CoverageOptions {
-  double cell_m = 2.0;  // the ground cells' edge; grows for large sites
+  // The ground cells' edge, metres: fine enough that a small building's
+  // sides fall in different cells. Grows for large sites (below).
+  double cell_m = 1.0;
   // The grid has at most this many cells along each side (the cell edge
   // grows to fit): the analysis costs the model's observations plus the
   // grid, whatever the site's extent.
-  int max_cells_per_side = 256;
+  int max_cells_per_side = 400;
   int max_suggestions = 5;
-  // Photos are taken this high above the ground: the ground's height is
-  // the photos' median height less this, and points within
-  // min_facade_height_m of the ground are ground, not facade.
+  // Photos are taken this high above the ground: the ground is the plane
+  // through the photos' heights less this (level when the photos lie
+  // along a line), and points within min_facade_height_m of it are
+  // ground, not facade.
   double camera_height_m = 1.6;
-  double min_facade_height_m = 0.5;
+  double min_facade_height_m = 1.0;
   double min_unseen_facade_m = 4.0;  // shorter outline edges are ignored
   // The scout's position (ENU metres, east and north): nearer suggestions
   // rank higher. Absent: ranked by what they add alone.
@@ -83,7 +86,7 @@ struct Coverage {
   double cell_m = 0;
   std::array<double, 2> grid_origin{};  // the grid's south-west corner, ENU
   int columns = 0, rows = 0;
-  double ground_z = 0;    // ENU height of the ground
+  double ground_z = 0;    // ENU height of the ground under the photos
   double standoff_m = 0;  // median distance from photo to what it sees
   std::vector<CoverageCell> cells;  // facade cells, row-major order
   std::vector<UnseenFacade> unseen;

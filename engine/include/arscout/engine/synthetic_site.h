@@ -193,6 +193,29 @@ struct Rendering {
 Rendering render(const Site& site, const PinholeView& view,
                  int supersampling = 3);
 
+// How many of the view's rays, through every step_px-th pixel each way,
+// meet each quad of `site` first (indexed like Site::quads): what the view
+// sees, occlusion included, at a cost of a few thousand rays. Throws
+// std::invalid_argument when step_px < 1.
+std::vector<int> quads_seen(const Site& site, const PinholeView& view,
+                            int step_px = 8);
+
+// The block scene with one facade that no photo sees (render-site
+// --leave-unseen, the coverage guidance's test). On a small loop (60-80
+// views) the walk goes round one building; of its walls at least
+// min_width_m wide, the one that the shortest stretch of the walk looks at
+// (views whose quads_seen rays meet it for a tenth or more; a view that
+// catches it at a grazing angle does not count), and that stretch: leaving
+// it out leaves one walk that sees the building's other sides. Throws
+// std::invalid_argument when no building stands over the route's centre.
+struct UnseenWall {
+  int quad = -1;              // in Site::quads
+  std::vector<bool> seen_by;  // per view: in the stretch left out
+  Eigen::Vector3d from, to;   // its bottom edge, world frame
+  double facing_deg = 0;      // compass bearing of its outward side
+};
+UnseenWall unseen_inner_wall(const BlockScene& scene, double min_width_m = 5);
+
 // The albedo of `texture` at metric texture coordinates (u, v), BGR in
 // [0, 1], before the quad's brightness is applied. Exposed so that tests
 // and demos can reason about the pattern without rendering.
