@@ -145,9 +145,9 @@ int run_block(const RenderSiteArgs& a, int views) {
   if (a.leave_unseen) {
     const syn::UnseenWall wall = syn::unseen_inner_wall(scene);
     left_out = wall.seen_by;
-    write_unseen_wall(out / "unseen_facade.json", wall, frame,
-                      static_cast<int>(std::count(left_out.begin(),
-                                                  left_out.end(), true)));
+    write_unseen_wall(
+        out / "unseen_facade.json", wall, frame,
+        static_cast<int>(std::count(left_out.begin(), left_out.end(), true)));
   }
   double render_seconds = 0;
   for (size_t i = 0; i < scene.views.size(); ++i) {
@@ -226,10 +226,10 @@ void add_render_site_command(CLI::App& app) {
                   "block only: its layout, walk, textures and GPS noise")
       ->capture_default_str();
   cmd->add_flag("--leave-unseen", args.leave_unseen,
-               "block only, 60-80 views: leave out the stretch of the walk "
-               "that looks at one wall of the building it goes round, so "
-               "that facade is never photographed, and name it in "
-               "unseen_facade.json");
+                "block only, 60-80 views: leave out the stretch of the walk "
+                "that looks at one wall of the building it goes round, so "
+                "that facade is never photographed, and name it in "
+                "unseen_facade.json");
   cmd->add_option("--width", args.width, "photo width, px")
       ->capture_default_str()
       ->check(CLI::Range(64, 8192));

@@ -45,8 +45,10 @@ std::vector<Photo> walk(const Side& side) {
   const double dx = side.to[0] - side.from[0], dy = side.to[1] - side.from[1];
   const double length = std::hypot(dx, dy);
   for (double s = -4; s <= length + 4; s += 1.5) {
-    const double x = side.from[0] + s * dx / length + kStandoff * side.outward[0];
-    const double y = side.from[1] + s * dy / length + kStandoff * side.outward[1];
+    const double x =
+        side.from[0] + s * dx / length + kStandoff * side.outward[0];
+    const double y =
+        side.from[1] + s * dy / length + kStandoff * side.outward[1];
     photos.push_back({{x, y, 1.6}, {-side.outward[0], -side.outward[1]}});
   }
   return photos;
@@ -155,8 +157,7 @@ TEST(Coverage, AFacadeSeenFromOneSpotAsksForASecondDirection) {
     EXPECT_GT(s.position[1], 6);
     EXPECT_GT(std::hypot(s.position[0] - 0.5, s.position[1] - 13), 2);
     EXPECT_LT(bearing_gap(s.heading_deg, 180), 90) << s.heading_deg;
-    EXPECT_NE(s.reason.find("seen from one direction only"),
-              std::string::npos);
+    EXPECT_NE(s.reason.find("seen from one direction only"), std::string::npos);
   }
   EXPECT_TRUE(asked);
 }

@@ -536,9 +536,9 @@ TEST_F(FountainSite, CoverageIsGeoJsonWithClearErrors) {
   EXPECT_GT(cells, 3);
   EXPECT_GT(suggestions, 0);
   EXPECT_LE(suggestions, 5);
-  const auto one = client.get(base + "?max=1&near=" +
-                              std::to_string(o.at("lat").get<double>()) + "," +
-                              std::to_string(o.at("lon").get<double>()));
+  const auto one = client.get(
+      base + "?max=1&near=" + std::to_string(o.at("lat").get<double>()) + "," +
+      std::to_string(o.at("lon").get<double>()));
   ASSERT_EQ(one.status, 200) << one.body;
   int ranked = 0;
   const Json ranked_body = one.json();

@@ -12,7 +12,9 @@
 //   estimated camera, the status bar shows the fix and its accuracy;
 // - a registered photo shows the model drawn over it; withdrawing it from
 //   the app removes it from the next model version;
-// - bob, on a second page with his own token, takes a photo: each page's
+// - bob, on a second page with his own token, takes a photo with location
+//   denied (the status bar says why, whole; the photo waits on the phone),
+//   then grants it (the photo goes with the fix and is registered): each page's
 //   site map shows both scouts' cameras;
 // - a photo the server refuses (422) is shown refused with the server's
 //   message and leaves the queue; a revoked token stops the queue with a
@@ -26,6 +28,7 @@ import crypto from 'node:crypto';
 import fs from 'node:fs';
 import path from 'node:path';
 import { requireFromViewer, log, TestFailure, fail } from './harness.mjs';
+import { phoneContext } from './scout_phone.mjs';
 
 const { chromium } = requireFromViewer('playwright-core');
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
@@ -68,75 +71,6 @@ async function until(what, probe, ms = timeoutMs, every = 1000) {
     if (Date.now() > end) fail(`timed out waiting for ${what}`);
     await sleep(every);
   }
-}
-
-// ---- the fakes a page starts with -------------------------------------------
-
-/**
- * In the page before any script: getUserMedia returns a canvas stream at
- * the photo's full size, and geolocation answers with the fix the test
- * sets, altitude included, as a phone's GPS does.
- */
-function installFakes() {
-  const fake = { watchers: new Map(), nextWatch: 1, fix: null, image: null, frames: 0 };
-  window.__fake = fake;
-  const canvas = document.createElement('canvas');
-  canvas.width = 3072;
-  canvas.height = 2048;
-  const g = canvas.getContext('2d');
-  const paint = () => {
-    if (fake.image) g.drawImage(fake.image, 0, 0, canvas.width, canvas.height);
-    else g.fillRect(0, 0, canvas.width, canvas.height);
-    fake.frames++;
-  };
-  setInterval(paint, 100);
-  fake.showPhoto = async (base64) => {
-    const bytes = Uint8Array.from(atob(base64), (c) => c.charCodeAt(0));
-    fake.image = await createImageBitmap(new Blob([bytes], { type: 'image/jpeg' }));
-    paint();
-  };
-  navigator.mediaDevices.getUserMedia = async () => {
-    paint();
-    return canvas.captureStream(10);
-  };
-  const position = () => ({
-    timestamp: Date.now(),
-    coords: {
-      latitude: fake.fix.lat, longitude: fake.fix.lon, altitude: fake.fix.alt,
-      accuracy: fake.fix.hAcc, altitudeAccuracy: fake.fix.vAcc, heading: null, speed: null,
-    },
-  });
-  fake.setFix = (fix) => {
-    fake.fix = fix;
-    for (const ok of fake.watchers.values()) ok(position());
-  };
-  const geolocation = {
-    watchPosition(ok) {
-      const id = fake.nextWatch++;
-      fake.watchers.set(id, ok);
-      if (fake.fix) setTimeout(() => ok(position()), 0);
-      return id;
-    },
-    clearWatch(id) {
-      fake.watchers.delete(id);
-    },
-    getCurrentPosition(ok) {
-      if (fake.fix) setTimeout(() => ok(position()), 0);
-    },
-  };
-  Object.defineProperty(navigator, 'geolocation', { value: geolocation, configurable: true });
-}
-
-/** A phone (viewport, touch) with the fake camera and geolocation. */
-async function phoneContext(browser) {
-  const context = await browser.newContext({
-    viewport: { width: 390, height: 844 },
-    deviceScaleFactor: 2,
-    isMobile: true,
-    hasTouch: true,
-  });
-  await context.addInitScript(installFakes);
-  return context;
 }
 
 async function openScout(browser, token, name) {
@@ -184,7 +118,10 @@ async function checkSignInRefusesAnUnknownToken(browser) {
   log('sign-in: an unknown token is named, not kept, and nothing is sent');
 }
 
-/** Shows a photo on the fake camera, sets the fix, waits for frames, shoots. */
+/**
+ * Shows a photo on the fake camera, sets the fix (none: the GPS stays as
+ * it is), waits for frames, shoots.
+ */
 async function shoot(scout, imagePath, fix) {
   const { page } = scout;
   if ((await page.getAttribute('body', 'data-view')) !== 'capture') {
@@ -192,7 +129,7 @@ async function shoot(scout, imagePath, fix) {
   }
   const base64 = fs.readFileSync(imagePath).toString('base64');
   await page.evaluate((b) => window.__fake.showPhoto(b), base64);
-  await page.evaluate((f) => window.__fake.setFix(f), fix);
+  if (fix) await page.evaluate((f) => window.__fake.setFix(f), fix);
   const frames = await page.evaluate(() => window.__fake.frames);
   await page.waitForFunction((n) => window.__fake.frames >= n + 5, frames);
   await page.waitForFunction(() => document.getElementById('live').videoWidth === 3072);
@@ -362,8 +299,45 @@ async function checkOverlayAndWithdraw(alice, adminToken, site, screenshots) {
   log(`withdrawn ${id}: model v${model.version} has ${model.attrs.images.length} images without it`);
 }
 
-async function checkTwoScouts(alice, bob, scene, fixes) {
-  await shoot(bob, path.join(scene, 'images', '0010.jpg'), fixes.get('0010.jpg'));
+/**
+ * Location denied, then granted (issue 38): the status bar says why there
+ * is no fix and what to do, whole; the photo taken meanwhile waits on the
+ * phone (nothing sent) and goes with the first fix once it comes.
+ */
+async function shootWithoutAFix(bob, imagePath, fix, adminToken) {
+  const { page } = bob;
+  await page.evaluate(() => window.__fake.denyLocation());
+  await page.waitForSelector('#gps-status[data-state="none"]');
+  const problem = await page.textContent('#gps-fix');
+  if (!/^location denied: allow it/.test(problem)) fail(`with location denied the status bar says "${problem}"`);
+  const clipped = await page.evaluate(() => {
+    const el = document.getElementById('gps-fix');
+    return el.scrollWidth > el.clientWidth + 1 || el.getBoundingClientRect().right > window.innerWidth;
+  });
+  if (clipped) fail(`the status bar clips "${problem}"`);
+  const sent = [];
+  const watch = (r) => {
+    if (r.method() === 'POST' && new URL(r.url()).pathname === '/v1/captures') sent.push(r.url());
+  };
+  page.on('request', watch);
+  await shoot(bob, imagePath, null);
+  await page.waitForSelector('#queue-counts[data-no-fix="1"]');
+  await sleep(2000);
+  if (sent.length) fail('a photo taken without a fix was sent before the fix came');
+  log(`location denied: "${problem}"; the photo waits on the phone`);
+  await page.evaluate((f) => window.__fake.setFix(f), fix);
+  await page.waitForSelector('#queue-counts[data-no-fix="0"]');
+  page.off('request', watch);
+  await until('bob\'s photo stored with the fix', async () => {
+    const docs = await api(adminToken, '/v1/docs/captures?depth=1');
+    const bobs = docs.documents.filter((d) => d.attrs.scout === 'bob');
+    return bobs.length === 1 && bobs[0].attrs.gps && Math.abs(bobs[0].attrs.gps.lat - fix.lat) < 1e-9;
+  }, 60000);
+  log('location granted: the photo went with the first fix');
+}
+
+async function checkTwoScouts(alice, bob, scene, fixes, adminToken) {
+  await shootWithoutAFix(bob, path.join(scene, 'images', '0010.jpg'), fixes.get('0010.jpg'), adminToken);
   await until('bob\'s photo registered', async () =>
     (await bob.page.locator('#photos li[data-status="registered"]').count()) >= 1);
   for (const scout of [alice, bob]) {
@@ -415,7 +389,7 @@ async function main() {
     await checkStatusBar(alice, fixes.get('0010.jpg'));
     await checkOverlayAndWithdraw(alice, env.ADMIN_TOKEN, site, env.SCREENSHOTS);
     bob = await openScout(browser, env.BOB_TOKEN, 'bob');
-    await checkTwoScouts(alice, bob, scene, fixes);
+    await checkTwoScouts(alice, bob, scene, fixes, env.ADMIN_TOKEN);
     await checkRefusalAndRevocation(bob, scene, fixes, env.ADMIN_TOKEN);
     log('PASS');
   } catch (err) {

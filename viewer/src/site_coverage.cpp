@@ -31,11 +31,11 @@ Json cell_feature(const engine::Coverage& c, const engine::CoverageCell& cell,
                   const engine::EnuFrame& frame) {
   const double h = c.cell_m / 2;
   Json ring = Json::array();
-  for (const auto& [dx, dy] : {std::pair{-h, -h}, std::pair{h, -h},
-                               std::pair{h, h}, std::pair{-h, h},
-                               std::pair{-h, -h}})
-    ring.push_back(lon_lat(frame, {cell.centre[0] + dx, cell.centre[1] + dy},
-                           c.ground_z));
+  for (const auto& [dx, dy] :
+       {std::pair{-h, -h}, std::pair{h, -h}, std::pair{h, h}, std::pair{-h, h},
+        std::pair{-h, -h}})
+    ring.push_back(
+        lon_lat(frame, {cell.centre[0] + dx, cell.centre[1] + dy}, c.ground_z));
   return feature({{"type", "Polygon"}, {"coordinates", Json::array({ring})}},
                  {{"feature", "cell"},
                   {"views", cell.views},
@@ -47,12 +47,13 @@ Json cell_feature(const engine::Coverage& c, const engine::CoverageCell& cell,
 
 Json unseen_feature(const engine::Coverage& c, const engine::UnseenFacade& f,
                     const engine::EnuFrame& frame) {
-  return feature({{"type", "LineString"},
-                  {"coordinates", Json::array({lon_lat(frame, f.from, c.ground_z),
-                                               lon_lat(frame, f.to, c.ground_z)})}},
-                 {{"feature", "unseen_facade"},
-                  {"length_m", std::round(f.length_m * 10) / 10},
-                  {"facing_deg", std::round(f.facing_deg)}});
+  return feature(
+      {{"type", "LineString"},
+       {"coordinates", Json::array({lon_lat(frame, f.from, c.ground_z),
+                                    lon_lat(frame, f.to, c.ground_z)})}},
+      {{"feature", "unseen_facade"},
+       {"length_m", std::round(f.length_m * 10) / 10},
+       {"facing_deg", std::round(f.facing_deg)}});
 }
 
 Json suggestion_feature(const engine::Coverage& c,
@@ -77,8 +78,8 @@ std::optional<engine::Geodetic> parse_lat_lon(const std::string& text) {
     const std::string lat_text = text.substr(0, comma);
     const std::string lon_text = text.substr(comma + 1);
     const double lat = std::stod(lat_text, &a), lon = std::stod(lon_text, &b);
-    if (a != lat_text.size() || b != lon_text.size() || !(std::abs(lat) <= 90) ||
-        !(std::abs(lon) <= 180))
+    if (a != lat_text.size() || b != lon_text.size() ||
+        !(std::abs(lat) <= 90) || !(std::abs(lon) <= 180))
       return std::nullopt;
     return engine::Geodetic{lat, lon, 0};
   } catch (const std::exception&) {

@@ -103,8 +103,10 @@ export class ApiClient {
     }
   }
 
-  async sites() {
-    const body = await this.json('/v1/sites');
+  /** Every site, or those within `radius` metres of `near` ({lat, lon}). */
+  async sites(near, radius = 1000) {
+    const query = near ? `?near=${near.lat.toFixed(7)},${near.lon.toFixed(7)}&radius=${radius}` : '';
+    const body = await this.json(`/v1/sites${query}`);
     return body.sites || [];
   }
 

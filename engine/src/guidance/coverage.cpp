@@ -52,8 +52,8 @@ ShotSuggestion unseen_suggestion(const guidance::OutlineGap& gap,
   s.position = standpoint(g, middle, f.facing_deg);
   s.heading_deg = std::fmod(f.facing_deg + 180, 360);
   s.kind = "unseen_facade";
-  s.reason = "the " + compass_name(f.facing_deg) +
-             " side has never been photographed";
+  s.reason =
+      "the " + compass_name(f.facing_deg) + " side has never been photographed";
   s.score = f.length_m * (0.5 + gap.outline_known);
   return s;
 }
@@ -73,8 +73,7 @@ std::vector<std::vector<const CoverageCell*>> one_direction_runs(
     std::vector<const CoverageCell*> run{open[seed]};
     for (std::size_t k = 0; k < run.size(); ++k)
       for (std::size_t j = 0; j < open.size(); ++j)
-        if (!taken[j] &&
-            std::abs(open[j]->column - run[k]->column) <= 1 &&
+        if (!taken[j] && std::abs(open[j]->column - run[k]->column) <= 1 &&
             std::abs(open[j]->row - run[k]->row) <= 1 &&
             guidance::sector_of(open[j]->facing_deg) ==
                 guidance::sector_of(run[k]->facing_deg)) {
@@ -102,7 +101,8 @@ ShotSuggestion one_direction_suggestion(
     position = standpoint(g, middle, facing - kObliqueDeg);
   ShotSuggestion s;
   s.position = position;
-  s.heading_deg = bearing_of({middle[0] - position[0], middle[1] - position[1]});
+  s.heading_deg =
+      bearing_of({middle[0] - position[0], middle[1] - position[1]});
   s.kind = "one_direction";
   s.reason = compass_name(facing) + " facade seen from one direction only";
   s.score = kOneDirectionWeight *
@@ -123,8 +123,8 @@ std::vector<ShotSuggestion> component_gap_suggestions(const Model& model) {
       if (a.component != main_id) continue;
       for (const ModelImage& b : model.images) {
         if (b.component != model.components[k].id) continue;
-        const double d = distance(guidance::centre_xy(a),
-                                  guidance::centre_xy(b));
+        const double d =
+            distance(guidance::centre_xy(a), guidance::centre_xy(b));
         if (d < best) {
           best = d;
           from = guidance::centre_xy(a);
@@ -178,9 +178,9 @@ void rank(std::vector<ShotSuggestion>& suggestions, const GroundGrid& g,
 }  // namespace
 
 std::string compass_name(double bearing_deg) {
-  static const char* const kNames[8] = {"north", "north-east", "east",
-                                        "south-east", "south", "south-west",
-                                        "west", "north-west"};
+  static const char* const kNames[8] = {
+      "north", "north-east", "east", "south-east",
+      "south", "south-west", "west", "north-west"};
   return kNames[guidance::sector_of(bearing_deg)];
 }
 

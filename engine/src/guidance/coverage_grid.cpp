@@ -56,8 +56,8 @@ std::array<double, 3> fit_ground(const Model& model, double camera_height) {
     Eigen::Matrix2d spread = Eigen::Matrix2d::Zero();
     for (std::size_t i = 0; i < heights.size(); ++i) {
       const auto& c = model.images[i].centre;
-      if (std::abs(plane[0] * c[0] + plane[1] * c[1] + plane[2] -
-                   heights[i]) > 1.0)
+      if (std::abs(plane[0] * c[0] + plane[1] * c[1] + plane[2] - heights[i]) >
+          1.0)
         continue;
       const Eigen::Vector3d row(c[0], c[1], 1);
       normal += row * row.transpose();

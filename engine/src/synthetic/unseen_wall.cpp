@@ -66,7 +66,8 @@ std::vector<bool> stretch_of(const std::vector<bool>& looking) {
 // of its width.
 bool faces_away_from_origin(const Quad& wall) {
   const Eigen::Vector3d out = wall.edge_u.cross(wall.edge_v);
-  const double along = -wall.corner.dot(wall.edge_u) / wall.edge_u.squaredNorm();
+  const double along =
+      -wall.corner.dot(wall.edge_u) / wall.edge_u.squaredNorm();
   return out.dot(-wall.corner) < 0 && along > 0 && along < 1;
 }
 
@@ -74,8 +75,8 @@ bool faces_away_from_origin(const Quad& wall) {
 
 UnseenWall unseen_inner_wall(const BlockScene& scene, double min_width_m) {
   const std::size_t quads = scene.site.quads.size();
-  std::vector<std::vector<bool>> looking(
-      quads, std::vector<bool>(scene.views.size()));
+  std::vector<std::vector<bool>> looking(quads,
+                                         std::vector<bool>(scene.views.size()));
   for (std::size_t v = 0; v < scene.views.size(); ++v) {
     const std::vector<int> rays = quads_seen(scene.site, scene.views[v]);
     long all = 0;

@@ -10,7 +10,7 @@ import { parsePly } from '../ply.js';
 import { debounce, serialized } from '../util.js';
 import { Camera } from './camera.js';
 import { describe } from './feedback.js';
-import { Position } from './position.js';
+import { MAX_FIX_AGE_S, Position } from './position.js';
 import { checkToken } from './sign_in.js';
 import { SiteMap, scoutColour } from './site_map.js';
 import { PhotoStore } from './store.js';
@@ -139,11 +139,13 @@ function renderGps() {
 }
 
 function renderQueue() {
-  const counts = { waiting: 0, sending: 0, sent: 0, refused: 0 };
+  const counts = { waiting: 0, sending: 0, sent: 0, refused: 0, 'no-fix': 0 };
   for (const p of state.photos.values()) if (p.state in counts) counts[p.state]++;
+  counts.waiting += counts['no-fix'];
   const el = $('queue-counts');
-  Object.assign(el.dataset, { waiting: counts.waiting, sending: counts.sending, sent: counts.sent });
+  Object.assign(el.dataset, { waiting: counts.waiting, sending: counts.sending, sent: counts.sent, noFix: counts['no-fix'] });
   const parts = [`${counts.waiting} waiting`];
+  if (counts['no-fix']) parts.push(`${counts['no-fix']} for a fix`);
   if (counts.sending) parts.push('sending');
   parts.push(`${counts.sent} sent`);
   if (counts.refused) parts.push(`${counts.refused} refused`);
@@ -160,6 +162,8 @@ function renderStatus() {
   $('model-version').textContent = version ? `model v${version}` : '';
   siteMap.setSelf(position.fix, position.heading);
   renderNextShot();
+  if (position.fix) attachFixes();
+  if (!state.site) findNearbySite();
   if (document.body.dataset.view === 'map') siteMap.draw();
 }
 
@@ -249,6 +253,30 @@ async function ensureCamera(photo) {
   ensuredCameras.add(id);
 }
 
+// A photo taken without a fix waits on the phone for the first fix within
+// this long (the scout has not gone far), then goes without one: the
+// server places it by the scout's other photos or asks for a site.
+const FIX_WAIT_MS = 120000;
+
+/**
+ * Photos waiting for a position: each gets the first fix taken within
+ * FIX_WAIT_MS of it and joins the queue; past that, it goes without one.
+ */
+const attachFixes = serialized(async () => {
+  const now = Date.now();
+  for (const photo of state.photos.values()) {
+    if (photo.state !== 'no-fix') continue;
+    const fix = position.fix;
+    const fresh = fix && fix.time >= photo.takenAt - 1000 * MAX_FIX_AGE_S && fix.time <= photo.takenAt + FIX_WAIT_MS;
+    if (!fresh && now < photo.takenAt + FIX_WAIT_MS) continue;
+    const metadata = { ...photo.metadata };
+    if (fresh) metadata.gps = position.metadata(fix.time);
+    const record = await store.update(photo.captureId, { state: 'waiting', metadata });
+    if (record) renderPhoto(record);
+    uploader.kick();
+  }
+});
+
 async function shoot() {
   const shutter = $('shutter');
   shutter.disabled = true;
@@ -257,7 +285,7 @@ async function shoot() {
     const now = Date.now();
     const gps = position.metadata(now);
     const record = await store.add((captureId) => ({
-      blob: shot.blob, width: shot.width, height: shot.height, takenAt: now, state: 'waiting',
+      blob: shot.blob, width: shot.width, height: shot.height, takenAt: now, state: gps ? 'waiting' : 'no-fix',
       metadata: {
         capture_id: captureId, filename: `${captureId}.jpg`, camera: cameraIdFor(shot.width, shot.height),
         taken: new Date(now).toISOString(), ...(gps ? { gps } : {}),
@@ -318,6 +346,29 @@ async function stampVersions(model) {
   const latest = [...state.photos.values()].reverse().find((p) => p.modelVersion);
   if (latest && latest.captureId !== state.overlayOf) loadLiveOverlay(latest.captureId);
 }
+
+// Before the scout's first photo is placed, the nearest site within this
+// many metres of the fix is shown (its model, map and next shots), looked
+// up at most every SITE_LOOKUP_MS.
+const NEARBY_SITE_M = 200;
+const SITE_LOOKUP_MS = 15000;
+let siteLookedUp = 0;
+
+/** The nearest site to the fix while no photo of the scout's is placed. */
+const findNearbySite = serialized(async () => {
+  const fix = position.fix;
+  if (state.site || !fix || Date.now() - siteLookedUp < SITE_LOOKUP_MS) return;
+  siteLookedUp = Date.now();
+  const sites = await api.sites(fix, NEARBY_SITE_M).catch(() => []);
+  let best = null;
+  for (const doc of sites) {
+    const gps = (doc.attrs || {}).gps;
+    if (!gps) continue;
+    const d = Math.hypot(gps.lat - fix.lat, (gps.lon - fix.lon) * Math.cos((fix.lat * Math.PI) / 180));
+    if (!best || d < best.d) best = { d, id: doc.path.split('/').pop() };
+  }
+  if (best && !state.site) chooseSite(best.id);
+});
 
 function chooseSite(site) {
   state.site = site;
@@ -533,6 +584,8 @@ function wire() {
   });
   window.addEventListener('resize', debounce(() => siteMap.draw(), 200));
   setInterval(renderGps, 1000);
+  // Photos waiting for a fix go without one after FIX_WAIT_MS.
+  setInterval(attachFixes, 5000);
 }
 
 async function startCamera() {

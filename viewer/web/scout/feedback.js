@@ -36,6 +36,8 @@ export function describe(photo) {
       return { label: photo.error ? `waiting: ${photo.error}` : 'waiting to send', tone: 'busy' };
     case 'sending':
       return { label: 'sending…', tone: 'busy' };
+    case 'no-fix':
+      return { label: 'waiting for a position: sent with the first GPS fix', tone: 'busy' };
     case 'refused':
       return { label: `refused by the server: ${photo.error}`, tone: 'bad' };
     case 'withdrawn':

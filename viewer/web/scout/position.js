@@ -9,7 +9,7 @@ export const MAX_FIX_AGE_S = 30;
 
 function explain(err) {
   if (!err) return 'no fix';
-  if (err.code === 1) return 'location permission denied: allow location for this site';
+  if (err.code === 1) return 'location denied: allow it for this site in the browser; photos wait for a fix';
   if (err.code === 2) return 'no fix: position unavailable';
   if (err.code === 3) return 'no fix yet';
   return `no fix: ${err.message}`;
@@ -81,7 +81,10 @@ export class Position {
     return this.fix ? Math.max(0, (now - this.fix.time) / 1000) : null;
   }
 
-  /** The fix as the API's `gps` metadata, or null when there is none fresh. */
+  /**
+   * The fix as the API's `gps` metadata, or null when there is none within
+   * MAX_FIX_AGE_S of `now` (a photo's time).
+   */
   metadata(now = Date.now()) {
     if (!this.fix || this.age(now) > MAX_FIX_AGE_S) return null;
     const gps = {
