@@ -604,5 +604,63 @@ TEST(EngineWorker, TwoScoutsSplittingAWalkEndInOneComponent) {
   for (const std::string& line : progress) std::cout << line << "\n";
 }
 
+// Photos with neither a fix nor a site hint (location denied on the phone):
+// carol's first waits "for a position" (not rejected) and follows her next
+// photo, taken a minute later with a fix; dave's, taken while alice's
+// photos went into the fountain's site, stays waiting: no photo of his is
+// placed.
+TEST(EngineWorker, PhotosWithoutAFixFollowTheirScoutsPhotos) {
+  std::string fountain, url;
+  ARSCOUT_SHARED_DATA_OR_SKIP(fountain, "strecha/fountain-P11");
+  ARSCOUT_FRESH_STORE_OR_SKIP(url, "sqlite");
+  auto store = db::Store::open(url);
+  testing::put_calibrated_camera(
+      *store, "fountain",
+      engine::read_k_matrix(fountain + "/images/K.txt", 3072, 2048),
+      Json::array({0, 0, 0, 0, 0}));
+  engine::WorkerOptions options;
+  options.dense = false;
+  engine::EngineWorker worker(*store, options);
+  worker.start();
+  const auto fixes = ingest::read_gps_csv(fountain + "/gps.csv");
+  const std::vector<fs::path> all = photos(fountain + "/images");
+  // As the API stores them: `taken` from the photo, no `gps` without a fix.
+  const auto put = [&](const std::string& scout, const fs::path& p,
+                       const std::string& taken, bool with_fix) {
+    Json attrs = {{"scout", scout},     {"filename", p.filename().string()},
+                  {"taken", taken},     {"camera", "fountain"},
+                  {"status", with_fix ? "stored" : "needs-gps"},
+                  {"status_reason", ""}};
+    if (with_fix) attrs["gps"] = ingest::to_json(fixes.at(p.filename().string()));
+    db::WriteOp op = db::WriteOp::put("/captures/" + scout + "-" + p.stem().string(),
+                                      "capture", attrs, 0);
+    op.blobs = db::BlobRefs{{"image", store->put_blob(read_file(p))}};
+    store->batch({op});
+  };
+  for (std::size_t i = 0; i < 8; ++i)
+    put("alice", all[i], "2026-12-06T10:00:0" + std::to_string(i) + "Z", true);
+  put("carol", all[8], "2026-12-06T10:01:00Z", false);
+  put("dave", all[9], "2026-12-06T10:01:00Z", false);
+  ASSERT_TRUE(worker.wait_idle(std::chrono::minutes(5)));
+  const auto status = [&](const std::string& id) {
+    return store->get("/captures/" + id)->attrs;
+  };
+  EXPECT_EQ(status("carol-0008").value("status", ""), "needs-gps");
+  EXPECT_NE(status("carol-0008").value("status_reason", "").find(
+                "waiting for a position"),
+            std::string::npos);
+  put("carol", all[10], "2026-12-06T10:02:00Z", true);
+  ASSERT_TRUE(worker.wait_idle(std::chrono::minutes(5)));
+  worker.stop();
+  const std::string site = status("alice-0000").value("site", "");
+  ASSERT_FALSE(site.empty());
+  for (const char* id : {"carol-0008", "carol-0010"}) {
+    EXPECT_EQ(status(id).value("site", ""), site) << id;
+    EXPECT_EQ(status(id).value("status", ""), "registered") << id;
+  }
+  EXPECT_EQ(status("dave-0009").value("status", ""), "needs-gps");
+  EXPECT_TRUE(status("dave-0009").value("site", "").empty());
+}
+
 }  // namespace
 }  // namespace arscout

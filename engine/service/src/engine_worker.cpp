@@ -37,11 +37,13 @@
 #include "arscout/db/store.h"
 #include "arscout/documents/capture.h"
 #include "arscout/engine/service.h"
+#include "arscout/util/time.h"
 #include "capture_document.h"
 #include "capture_preparer.h"
 #include "fair_turns.h"
 #include "site_directory.h"
 #include "site_job.h"
+#include "scout_trails.h"
 #include "site_leases.h"
 #include "thread_priority.h"
 #include "worker_metrics.h"
@@ -54,6 +56,9 @@ using service::Work;
 // Times one capture's increment may fail in the engine before the capture
 // is rejected (after_engine_fault).
 constexpr int kEngineFailures = 2;
+// A photo without a fix or hint goes where its scout's photos taken within
+// this many seconds of it went (scout_trails.h): a few minutes' walk.
+constexpr std::int64_t kScoutTrailWindowS = 600;
 
 struct EngineWorker::Impl {
   Impl(db::Store& s, WorkerOptions o)
@@ -98,6 +103,9 @@ struct EngineWorker::Impl {
   db::Store& store;
   const WorkerOptions options;
   service::SiteDirectory directory;
+  // Where each scout's photos went lately: photos without a fix follow
+  // them (scout_trails.h). The placing thread's own.
+  service::ScoutTrails trails{kScoutTrailWindowS};
   // Used by the heartbeat thread, but for settled_through (a plain read).
   service::SiteLeases leases;
 
@@ -209,16 +217,14 @@ struct EngineWorker::Impl {
     // A capture placed before (the change seen again after a restart) goes
     // to its site again: the site's state says whether it was processed.
     const auto fix = service::geo_fix(capture.gps);
-    auto site = directory.place(id, fix, capture.site_hint);
-    if (!site) {
-      store.batch({db::WriteOp::patch(
-          change.path,
-          documents::status_patch(documents::kStatusRejected,
-                                  "no GPS fix and no site hint: the engine "
-                                  "cannot tell which site it shows"))});
-      log("capture " + id + ": rejected (no GPS fix, no site hint)");
-      return {};
-    }
+    const std::int64_t taken = taken_s(capture);
+    std::optional<std::string> site;
+    if (fix || !capture.site_hint.empty())
+      site = directory.place(id, fix, capture.site_hint);
+    else if (auto near = trails.site_near(capture.scout, taken))
+      site = directory.place_in(id, *near);
+    if (!site) return wait_for_position(change, id, capture, taken);
+    trails.placed(capture.scout, taken, *site);
     {
       std::lock_guard lock(mutex);
       ++stats.captures_placed;
@@ -226,6 +232,14 @@ struct EngineWorker::Impl {
     log("capture " + id + " -> site " + *site);
     std::vector<std::pair<std::string, Work>> work{
         {*site, Work{Work::Kind::kAdd, id, change.seq, capture.scout}}};
+    // Its scout's photos that waited for a position follow it.
+    for (const std::string& waited : trails.release(capture.scout, taken))
+      if (auto to = directory.place_in(waited, *site)) {
+        log("capture " + waited + " -> site " + *to + " (by " + capture.scout +
+            "'s photos)");
+        work.push_back(
+            {*to, Work{Work::Kind::kAdd, waited, change.seq, capture.scout}});
+      }
     // Sites whose footprints this fix reaches too grow into this one.
     if (fix) {
       for (const std::string& other : directory.meeting(*site, *fix))
@@ -233,6 +247,30 @@ struct EngineWorker::Impl {
             {*site, Work{Work::Kind::kMerge, other, change.seq, ""}});
     }
     return work;
+  }
+
+  // A capture with no fix, no hint and no photo of its scout's placed
+  // within the trails' window: kept (not rejected) until one is.
+  std::vector<std::pair<std::string, Work>> wait_for_position(
+      const db::Change& change, const std::string& id,
+      const documents::Capture& capture, std::int64_t taken) {
+    trails.wait(capture.scout, taken, id);
+    store.batch({db::WriteOp::patch(
+        change.path,
+        documents::status_patch(
+            documents::kStatusNeedsGps,
+            "waiting for a position: no GPS fix, no site hint, and no photo "
+            "of " + capture.scout + "'s placed within " +
+                std::to_string(trails.window_s() / 60) +
+                " minutes of it yet"))});
+    log("capture " + id + ": waiting for a position");
+    return {};
+  }
+
+  // A photo's own time: when it was taken, else when it was received.
+  static std::int64_t taken_s(const documents::Capture& capture) {
+    if (auto t = util::parse_time_utc(capture.taken)) return *t;
+    return util::parse_time_utc(capture.received).value_or(0);
   }
 
   // A capture an earlier run committed into a model (its status says

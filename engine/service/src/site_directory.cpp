@@ -121,6 +121,20 @@ std::optional<std::string> SiteDirectory::place(
   return chosen->id;
 }
 
+std::optional<std::string> SiteDirectory::place_in(const std::string& capture,
+                                                   const std::string& id) {
+  const std::string at = current(id);
+  std::lock_guard lock(mutex_);
+  if (auto it = capture_site_.find(capture); it != capture_site_.end())
+    return it->second;
+  auto site = sites_.find(at);
+  if (site == sites_.end() || !site->second.merged_into.empty())
+    return std::nullopt;
+  site->second.captures.push_back(capture);
+  capture_site_[capture] = at;
+  return at;
+}
+
 void SiteDirectory::widen(Site& site, const GeoFix& fix) const {
   const double from_centre =
       util::great_circle_m(fix.lat, fix.lon, site.lat, site.lon);

@@ -89,6 +89,13 @@ class SiteDirectory {
                                    const std::optional<GeoFix>& fix,
                                    const std::string& hint);
 
+  // Places a capture with no fix in site `id` (followed through merges):
+  // where its scout's photos taken about the same time went
+  // (scout_trails.h). The same site again for a capture placed before;
+  // nullopt when `id` is unknown.
+  std::optional<std::string> place_in(const std::string& capture,
+                                      const std::string& id);
+
   // The engine processed `settled` (registered or not) and site `id`'s
   // registered cameras make `cameras`: the centre and extent follow them
   // (unless there are none), and the reach covers the fixes still

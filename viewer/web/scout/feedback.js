@@ -56,7 +56,7 @@ export function describe(photo) {
     case 'pending':
       return { label: `not placed yet: ${advice(photo.reason)}`, tone: 'busy' };
     case 'needs-gps':
-      return { label: 'stored without a position: it waits for a site', tone: 'busy' };
+      return { label: 'stored without a position: it joins your next photo with a fix (within 10 minutes)', tone: 'busy' };
     case 'withdrawn':
       return { label: 'withdrawn', tone: 'muted' };
     default:
