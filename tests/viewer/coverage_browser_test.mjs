@@ -88,12 +88,12 @@ function marksTheFacade(coverage) {
 
 // ---- the walk: where the scout stopped before the facade ----------------------
 
-/** gps.csv's fix of the last photo before the stretch left out. */
+/** gps.csv's fix (and photo) of the last photo before the stretch left out. */
 function whereTheScoutStopped() {
   const rows = fs.readFileSync(path.join(env.SITE_DIR, 'gps.csv'), 'utf8').trim().split('\n').slice(1);
   const fixes = rows.map((line) => {
     const [name, lat, lon, alt, hAcc, vAcc] = line.split(',');
-    return { index: parseInt(name, 10), lat: +lat, lon: +lon, alt: +alt, hAcc: +hAcc, vAcc: +vAcc };
+    return { name, index: parseInt(name, 10), lat: +lat, lon: +lon, alt: +alt, hAcc: +hAcc, vAcc: +vAcc };
   });
   const before = fixes.findIndex((f, i) => i + 1 < fixes.length && fixes[i + 1].index !== f.index + 1);
   return fixes[before >= 0 ? before : fixes.length - 1];
@@ -139,7 +139,7 @@ async function checkApp(browser, site, fix) {
   const { context, page } = await openApp(browser, fix);
   await page.waitForFunction((s) => document.getElementById('site-name').textContent === s, site, { timeout: 30000 })
     .catch(() => fail(`the app did not find site ${site} near its fix`));
-  await page.waitForSelector('#site-map[data-suggestions]:not([data-suggestions="0"])', { timeout: 30000 });
+  await page.waitForSelector('#site-map[data-suggestions]:not([data-suggestions="0"])', { state: 'attached', timeout: 30000 });
   await page.waitForSelector('#next-shot:not([hidden])');
   // What the app was given: the coverage ranked from where the scout stands.
   const near = await api(`/v1/sites/${encodeURIComponent(site)}/coverage?near=${fix.lat.toFixed(7)},${fix.lon.toFixed(7)}`);
@@ -153,7 +153,13 @@ async function checkApp(browser, site, fix) {
   const text = await page.textContent('#next-shot-text');
   if (!text.includes(first.properties.reason)) fail(`the arrow says "${text}"`);
   log(`app: arrow ${arrow.bearing} degrees, "${text}"`);
-  if (env.SCREENSHOTS) await page.screenshot({ path: path.join(env.SCREENSHOTS, 'scout-next-shot.png') });
+  if (env.SCREENSHOTS) {
+    // The scout's last photo on the fake camera, as the live view.
+    const photo = fs.readFileSync(path.join(env.SITE_DIR, 'images', fix.name)).toString('base64');
+    await page.evaluate((b) => window.__fake.showPhoto(b), photo);
+    await page.waitForTimeout(500);
+    await page.screenshot({ path: path.join(env.SCREENSHOTS, 'scout-next-shot.jpg'), type: 'jpeg', quality: 80 });
+  }
 
   await page.tap('#tabs button[data-view="map"]');
   await page.waitForFunction(() => document.getElementById('site-map').dataset.unseen !== '0');
@@ -162,7 +168,7 @@ async function checkApp(browser, site, fix) {
   const legend = await page.locator('#scout-legend li').allTextContents();
   if (!legend.some((t) => t.startsWith('alice'))) fail(`the legend lists ${JSON.stringify(legend)}`);
   log(`app: map marks the unseen side (${red} red pixels), legend ${JSON.stringify(legend)}`);
-  if (env.SCREENSHOTS) await page.screenshot({ path: path.join(env.SCREENSHOTS, 'scout-coverage-map.png') });
+  if (env.SCREENSHOTS) await page.screenshot({ path: path.join(env.SCREENSHOTS, 'scout-coverage-map.jpg'), type: 'jpeg', quality: 80 });
   await context.close();
 }
 
