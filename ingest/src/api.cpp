@@ -215,6 +215,7 @@ std::vector<ApiRoute> Api::builtin_routes(std::vector<ApiRoute> added) {
           [](ApiContext& ctx, R req, S) { return get_changes(ctx, req); }),
       row({"GET"}, "/v1/sites", any, "",
           [](ApiContext& ctx, R req, S) { return get_sites(ctx, req); }),
+      row({"PATCH"}, "/v1/sites/*", any, "", patch_site),
       row({"GET"}, "/v1/me", any, "", me_route),
       row({}, "/v1/subscribe", any, "",
           [](ApiContext&, R, S) {

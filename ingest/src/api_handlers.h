@@ -38,6 +38,9 @@ HttpResponse get_blob(ApiContext& ctx, const HttpRequest& req,
                       const std::string& hash);
 HttpResponse put_camera(ApiContext& ctx, const HttpRequest& req,
                         const std::string& id);
+// PATCH /v1/sites/{id} {"name": ...}: renames a site (planners and admins).
+HttpResponse patch_site(ApiContext& ctx, const HttpRequest& req,
+                        const std::string& id);
 
 // An id within its scout's own space: "{name}.{id}", so that no scout can
 // take a capture or camera id another one will send (docs/api.md). An id

@@ -232,4 +232,65 @@ std::string capture_camera(db::Store& store, const Principal& who,
   return own;
 }
 
+namespace {
+
+// A site name a person gave: trimmed, 1-120 characters, no control
+// characters. "" (with *problem set) when it is not one.
+std::string site_name(const Json& body, std::string* problem) {
+  if (!body.is_object() || body.size() != 1 || !body.contains("name") ||
+      !body["name"].is_string()) {
+    *problem = "the body must be {\"name\": \"...\"}";
+    return "";
+  }
+  std::string name = body["name"].get<std::string>();
+  const auto first = name.find_first_not_of(" \t");
+  name = first == std::string::npos
+             ? ""
+             : name.substr(first, name.find_last_not_of(" \t") - first + 1);
+  if (name.empty() || name.size() > 120) {
+    *problem = "a site name has 1 to 120 characters";
+    return "";
+  }
+  for (unsigned char c : name)
+    if (c < 0x20 || c == 0x7f) {
+      *problem = "a site name holds no control characters";
+      return "";
+    }
+  return name;
+}
+
+}  // namespace
+
+HttpResponse patch_site(ApiContext& ctx, const HttpRequest& req,
+                        const std::string& id) {
+  if (id.empty() || id.find('/') != std::string::npos)
+    return HttpResponse::error(404, "not_found",
+                               "sites are renamed at /v1/sites/{id}");
+  if (ctx.who.role == Role::kScout)
+    return HttpResponse::error(403, "forbidden",
+                               "scouts may not rename sites (planners and "
+                               "admins may)");
+  db::validate_path("/sites/" + id);
+  std::string problem;
+  const auto body = parse_json_body(req.body, &problem);
+  if (!body) return HttpResponse::error(400, "invalid_json", problem);
+  const std::string name = site_name(*body, &problem);
+  if (name.empty()) return HttpResponse::error(422, "unprocessable", problem);
+  const auto site = ctx.store.get("/sites/" + id);
+  if (!site || site->kind != "site")
+    return HttpResponse::error(404, "not_found", "no site " + id);
+  if (const std::string into = site->attrs.value("merged_into", "");
+      !into.empty())
+    return HttpResponse::error(
+        409, "conflict",
+        "site " + id + " grew into site " + into + ": rename that one");
+  // The version read is the version expected: a rename racing the engine's
+  // commit of the site is a 409 to retry, never a lost write.
+  db::WriteOp op =
+      db::WriteOp::patch(site->path, Json{{"name", name}}, site->version);
+  op.author = ctx.who.name;
+  ctx.store.write(op);
+  return document_response(200, *ctx.store.get(site->path));
+}
+
 }  // namespace arscout::ingest

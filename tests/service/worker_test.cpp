@@ -608,7 +608,8 @@ TEST(EngineWorker, TwoScoutsSplittingAWalkEndInOneComponent) {
 // carol's first waits "for a position" (not rejected) and follows her next
 // photo, taken a minute later with a fix; dave's, taken while alice's
 // photos went into the fountain's site, stays waiting: no photo of his is
-// placed.
+// placed. On the way, the site's default name and a rename the engine
+// keeps.
 TEST(EngineWorker, PhotosWithoutAFixFollowTheirScoutsPhotos) {
   std::string fountain, url;
   ARSCOUT_SHARED_DATA_OR_SKIP(fountain, "strecha/fountain-P11");
@@ -649,6 +650,14 @@ TEST(EngineWorker, PhotosWithoutAFixFollowTheirScoutsPhotos) {
   EXPECT_NE(status("carol-0008").value("status_reason", "").find(
                 "waiting for a position"),
             std::string::npos);
+  // A readable default name (founding scout and time), then a planner's
+  // rename, which the engine's later commits keep.
+  const std::string site_path = "/sites/" + status("alice-0000").value("site", "");
+  EXPECT_EQ(store->get(site_path)->attrs.value("name", ""),
+            "alice 2026-12-06 10:00");
+  db::WriteOp rename = db::WriteOp::patch(site_path, Json{{"name", "Fountain"}});
+  rename.author = "pat";
+  store->batch({rename});
   put("carol", all[10], "2026-12-06T10:02:00Z", true);
   ASSERT_TRUE(worker.wait_idle(std::chrono::minutes(5)));
   worker.stop();
@@ -660,6 +669,9 @@ TEST(EngineWorker, PhotosWithoutAFixFollowTheirScoutsPhotos) {
   }
   EXPECT_EQ(status("dave-0009").value("status", ""), "needs-gps");
   EXPECT_TRUE(status("dave-0009").value("site", "").empty());
+  const auto renamed = store->get(site_path);
+  EXPECT_EQ(renamed->attrs.value("name", ""), "Fountain");
+  EXPECT_EQ(renamed->author, "engine");  // written by the engine since
 }
 
 }  // namespace

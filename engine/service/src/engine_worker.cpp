@@ -220,7 +220,8 @@ struct EngineWorker::Impl {
     const std::int64_t taken = taken_s(capture);
     std::optional<std::string> site;
     if (fix || !capture.site_hint.empty())
-      site = directory.place(id, fix, capture.site_hint);
+      site = directory.place(id, fix, capture.site_hint,
+                             default_site_name(capture, taken));
     else if (auto near = trails.site_near(capture.scout, taken))
       site = directory.place_in(id, *near);
     if (!site) return wait_for_position(change, id, capture, taken);
@@ -265,6 +266,17 @@ struct EngineWorker::Impl {
                 " minutes of it yet"))});
     log("capture " + id + ": waiting for a position");
     return {};
+  }
+
+  // A new site's name until someone renames it: its founding scout and
+  // when the photo was taken, "alice 2026-12-06 14:05" (UTC).
+  static std::string default_site_name(const documents::Capture& capture,
+                                       std::int64_t taken) {
+    std::string when = util::format_time_utc(taken);  // 2026-12-06T14:05:09Z
+    when = when.substr(0, 16);
+    if (when.size() > 10) when[10] = ' ';
+    return (capture.scout.empty() ? std::string("site") : capture.scout) + " " +
+           when;
   }
 
   // A photo's own time: when it was taken, else when it was received.
@@ -648,8 +660,9 @@ struct EngineWorker::Impl {
           *directory.site(other), directory.radius_m());
       gone.state = "merged";
       gone.engine = options.name;
-      increment.ops.push_back(db::WriteOp::put("/sites/" + other, "site",
-                                               documents::to_json(gone)));
+      db::WriteOp gone_op = site_put(other, gone);
+      gone_op.expected_version.reset();  // gone: its name matters no more
+      increment.ops.push_back(std::move(gone_op));
       commit(site, job, increment, std::nullopt);
       merged = true;
     } catch (const std::invalid_argument& e) {
@@ -1061,6 +1074,15 @@ struct EngineWorker::Impl {
     changed.notify_all();
   }
 
+  // The site document as the engine writes it, with the name a person
+  // gave it (PATCH /v1/sites/{id}) kept, expected at the version read.
+  db::WriteOp site_put(const std::string& site, documents::Site doc) {
+    const auto stored = store.get("/sites/" + site);
+    if (stored) doc.name = stored->attrs.value("name", doc.name);
+    return db::WriteOp::put("/sites/" + site, "site", documents::to_json(doc),
+                            stored ? stored->version : 0);
+  }
+
   // Commits an increment's writes with the site document (and the
   // checkpoint, when given) in one batch, authored by this worker.
   void commit(const std::string& site, service::SiteJob& job,
@@ -1074,15 +1096,26 @@ struct EngineWorker::Impl {
     doc.model_version = job.model_version() + (increment.model_written ? 1 : 0);
     doc.state = job.registered() > 0 ? "modelled" : "waiting";
     doc.engine = options.name;
-    increment.ops.push_back(
-        db::WriteOp::put("/sites/" + site, "site", documents::to_json(doc)));
+    const std::size_t site_op = increment.ops.size();
+    increment.ops.push_back(site_put(site, doc));
     if (checkpoint)
       increment.ops.push_back(db::WriteOp::put("/checkpoints/" + options.name,
                                                "checkpoint",
                                                db::Json{{"seq", *checkpoint}}));
     for (db::WriteOp& op : increment.ops) op.author = options.name;
     const auto start = std::chrono::steady_clock::now();
-    store.batch(increment.ops);
+    for (int attempt = 1;; ++attempt) {
+      try {
+        store.batch(increment.ops);
+        break;
+      } catch (const db::ConflictError& e) {
+        // Renamed (PATCH /v1/sites/{id}) between the read and the write:
+        // the name read again, the rest as it was.
+        if (e.path() != "/sites/" + site || attempt == 3) throw;
+        increment.ops[site_op] = site_put(site, doc);
+        increment.ops[site_op].author = options.name;
+      }
+    }
     job.committed();
     log(increment.summary + ", committed in " +
         std::to_string(

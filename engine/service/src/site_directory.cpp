@@ -75,7 +75,7 @@ std::optional<std::string> SiteDirectory::site_of(
 
 std::optional<std::string> SiteDirectory::place(
     const std::string& capture, const std::optional<GeoFix>& fix,
-    const std::string& hint) {
+    const std::string& hint, const std::string& name) {
   std::lock_guard lock(mutex_);
   if (auto it = capture_site_.find(capture); it != capture_site_.end())
     return it->second;
@@ -94,8 +94,10 @@ std::optional<std::string> SiteDirectory::place(
       }
     }
   } else if (!hint.empty()) {
-    for (auto& [id, site] : sites_)
-      if (site.name == hint && site.merged_into.empty()) chosen = &site;
+    // By id, not name: a site renamed (PATCH /v1/sites/{id}) keeps its hint.
+    auto it = sites_.find(current_locked("h-" + sanitise(hint)));
+    if (it != sites_.end() && it->second.merged_into.empty())
+      chosen = &it->second;
   } else {
     return std::nullopt;
   }
@@ -103,7 +105,7 @@ std::optional<std::string> SiteDirectory::place(
     Site site;
     site.id =
         fix || hint.empty() ? "s-" + sanitise(capture) : "h-" + sanitise(hint);
-    site.name = fix || hint.empty() ? site.id : hint;
+    site.name = fix || hint.empty() ? (name.empty() ? site.id : name) : hint;
     chosen = &(sites_[site.id] = std::move(site));
   }
   if (fix) {
@@ -123,10 +125,10 @@ std::optional<std::string> SiteDirectory::place(
 
 std::optional<std::string> SiteDirectory::place_in(const std::string& capture,
                                                    const std::string& id) {
-  const std::string at = current(id);
   std::lock_guard lock(mutex_);
   if (auto it = capture_site_.find(capture); it != capture_site_.end())
     return it->second;
+  const std::string at = current_locked(id);
   auto site = sites_.find(at);
   if (site == sites_.end() || !site->second.merged_into.empty())
     return std::nullopt;
@@ -230,6 +232,10 @@ bool SiteDirectory::merge(const std::string& from, const std::string& into) {
 
 std::string SiteDirectory::current(const std::string& id) const {
   std::lock_guard lock(mutex_);
+  return current_locked(id);
+}
+
+std::string SiteDirectory::current_locked(const std::string& id) const {
   std::string at = id;
   for (int hops = 0; hops < 1000; ++hops) {  // a chain of merges
     auto it = sites_.find(at);

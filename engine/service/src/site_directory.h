@@ -84,10 +84,13 @@ class SiteDirectory {
 
   // Places a new capture and returns its site's id; the same id again for
   // a capture placed before. Returns nullopt when it has neither a fix nor
-  // a hint (nothing to place it by).
+  // a hint (nothing to place it by). A hint names the site `h-{hint}`
+  // (followed through merges; a rename does not change it). A site this
+  // capture founds by its fix is named `name` ("" : its id).
   std::optional<std::string> place(const std::string& capture,
                                    const std::optional<GeoFix>& fix,
-                                   const std::string& hint);
+                                   const std::string& hint,
+                                   const std::string& name = "");
 
   // Places a capture with no fix in site `id` (followed through merges):
   // where its scout's photos taken about the same time went
@@ -127,6 +130,8 @@ class SiteDirectory {
 
  private:
   static std::string sanitise(const std::string& text);
+  // current() with the mutex held.
+  std::string current_locked(const std::string& id) const;
   // `kept`'s footprint becomes one disc over both.
   static void join_footprints(Site& kept, const Site& gone);
   // Widens the reach to cover `fix`, within its bound.
