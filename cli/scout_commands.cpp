@@ -129,6 +129,7 @@ struct ScoutArgs {
   int retries = 8;
   std::string overlay_dir;
   double overlay_timeout_s = 120;
+  bool wait_verdicts = false;
 };
 
 ingest::ScoutOptions scout_options(const ScoutArgs& a) {
@@ -195,19 +196,17 @@ int run_scout(const ScoutArgs& a) {
     return kExitUsage;
   }
   install_stop_handlers();
-  std::unique_ptr<OverlaySaver> overlays;
+  std::unique_ptr<VerdictWatcher> verdicts;
   ingest::ScoutHooks hooks;
   hooks.stop_requested = stop_requested;
-  if (!a.overlay_dir.empty())
-    hooks.on_stored = [&overlays](const std::string& id,
-                                  const std::string& name) {
-      overlays->add(id, name);
-    };
+  hooks.on_stored = [&verdicts](const std::string& id,
+                                const std::string& name) {
+    verdicts->add(id, name);
+  };
   // First: a bad GPS file is reported before anything else is done.
   ingest::ScoutClient scout(scout_options(a), hooks);
-  if (!a.overlay_dir.empty())
-    overlays = std::make_unique<OverlaySaver>(
-        client_options(a.server), a.overlay_dir, a.overlay_timeout_s);
+  verdicts = std::make_unique<VerdictWatcher>(
+      client_options(a.server), a.overlay_dir, a.overlay_timeout_s);
   const auto photos = a.dir.empty() ? ingest::sorted_by_file_name(a.files)
                                     : ingest::list_photos(a.dir, std::cerr);
   if (photos.empty() && !a.watch) {
@@ -223,10 +222,13 @@ int run_scout(const ScoutArgs& a) {
   if (a.watch && !stop_requested() && !scout.totals().refused)
     scout.watch(a.dir);
 
-  if (overlays) {
-    const int saved = overlays->finish();
+  if (!a.overlay_dir.empty()) {
+    const int saved = verdicts->finish();
     std::cout << saved << " overlays saved in " << a.overlay_dir << std::endl;
+  } else if (a.wait_verdicts) {
+    verdicts->finish();
   }
+  verdicts.reset();  // no more verdict lines after the summary
   const std::size_t left_over = a.watch ? 0 : photos.size() - handled;
   std::cout << ingest::scout_summary(scout.totals(), left_over) << std::endl;
   return scout.totals().failed == 0 && left_over == 0 ? kExitOk : kExitError;
@@ -285,9 +287,14 @@ void add_scout(CLI::App& app) {
                   "save each photo's AR overlay (the site's model drawn over "
                   "it) as DIR/NAME.overlay.jpg once the engine registers it");
   cmd->add_option("--overlay-timeout", a.overlay_timeout_s,
-                  "seconds to wait for a photo to be registered")
+                  "seconds to wait for a photo to be registered (its verdict "
+                  "line, its overlay)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  cmd->add_flag("--wait", a.wait_verdicts,
+                "after the last upload, wait for every photo's verdict "
+                "(registered with its model version, or why not; at most "
+                "--overlay-timeout s after its upload); --overlay waits too");
   cmd->callback([] { run_client_command([] { return run_scout(a); }); });
 }
 

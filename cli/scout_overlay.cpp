@@ -14,10 +14,11 @@ namespace arscout::cli {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-struct OverlaySaver::Pending {
+struct VerdictWatcher::Pending {
   std::string id;
   std::string file_name;
   Clock::time_point deadline;
+  mutable bool said = false;  // "registered" printed (the poll thread's)
 };
 
 namespace {
@@ -27,16 +28,16 @@ void say(const std::string& line) { std::cout << line + "\n" << std::flush; }
 
 }  // namespace
 
-OverlaySaver::OverlaySaver(ingest::ClientOptions client, std::string dir,
-                           double timeout_s)
+VerdictWatcher::VerdictWatcher(ingest::ClientOptions client, std::string dir,
+                               double timeout_s)
     : client_options_(std::move(client)),
       dir_(std::move(dir)),
       timeout_s_(timeout_s) {
-  fs::create_directories(dir_);
+  if (!dir_.empty()) fs::create_directories(dir_);
   thread_ = std::thread([this] { run(); });
 }
 
-OverlaySaver::~OverlaySaver() {
+VerdictWatcher::~VerdictWatcher() {
   {
     std::lock_guard lock(mutex_);
     stopping_ = true;
@@ -45,8 +46,8 @@ OverlaySaver::~OverlaySaver() {
   thread_.join();
 }
 
-void OverlaySaver::add(const std::string& capture_id,
-                       const std::string& file_name) {
+void VerdictWatcher::add(const std::string& capture_id,
+                         const std::string& file_name) {
   auto p = std::make_shared<Pending>(
       Pending{capture_id, file_name,
               Clock::now() + std::chrono::milliseconds(
@@ -58,14 +59,14 @@ void OverlaySaver::add(const std::string& capture_id,
   changed_.notify_all();
 }
 
-int OverlaySaver::finish() {
+int VerdictWatcher::finish() {
   std::unique_lock lock(mutex_);
   while (!pending_.empty() && !stop_requested())
     changed_.wait_for(lock, std::chrono::milliseconds(200));
   return saved_;
 }
 
-void OverlaySaver::run() {
+void VerdictWatcher::run() {
   ingest::Client client(client_options_);
   std::unique_lock lock(mutex_);
   while (!stopping_) {
@@ -82,35 +83,47 @@ void OverlaySaver::run() {
   }
 }
 
-bool OverlaySaver::poll(ingest::Client& client, const Pending& p) {
-  const std::string name = p.file_name;
+bool VerdictWatcher::registered(ingest::Client& client, const Pending& p,
+                                const std::string& site) {
+  if (!p.said) {
+    const auto model = client.get("/v1/docs/sites/" + site + "/model");
+    const std::string version =
+        model.status == 200 ? std::to_string(model.json().value("version", 0))
+                            : std::string("?");
+    say(p.file_name + "  registered · site " + site + " · model v" + version);
+    p.said = true;
+  }
+  if (dir_.empty()) return true;
+  const auto overlay = client.get("/v1/captures/" + p.id + "/overlay.jpg");
+  if (overlay.status != 200) return false;
+  const fs::path out =
+      fs::path(dir_) / (fs::path(p.file_name).stem().string() + ".overlay.jpg");
+  util::write_file_atomic(out.string(), overlay.body);
+  say(p.file_name + "  overlay " + out.string());
+  std::lock_guard lock(mutex_);
+  ++saved_;
+  return true;
+}
+
+bool VerdictWatcher::poll(ingest::Client& client, const Pending& p) {
+  const std::string& name = p.file_name;
+  const std::string lead = dir_.empty() ? "  " : "  no overlay: ";
   try {
     const auto doc = client.get("/v1/docs/captures/" + p.id);
     const documents::Capture capture = documents::capture_from_json(
         doc.status == 200 ? doc.json().value("attrs", nlohmann::json::object())
                           : nlohmann::json::object());
     const std::string& status = capture.status;
-    if (status == "rejected" || status == "withdrawn" ||
-        status == "needs-gps") {
-      say(name + "  no overlay: " + status + " " + capture.status_reason);
+    if (status == "rejected" || status == "withdrawn") {
+      say(name + lead + status + " " + capture.status_reason);
       return true;
     }
-    if (status == "registered") {
-      const auto overlay = client.get("/v1/captures/" + p.id + "/overlay.jpg");
-      if (overlay.status == 200) {
-        const fs::path out =
-            fs::path(dir_) / (fs::path(name).stem().string() + ".overlay.jpg");
-        util::write_file_atomic(out.string(), overlay.body);
-        say(name + "  overlay " + out.string());
-        std::lock_guard lock(mutex_);
-        ++saved_;
-        return true;
-      }
-    }
+    if (status == "registered" && registered(client, p, capture.site))
+      return true;
   } catch (const std::exception&) {  // network trouble: try again later
   }
   if (Clock::now() < p.deadline) return false;
-  say(name + "  no overlay: not registered within " +
+  say(name + lead + "not registered within " +
       std::to_string(static_cast<int>(timeout_s_)) + " s");
   return true;
 }

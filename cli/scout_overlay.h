@@ -1,7 +1,9 @@
-// `arscout scout --overlay DIR`: each uploaded photo's AR overlay (the
-// site's model drawn over it, GET /v1/captures/{id}/overlay.jpg) saved as
-// DIR/{photo stem}.overlay.jpg once the engine has registered the photo. A
-// thread of its own polls, so the uploads keep their pace.
+// `arscout scout`: each uploaded photo's verdict as the engine gives it,
+// "NAME  registered · site S · model vN" (the model version that holds
+// it) or why not; with --overlay DIR also its AR overlay (the site's model
+// drawn over it, GET /v1/captures/{id}/overlay.jpg) saved as
+// DIR/{photo stem}.overlay.jpg. A thread of its own polls, so the uploads
+// keep their pace.
 #pragma once
 
 #include <condition_variable>
@@ -15,24 +17,30 @@
 
 namespace arscout::cli {
 
-class OverlaySaver {
+class VerdictWatcher {
  public:
   // Gives up on a photo `timeout_s` after add() when it is not registered.
-  OverlaySaver(ingest::ClientOptions client, std::string dir, double timeout_s);
-  ~OverlaySaver();  // stops without waiting for the pending photos
-  OverlaySaver(const OverlaySaver&) = delete;
-  OverlaySaver& operator=(const OverlaySaver&) = delete;
+  // `overlay_dir` "": no overlays.
+  VerdictWatcher(ingest::ClientOptions client, std::string overlay_dir,
+                 double timeout_s);
+  ~VerdictWatcher();  // stops without waiting for the pending photos
+  VerdictWatcher(const VerdictWatcher&) = delete;
+  VerdictWatcher& operator=(const VerdictWatcher&) = delete;
 
   void add(const std::string& capture_id, const std::string& file_name);
-  // Waits until every photo is saved, rejected or timed out (or SIGINT);
+  // Waits until every photo has its verdict or timed out (or SIGINT);
   // returns how many overlays were saved.
   int finish();
 
  private:
   struct Pending;
   void run();
-  // True when the photo is done with (saved or given up).
+  // True when the photo is done with (its verdict said, or given up).
   bool poll(ingest::Client& client, const Pending& p);
+  // Says the photo is registered, with its model version, and saves its
+  // overlay when asked to; false when the overlay is not ready yet.
+  bool registered(ingest::Client& client, const Pending& p,
+                  const std::string& site);
 
   ingest::ClientOptions client_options_;
   std::string dir_;

@@ -53,6 +53,9 @@ grep -q "captures 10: 10 registered" "$out/summary.log" || {
 # The scout saved an overlay per photo once the engine had registered it.
 grep -q "^10 overlays saved in $out/overlays" "$out/scout.log" || {
   echo "FAIL: the scout did not save 10 overlays"; exit 1; }
+# Each photo's verdict with the model version that holds it.
+[ "$(grep -c '^[0-9]*\.jpg  registered · site .* · model v[1-9][0-9]*$' "$out/scout.log")" -eq 10 ] || {
+  echo "FAIL: the scout did not print 10 'registered · site S · model vN' lines"; exit 1; }
 for f in "$out"/overlays/*.overlay.jpg; do
   head -c 3 "$f" | od -An -tx1 | grep -q "ff d8 ff" || {
     echo "FAIL: $f is not a JPEG"; exit 1; }
