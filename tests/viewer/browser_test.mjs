@@ -253,6 +253,8 @@ async function run(config, page) {
     log(`capture ${captureId} in the status panel: ${captureStatus}`);
   }
 
+  await checkViewFromPhoto(page);
+
   const finalShot = config.screenshot.replace(/\.png$/i, '') + '-after.png';
   await page.screenshot({ path: finalShot });
   log(`screenshot after the update: ${finalShot}`);
@@ -260,6 +262,40 @@ async function run(config, page) {
   console.log(`PASS site ${siteId}: model v${before.version} -> v${after.version}, ` +
     `points ${before.points} -> ${after.points}, captures ${capturesBefore} -> ${after.captures}, ` +
     `canvas variance ${pixels.variance.toFixed(1)}, capture ${captureId} ${captureStatus}, no page reload`);
+}
+
+/**
+ * "View from this photo" (issue 38): the eye moves to a registered photo's
+ * centre and looks where it looked; reset returns to the site's view.
+ */
+async function checkViewFromPhoto(page) {
+  const row = await page.$('tr.capture-status[data-status="registered"]');
+  if (!row) fail('no registered capture row to view from');
+  const id = await row.getAttribute('data-capture');
+  await (await row.$('button[data-action="view-from"]')).click();
+  const seen = await page.evaluate((capture) => {
+    const { viewer, state } = window.arscoutViewer;
+    const image = state.model.attrs.images.find((im) => im.id === capture);
+    const forward = viewer.camera.getWorldDirection(new viewer.camera.position.constructor());
+    // The photo's optical axis: the third row of its world-to-camera R.
+    const [w, x, y, z] = image.qvec;
+    const axis = [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)];
+    return {
+      eye: viewer.camera.position.toArray(), centre: image.centre,
+      dot: forward.x * axis[0] + forward.y * axis[1] + forward.z * axis[2],
+    };
+  }, id);
+  const off = Math.hypot(...seen.eye.map((v, i) => v - seen.centre[i]));
+  if (off > 1e-3 || seen.dot < 0.9999) {
+    fail(`view from ${id}: the eye is ${off} from its centre, looking ${Math.acos(Math.min(1, seen.dot)) * 180 / Math.PI} degrees off`);
+  }
+  await page.click('#reset-view');
+  const [back, home] = await page.evaluate(() => {
+    const { viewer } = window.arscoutViewer;
+    return [viewer.camera.position.toArray(), viewer.home.position.toArray()];
+  });
+  if (Math.hypot(...back.map((v, i) => v - home[i])) > 1e-6) fail('reset did not return to the site\'s view');
+  log(`view from ${id}: the eye at its centre, looking along its axis; reset returns`);
 }
 
 async function main() {

@@ -7,7 +7,7 @@ import { Viewer, robustBounds } from './scene.js';
 import { OctreeCloud, DEFAULT_POINT_BUDGET } from './lod.js';
 import { Measurement } from './measure.js';
 import { CONFIDENT_SUPPORT, shownAt } from './points_material.js';
-import { ThumbnailCache, cameraCentre, cameraRotation } from './frusta.js';
+import { ThumbnailCache, cameraCentre, cameraRotation, intrinsicsOf } from './frusta.js';
 import { LiveFeed } from './live.js';
 import { renderSites, markSelectedSite, captureStatuses, renderCaptures, siteId, siteHolding, liveSites } from './sites.js';
 import { renderComponentLegend } from './components.js';
@@ -170,7 +170,20 @@ function renderCaptureList() {
     onSelect: selectCapture,
     onOverlay: (id) => overlayDialog.open(`overlay ${id}`,
       () => api.blob(`/v1/captures/${encodeURIComponent(id)}/overlay.jpg`)),
+    onViewFrom: viewFromCapture,
   });
+}
+
+/** The model seen from a registered photo's pose ("view from this photo"). */
+function viewFromCapture(id) {
+  const attrs = state.model?.attrs || {};
+  const image = (attrs.images || []).find((im) => im.id === id);
+  if (!image || !Array.isArray(image.qvec)) return;
+  const camera = intrinsicsOf(attrs, image);
+  const fov = camera ? (2 * Math.atan(camera.height / (2 * camera.fy)) * 180) / Math.PI : 50;
+  viewer.viewFrom(cameraCentre(image), cameraRotation(image), fov, 4 * state.frustumDepth);
+  selectCapture(id);
+  status.show(`the model seen from ${id}; reset returns to the site's view`);
 }
 
 function selectCapture(id) {

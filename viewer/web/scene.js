@@ -268,8 +268,30 @@ export class Viewer {
     this.requestRender();
   }
 
+  /**
+   * Puts the eye at a photo's pose: its centre, looking where it looked,
+   * with its vertical field of view (`fovDeg`) and its roll; orbiting
+   * then turns about a point `depth` in front of it. "Reset" returns to
+   * the site's view and field of view.
+   */
+  viewFrom(centre, rotation, fovDeg, depth) {
+    // OpenCV camera axes (x right, y down, z forward) to three.js's (y up,
+    // looking down -z).
+    const forward = new THREE.Vector3(0, 0, 1).applyQuaternion(rotation);
+    this.camera.up.copy(new THREE.Vector3(0, -1, 0).applyQuaternion(rotation));
+    this.camera.position.copy(centre);
+    this.camera.fov = fovDeg;
+    this.camera.updateProjectionMatrix();
+    const target = centre.clone().addScaledVector(forward, depth);
+    this.camera.lookAt(target);
+    this.makeControls(target);
+    this.requestRender();
+  }
+
   resetView() {
     if (!this.home) return;
+    this.camera.fov = FOV_DEG;
+    this.camera.updateProjectionMatrix();
     this.camera.up.copy(this.home.up);
     this.camera.position.copy(this.home.position);
     this.controls.target.copy(this.home.target);

@@ -114,7 +114,7 @@ export function captureStatuses(id, site, model, captureDocs) {
  * @param {(id: string) => void} handlers.onSelect
  * @param {(id: string) => void} handlers.onOverlay
  */
-export function renderCaptures(tbody, rows, { onSelect, onOverlay }) {
+export function renderCaptures(tbody, rows, { onSelect, onOverlay, onViewFrom }) {
   tbody.replaceChildren(...rows.map((capture) => {
     const state = el('span', { className: `capture-state state-${capture.status}`, text: capture.status });
     const statusCell = el('td', {}, [state]);
@@ -127,6 +127,12 @@ export function renderCaptures(tbody, rows, { onSelect, onOverlay }) {
         onOverlay(capture.id);
       });
       actions.append(button);
+      const view = el('button', { text: 'view from', attrs: { type: 'button', title: 'view the model from this photo', 'data-action': 'view-from' } });
+      view.addEventListener('click', (event) => {
+        event.stopPropagation();
+        onViewFrom(capture.id);
+      });
+      actions.append(view);
     }
     const row = el('tr', {
       className: 'capture-status',

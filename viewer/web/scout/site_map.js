@@ -166,7 +166,16 @@ export class SiteMap {
     g.setTransform(ratio, 0, 0, ratio, 0, 0);
     g.fillStyle = '#0b0f14';
     g.fillRect(0, 0, width, height);
-    if (!this.cameras.length && !this.self) return;
+    if (!this.cameras.length && !this.self) {
+      // Blank says why: nothing to draw yet, and what brings it.
+      g.fillStyle = '#9aa4b2';
+      g.font = '14px system-ui, sans-serif';
+      g.textAlign = 'center';
+      const lines = ['No site yet.', 'The map shows your site once a photo is placed,', 'or a site within 200 m of your GPS fix.'];
+      lines.forEach((line, i) => g.fillText(line, width / 2, height / 2 + 20 * (i - 1)));
+      g.textAlign = 'start';
+      return;
+    }
     const f = this.frame(width, height);
     this.drawWedges(g, f);
     this.drawCells(g, f);
