@@ -275,21 +275,25 @@ TEST_F(RoutesTest, MeNamesTheTokenAndEvery401SaysWhy) {
 // PATCH /v1/sites/{id}: planners and admins rename a site; scouts may not;
 // the body is one name; a site that grew into another says which.
 TEST_F(RoutesTest, SitesAreRenamedByPlannersAndAdmins) {
-  store_->put("/sites/s-1", "site", Json{{"name", "s-1"}, {"captures", Json::array()}});
-  store_->put("/sites/s-0", "site",
-              Json{{"name", "s-0"}, {"merged_into", "s-1"}, {"state", "merged"}});
+  store_->put("/sites/s-1", "site",
+              Json{{"name", "s-1"}, {"captures", Json::array()}});
+  store_->put(
+      "/sites/s-0", "site",
+      Json{{"name", "s-0"}, {"merged_into", "s-1"}, {"state", "merged"}});
   const auto rename = [&](const std::string& who, const std::string& path,
                           const std::string& body) {
     HttpRequest r = request("PATCH", path, tokens_.at(who));
     r.body = body;
     return api_->handle(r);
   };
-  const HttpResponse ok = rename("planner", "/v1/sites/s-1", R"({"name": "  North block  "})");
+  const HttpResponse ok =
+      rename("planner", "/v1/sites/s-1", R"({"name": "  North block  "})");
   ASSERT_EQ(ok.status, 200) << ok.body;
   EXPECT_EQ(Json::parse(ok.body)["attrs"]["name"], "North block");
   EXPECT_EQ(store_->get("/sites/s-1")->attrs["name"], "North block");
   EXPECT_EQ(store_->get("/sites/s-1")->author, "pat");
-  EXPECT_EQ(rename("admin", "/v1/sites/s-1", R"({"name": "Block 7"})").status, 200);
+  EXPECT_EQ(rename("admin", "/v1/sites/s-1", R"({"name": "Block 7"})").status,
+            200);
   EXPECT_EQ(store_->get("/sites/s-1")->attrs["captures"], Json::array());
   const struct {
     std::string who, path, body;
@@ -306,11 +310,13 @@ TEST_F(RoutesTest, SitesAreRenamedByPlannersAndAdmins) {
       {"planner", "/v1/sites/s-1", R"({"name": 7})", 422},
       {"planner", "/v1/sites/s-1", R"({"name": "a", "state": "x"})", 422},
       {"planner", "/v1/sites/s-1", R"({"name": "tab\there"})", 422},
-      {"planner", "/v1/sites/s-1", "{\"name\": \"" + std::string(121, 'a') + "\"}", 422},
+      {"planner", "/v1/sites/s-1",
+       "{\"name\": \"" + std::string(121, 'a') + "\"}", 422},
   };
   for (const auto& c : refused) {
     const HttpResponse r = rename(c.who, c.path, c.body);
-    EXPECT_EQ(r.status, c.status) << c.who << " " << c.path << " " << c.body << ": " << r.body;
+    EXPECT_EQ(r.status, c.status)
+        << c.who << " " << c.path << " " << c.body << ": " << r.body;
   }
   EXPECT_EQ(store_->get("/sites/s-1")->attrs["name"], "Block 7");
   EXPECT_EQ(as("planner", "GET", "/v1/sites/s-1").status, 405);

@@ -628,13 +628,16 @@ TEST(EngineWorker, PhotosWithoutAFixFollowTheirScoutsPhotos) {
   // As the API stores them: `taken` from the photo, no `gps` without a fix.
   const auto put = [&](const std::string& scout, const fs::path& p,
                        const std::string& taken, bool with_fix) {
-    Json attrs = {{"scout", scout},     {"filename", p.filename().string()},
-                  {"taken", taken},     {"camera", "fountain"},
+    Json attrs = {{"scout", scout},
+                  {"filename", p.filename().string()},
+                  {"taken", taken},
+                  {"camera", "fountain"},
                   {"status", with_fix ? "stored" : "needs-gps"},
                   {"status_reason", ""}};
-    if (with_fix) attrs["gps"] = ingest::to_json(fixes.at(p.filename().string()));
-    db::WriteOp op = db::WriteOp::put("/captures/" + scout + "-" + p.stem().string(),
-                                      "capture", attrs, 0);
+    if (with_fix)
+      attrs["gps"] = ingest::to_json(fixes.at(p.filename().string()));
+    db::WriteOp op = db::WriteOp::put(
+        "/captures/" + scout + "-" + p.stem().string(), "capture", attrs, 0);
     op.blobs = db::BlobRefs{{"image", store->put_blob(read_file(p))}};
     store->batch({op});
   };
@@ -647,15 +650,18 @@ TEST(EngineWorker, PhotosWithoutAFixFollowTheirScoutsPhotos) {
     return store->get("/captures/" + id)->attrs;
   };
   EXPECT_EQ(status("carol-0008").value("status", ""), "needs-gps");
-  EXPECT_NE(status("carol-0008").value("status_reason", "").find(
-                "waiting for a position"),
+  EXPECT_NE(status("carol-0008")
+                .value("status_reason", "")
+                .find("waiting for a position"),
             std::string::npos);
   // A readable default name (founding scout and time), then a planner's
   // rename, which the engine's later commits keep.
-  const std::string site_path = "/sites/" + status("alice-0000").value("site", "");
+  const std::string site_path =
+      "/sites/" + status("alice-0000").value("site", "");
   EXPECT_EQ(store->get(site_path)->attrs.value("name", ""),
             "alice 2026-12-06 10:00");
-  db::WriteOp rename = db::WriteOp::patch(site_path, Json{{"name", "Fountain"}});
+  db::WriteOp rename =
+      db::WriteOp::patch(site_path, Json{{"name", "Fountain"}});
   rename.author = "pat";
   store->batch({rename});
   put("carol", all[10], "2026-12-06T10:02:00Z", true);

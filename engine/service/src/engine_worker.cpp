@@ -41,9 +41,9 @@
 #include "capture_document.h"
 #include "capture_preparer.h"
 #include "fair_turns.h"
+#include "scout_trails.h"
 #include "site_directory.h"
 #include "site_job.h"
-#include "scout_trails.h"
 #include "site_leases.h"
 #include "thread_priority.h"
 #include "worker_metrics.h"
@@ -261,7 +261,8 @@ struct EngineWorker::Impl {
         documents::status_patch(
             documents::kStatusNeedsGps,
             "waiting for a position: no GPS fix, no site hint, and no photo "
-            "of " + capture.scout + "'s placed within " +
+            "of " +
+                capture.scout + "'s placed within " +
                 std::to_string(trails.window_s() / 60) +
                 " minutes of it yet"))});
     log("capture " + id + ": waiting for a position");

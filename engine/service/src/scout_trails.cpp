@@ -26,7 +26,7 @@ std::optional<std::string> ScoutTrails::site_near(const std::string& scout,
   // The nearest on either side of taken_s.
   auto after = trail->second.lower_bound(taken_s);
   for (auto it : {after, after == trail->second.begin() ? trail->second.end()
-                                                         : std::prev(after)}) {
+                                                        : std::prev(after)}) {
     if (it == trail->second.end()) continue;
     const std::int64_t gap = std::llabs(it->first - taken_s);
     if (gap < best_gap) {
