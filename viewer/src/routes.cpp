@@ -351,6 +351,7 @@ std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
   db::Store* s = &store;
   auto octrees = std::make_shared<CloudOctreeCache>();
   auto exports = std::make_shared<ExportCache>(kExportCacheBytes);
+  auto coverage = std::make_shared<CoverageCache>();
   ingest::ApiRoute export_route =
       route("GET /v1/sites/*/export", "sites", "export",
             [s, exports](const HttpRequest& req, const std::string& id) {
@@ -385,11 +386,11 @@ std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
               return site_coordinates(*s, req, id);
             }),
       route("GET /v1/sites/*/coverage", "sites", "coverage",
-            [s](const HttpRequest& req, const std::string& id) {
+            [s, coverage](const HttpRequest& req, const std::string& id) {
               std::optional<HttpResponse> bad;
               const int max = int_query(req, "max", 5, 0, 20, &bad);
               if (bad) return *bad;
-              return site_coverage(*s, req, id, max);
+              return site_coverage(*coverage, *s, req, id, max);
             }),
   };
 }

@@ -105,8 +105,37 @@ Json coverage_geojson(const engine::Coverage& c,
           {"features", std::move(features)}};
 }
 
-HttpResponse site_coverage(db::Store& store, const HttpRequest& req,
-                           const std::string& site, int max) {
+std::shared_ptr<const CoverageCache::Entry> CoverageCache::current(
+    db::Store& store, const std::string& site) {
+  const SiteModel doc = load_site_model(store, site);
+  {
+    std::lock_guard lock(mutex_);
+    auto it = entries_.find(doc.site);
+    if (it != entries_.end() && it->second->version == doc.version)
+      return it->second;
+  }
+  auto entry = std::make_shared<Entry>();
+  SiteModel model;
+  const engine::Model full = load_consistent_full_model(store, site, &model);
+  entry->site = model.site;
+  entry->version = model.version;
+  entry->geo_registered = full.geo_registered && full.enu_origin.has_value();
+  if (entry->geo_registered) {
+    entry->frame = engine::EnuFrame(*full.enu_origin);
+    engine::CoverageOptions options;
+    options.max_suggestions = 1 << 20;  // all: ranked per request
+    entry->coverage = engine::analyse_coverage(full, options);
+  }
+  std::lock_guard lock(mutex_);
+  if (entries_.size() >= kSites && !entries_.count(entry->site))
+    entries_.erase(entries_.begin());
+  entries_[entry->site] = entry;
+  return entry;
+}
+
+HttpResponse site_coverage(CoverageCache& cache, db::Store& store,
+                           const HttpRequest& req, const std::string& site,
+                           int max) {
   std::optional<engine::Geodetic> near;
   if (auto it = req.query.find("near"); it != req.query.end()) {
     near = parse_lat_lon(it->second);
@@ -115,24 +144,23 @@ HttpResponse site_coverage(db::Store& store, const HttpRequest& req,
           400, "bad_request",
           "query parameter 'near' must be \"lat,lon\" in degrees");
   }
-  SiteModel model;
-  const engine::Model full = load_consistent_full_model(store, site, &model);
-  if (!full.geo_registered || !full.enu_origin)
+  const auto entry = cache.current(store, site);
+  if (!entry->geo_registered)
     return HttpResponse::error(
         422, "not_geo_registered",
-        "site " + model.site +
+        "site " + entry->site +
             ": the model is not geo-registered yet (fewer than three "
             "registered captures with GPS), so it has no ground to map");
-  const engine::EnuFrame frame(*full.enu_origin);
-  engine::CoverageOptions options;
-  options.max_suggestions = max;
+  std::optional<std::array<double, 2>> at;
   if (near) {
-    const auto enu = frame.to_enu(*near);
-    options.near = std::array<double, 2>{enu[0], enu[1]};
+    const auto enu = entry->frame.to_enu(*near);
+    at = std::array<double, 2>{enu[0], enu[1]};
   }
-  Json body = coverage_geojson(engine::analyse_coverage(full, options), frame);
-  body["site"] = model.site;
-  body["model_version"] = model.version;
+  engine::Coverage ranked = entry->coverage;
+  ranked.suggestions = engine::rank_for(entry->coverage, at, max);
+  Json body = coverage_geojson(ranked, entry->frame);
+  body["site"] = entry->site;
+  body["model_version"] = entry->version;
   HttpResponse r = HttpResponse::geojson(body);
   r.headers.emplace_back("Cache-Control", "no-cache");
   return r;

@@ -158,24 +158,37 @@ double reach(const GroundGrid& g, const Vec2& position) {
   return 1 / (1 + r * r);
 }
 
-// Best first; with the scout's position, a suggestion four standoffs away
-// counts half.
-void rank(std::vector<ShotSuggestion>& suggestions, const GroundGrid& g,
-          const CoverageOptions& options) {
+// Weighs each suggestion by its reach (a gap between components keeps its
+// rank) and sorts them, best first.
+void weigh_by_reach(std::vector<ShotSuggestion>& suggestions,
+                    const GroundGrid& g) {
   for (ShotSuggestion& s : suggestions)
     if (s.kind != "component_gap") s.score *= reach(g, s.position);
-  if (options.near)
-    for (ShotSuggestion& s : suggestions)
-      s.score /= 1 + distance(s.position, *options.near) / (4 * g.standoff);
   std::stable_sort(suggestions.begin(), suggestions.end(),
                    [](const ShotSuggestion& a, const ShotSuggestion& b) {
                      return a.score > b.score;
                    });
-  if (suggestions.size() > static_cast<std::size_t>(options.max_suggestions))
-    suggestions.resize(std::max(0, options.max_suggestions));
 }
 
 }  // namespace
+
+std::vector<ShotSuggestion> rank_for(
+    const Coverage& coverage, const std::optional<std::array<double, 2>>& near,
+    int max) {
+  std::vector<ShotSuggestion> ranked = coverage.suggestions;
+  if (near) {
+    // A suggestion four standoffs away counts half.
+    for (ShotSuggestion& s : ranked)
+      s.score /= 1 + distance(s.position, *near) / (4 * coverage.standoff_m);
+    std::stable_sort(ranked.begin(), ranked.end(),
+                     [](const ShotSuggestion& a, const ShotSuggestion& b) {
+                       return a.score > b.score;
+                     });
+  }
+  if (ranked.size() > static_cast<std::size_t>(std::max(0, max)))
+    ranked.resize(std::max(0, max));
+  return ranked;
+}
 
 std::string compass_name(double bearing_deg) {
   static const char* const kNames[8] = {
@@ -210,7 +223,8 @@ Coverage analyse_coverage(const Model& model, const CoverageOptions& options) {
     out.suggestions.push_back(one_direction_suggestion(run, g));
   for (ShotSuggestion& s : component_gap_suggestions(model))
     out.suggestions.push_back(std::move(s));
-  rank(out.suggestions, g, options);
+  weigh_by_reach(out.suggestions, g);
+  out.suggestions = rank_for(out, options.near, options.max_suggestions);
   return out;
 }
 

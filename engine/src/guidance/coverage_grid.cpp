@@ -201,8 +201,8 @@ int Grid::index(const Vec2& p) const {
 }
 
 Vec2 Grid::centre(int i) const {
-  return {origin[0] + (i % columns + 0.5) * cell,
-          origin[1] + (i / columns + 0.5) * cell};
+  const int column = i % columns, row = i / columns;
+  return {origin[0] + (column + 0.5) * cell, origin[1] + (row + 0.5) * cell};
 }
 
 bool GroundGrid::facade_near(int i) const {

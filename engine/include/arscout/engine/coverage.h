@@ -99,6 +99,15 @@ struct Coverage {
 Coverage analyse_coverage(const Model& model,
                           const CoverageOptions& options = {});
 
+// The suggestions of `coverage` ranked for a scout at `near` (ENU metres:
+// a suggestion four standoffs away counts half; none: as they are), at
+// most `max`. analyse_coverage ranks by options.near with it, so a server
+// may analyse a model version once, with every suggestion kept
+// (max_suggestions large, no `near`), and rank it for each scout.
+std::vector<ShotSuggestion> rank_for(
+    const Coverage& coverage, const std::optional<std::array<double, 2>>& near,
+    int max);
+
 // "north", "north-east", ... for a compass bearing in degrees.
 std::string compass_name(double bearing_deg);
 
