@@ -269,10 +269,12 @@ async function run(config, page) {
  * centre and looks where it looked; reset returns to the site's view.
  */
 async function checkViewFromPhoto(page) {
-  const row = await page.$('tr.capture-status[data-status="registered"]');
-  if (!row) fail('no registered capture row to view from');
-  const id = await row.getAttribute('data-capture');
-  await (await row.$('button[data-action="view-from"]')).click();
+  // Locators, not element handles: the list is drawn again on every
+  // capture change, and a live update may come in between.
+  const rows = page.locator('tr.capture-status[data-status="registered"]');
+  if (!(await rows.count())) fail('no registered capture row to view from');
+  const id = await rows.first().getAttribute('data-capture');
+  await page.locator(`${rowSelector('data-capture', id)} button[data-action="view-from"]`).click();
   const seen = await page.evaluate((capture) => {
     const { viewer, state } = window.arscoutViewer;
     const image = state.model.attrs.images.find((im) => im.id === capture);
