@@ -4,15 +4,17 @@
 #pragma once
 
 #include <chrono>
+
 #include <memory>
 #include <string>
 #include <vector>
+#include "arscout/util/clock.h"
 
 namespace arscout::bench {
 
 using Clock = std::chrono::steady_clock;
 
-double seconds_since(Clock::time_point start);
+using util::seconds_since;
 double ms_between(Clock::time_point from, Clock::time_point to);
 // Nearest-rank percentile of unsorted samples (q in [0, 1]); 0 when empty.
 double percentile(std::vector<double> v, double q);

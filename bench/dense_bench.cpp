@@ -28,6 +28,7 @@
 #include "arscout/engine/dense.h"
 #include "arscout/engine/dense_reconstruction.h"
 #include "arscout/engine/synthetic_site.h"
+#include "arscout/util/clock.h"
 
 namespace {
 
@@ -73,9 +74,7 @@ Scene render_scene(cv::Size size) {
   return scene;
 }
 
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using arscout::util::seconds_since;
 
 }  // namespace
 

@@ -3,13 +3,11 @@
 
 #include <chrono>
 
+#include "arscout/util/clock.h"
+
 namespace arscout::engine {
 
-// Seconds of the steady clock since `start`.
-inline double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-      .count();
-}
+using util::seconds_since;
 
 // Adds the seconds of its lifetime to a stage's total.
 class StageClock {

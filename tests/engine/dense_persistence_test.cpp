@@ -28,6 +28,7 @@
 #include "arscout/engine/dense_reconstruction.h"
 #include "arscout/engine/reconstruction.h"
 #include "arscout/engine/synthetic_site.h"
+#include "arscout/util/clock.h"
 #include "dense/depth_map_io.h"
 #include "rendered_street.h"
 
@@ -129,9 +130,7 @@ void expect_same_state(const DenseReconstruction& a,
 
 using Clock = std::chrono::steady_clock;
 
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using util::seconds_since;
 
 // One original: all five views swept in one update(), and their bytes.
 class DensePersistence : public ::testing::Test {

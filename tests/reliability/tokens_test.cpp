@@ -11,6 +11,7 @@
 #include "arscout/ingest/auth.h"
 #include "arscout/ingest/change_stream.h"
 #include "arscout/ingest/client.h"
+#include "arscout/util/clock.h"
 #include "serve_process.h"
 #include "test_stores.h"
 
@@ -20,9 +21,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using namespace std::chrono_literals;
 
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using util::seconds_since;
 
 // Seconds until `token` is answered 401 on /v1/sites by `server`.
 double until_refused(const std::string& server, const std::string& token) {

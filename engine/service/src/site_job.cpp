@@ -14,6 +14,7 @@
 #include "arscout/documents/capture.h"
 #include "arscout/documents/engine_state.h"
 #include "arscout/engine/ply.h"
+#include "arscout/util/clock.h"
 #include "capture_document.h"
 #include "state_parts.h"
 
@@ -22,9 +23,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using util::seconds_since;
 
 // What a capture's document says about it, as the published status.
 std::string published_status(CaptureStatus status) {
