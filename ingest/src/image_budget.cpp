@@ -6,12 +6,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
 
+#include "arscout/util/image_header.h"
+
 namespace arscout::ingest {
 namespace {
-
-bool starts_with(std::string_view b, std::string_view magic) {
-  return b.substr(0, magic.size()) == magic;
-}
 
 // Bounds concurrent decodes to the number of cores.
 class DecodeSlot {
@@ -39,81 +37,11 @@ class DecodeSlot {
   static inline unsigned busy_ = 0;
 };
 
-unsigned be16(std::string_view b, std::size_t at) {
-  return (static_cast<unsigned char>(b[at]) << 8) |
-         static_cast<unsigned char>(b[at + 1]);
-}
-
-unsigned long be32(std::string_view b, std::size_t at) {
-  return (static_cast<unsigned long>(be16(b, at)) << 16) | be16(b, at + 2);
-}
-
-// PNG: the IHDR chunk comes first (width, height, bit depth, colour type).
-std::optional<ImageHeader> png_header(std::string_view b) {
-  if (b.size() < 33 || b.substr(12, 4) != "IHDR") return std::nullopt;
-  ImageHeader h;
-  h.width = static_cast<long>(be32(b, 16));
-  h.height = static_cast<long>(be32(b, 20));
-  const int depth = static_cast<unsigned char>(b[24]);
-  switch (static_cast<unsigned char>(b[25])) {
-    case 0:
-      h.channels = 1;
-      break;  // grey
-    case 2:
-      h.channels = 3;
-      break;  // RGB
-    case 3:
-      h.channels = 3;
-      break;  // palette, decoded to BGR
-    case 4:
-      h.channels = 2;
-      break;  // grey + alpha
-    case 6:
-      h.channels = 4;
-      break;  // RGBA
-    default:
-      return std::nullopt;
-  }
-  h.bytes_per_channel = depth == 16 ? 2 : 1;
-  return h;
-}
-
-// JPEG: walk the segments to the first start-of-frame marker.
-std::optional<ImageHeader> jpeg_header(std::string_view b) {
-  std::size_t at = 2;
-  while (at + 4 <= b.size()) {
-    if (static_cast<unsigned char>(b[at]) != 0xFF) return std::nullopt;
-    const unsigned marker = static_cast<unsigned char>(b[at + 1]);
-    if (marker == 0xFF) {  // fill byte
-      ++at;
-      continue;
-    }
-    const unsigned length = be16(b, at + 2);
-    const bool sof = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 &&
-                     marker != 0xC8 && marker != 0xCC;
-    if (sof) {
-      if (at + 10 > b.size()) return std::nullopt;
-      ImageHeader h;
-      h.bytes_per_channel = static_cast<unsigned char>(b[at + 4]) > 8 ? 2 : 1;
-      h.height = static_cast<long>(be16(b, at + 5));
-      h.width = static_cast<long>(be16(b, at + 7));
-      h.channels = static_cast<unsigned char>(b[at + 9]);
-      return h;
-    }
-    if (marker == 0xDA || length < 2) return std::nullopt;  // scan before SOF
-    at += 2 + length;
-  }
-  return std::nullopt;
-}
-
 }  // namespace
 
 std::optional<ImageHeader> read_image_header(std::string_view bytes) {
-  std::optional<ImageHeader> h;
-  if (starts_with(bytes, "\xFF\xD8\xFF")) h = jpeg_header(bytes);
-  if (starts_with(bytes, "\x89PNG\r\n\x1a\n")) h = png_header(bytes);
-  if (h && (h->width <= 0 || h->height <= 0 || h->channels <= 0))
-    return std::nullopt;
+  auto h = util::read_image_header(bytes);
+  if (h && h->channels <= 0) return std::nullopt;  // the budget needs them
   return h;
 }
 

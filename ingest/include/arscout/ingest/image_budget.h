@@ -9,6 +9,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "arscout/util/image_header.h"
+
 namespace arscout::ingest {
 
 // Refuses images whose header declares more than kMaxImagePixels, or whose
@@ -19,18 +21,11 @@ namespace arscout::ingest {
 // image whose header cannot be read is refused (fail closed).
 constexpr long kMaxImagePixels = 120'000'000;  // 108 MP phones fit
 constexpr long long kMaxDecodeBytes = 3LL * kMaxImagePixels;  // 8-bit RGB
-// What an image's header declares (JPEG SOF or PNG IHDR): size, channels
-// after decoding with IMREAD_UNCHANGED, and bytes per channel; nullopt when
-// it is neither or its header is malformed.
-struct ImageHeader {
-  long width = 0, height = 0;
-  int channels = 0;
-  int bytes_per_channel = 1;
-  long long decoded_bytes() const {
-    return static_cast<long long>(width) * height * channels *
-           bytes_per_channel;
-  }
-};
+// What an image's header declares (util/image_header.h: JPEG SOF or PNG
+// IHDR): size, channels after decoding with IMREAD_UNCHANGED, and bytes per
+// channel; nullopt when it is neither, its header is malformed, or it does
+// not say its channels.
+using ImageHeader = util::ImageHeader;
 std::optional<ImageHeader> read_image_header(std::string_view bytes);
 
 // Why `bytes` may not be decoded ("" when it may): its header unreadable,
