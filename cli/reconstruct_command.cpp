@@ -47,18 +47,6 @@ struct ReconstructArgs {
   double refine_budget_s = 2.0;
 };
 
-// Receivers that do not report accuracy get a consumer receiver's typical
-// figures (documented in docs/engine.md).
-engine::GeoFix to_engine_fix(const ingest::GpsFix& fix) {
-  engine::GeoFix out;
-  out.lat = fix.lat;
-  out.lon = fix.lon;
-  out.alt = fix.alt;
-  out.h_acc = fix.h_acc.value_or(5.0);
-  out.v_acc = fix.v_acc.value_or(10.0);
-  return out;
-}
-
 class InputSource {
  public:
   explicit InputSource(const ReconstructArgs& a) : args_(a) {
@@ -121,9 +109,9 @@ class InputSource {
     if (!args_.gps_csv.empty()) {
       auto it = csv_.find(name);
       if (it == csv_.end()) return std::nullopt;
-      return to_engine_fix(it->second);
+      return engine::geo_fix_of(it->second);
     }
-    if (exif.gps) return to_engine_fix(*exif.gps);
+    if (exif.gps) return engine::geo_fix_of(*exif.gps);
     return std::nullopt;
   }
 

@@ -360,10 +360,11 @@ TEST(SerializationTest, QuantizedDescriptorsAreStoredCompactlyAndExactly) {
     for (const SceneImage& image : scene.images) {
       const std::string& compact = features.at(image.id);
       EXPECT_EQ(compact.substr(0, 8), "ARSFEAT3");
-      if (!patches)
+      if (!patches) {
         EXPECT_LT(compact.size() * 10,
                   features_as_written_before(image, 2).size() * 6)
             << image.id;
+      }
     }
     const Scene restored = deserialize_scene(
         bytes, [&](const std::string& id) { return features.at(id); });

@@ -10,13 +10,7 @@ namespace arscout::engine::service {
 
 std::optional<GeoFix> geo_fix(const std::optional<documents::GpsFix>& gps) {
   if (!gps) return std::nullopt;
-  GeoFix fix;
-  fix.lat = gps->lat;
-  fix.lon = gps->lon;
-  fix.alt = gps->alt;
-  if (gps->h_acc) fix.h_acc = *gps->h_acc;
-  if (gps->v_acc) fix.v_acc = *gps->v_acc;
-  return fix;
+  return geo_fix_of(*gps);
 }
 
 std::optional<CameraIntrinsics> camera_intrinsics(const nlohmann::json& attrs) {

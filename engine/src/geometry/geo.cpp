@@ -35,4 +35,14 @@ std::array<double, 3> EnuFrame::to_ecef(
   return ecef;
 }
 
+GeoFix geo_fix_of(const documents::GpsFix& gps) {
+  GeoFix fix;
+  fix.lat = gps.lat;
+  fix.lon = gps.lon;
+  fix.alt = gps.alt;
+  if (gps.h_acc) fix.h_acc = *gps.h_acc;
+  if (gps.v_acc) fix.v_acc = *gps.v_acc;
+  return fix;
+}
+
 }  // namespace arscout::engine

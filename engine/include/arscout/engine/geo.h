@@ -7,6 +7,8 @@
 #include <array>
 #include <optional>
 
+#include "arscout/documents/gps.h"
+
 namespace arscout::engine {
 
 // One GPS fix. Accuracies are 1-sigma metres; a missing altitude is treated
@@ -18,6 +20,11 @@ struct GeoFix {
   double h_acc = 5.0;         // horizontal, per axis
   double v_acc = 10.0;
 };
+
+// A stored fix (a capture's `gps`, a GPS file's row) as the engine weighs
+// it: accuracies the receiver did not report get GeoFix's defaults (a
+// consumer receiver's, docs/engine.md). The one conversion.
+GeoFix geo_fix_of(const documents::GpsFix& gps);
 
 struct Geodetic {
   double lat = 0;
