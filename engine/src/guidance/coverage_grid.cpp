@@ -41,14 +41,11 @@ bool is_facade(const GroundGrid& g, const Sighted& p,
 // Least squares over the photos, then again without those more than a
 // metre off (a photo from a balcony); level through the median when the
 // photos do not span both ground directions by a few metres.
-std::array<double, 3> fit_ground(const Model& model, double camera_height) {
+std::array<double, 3> fit_ground(const Model& model, const Vec2& mean,
+                                 double camera_height) {
   std::vector<double> heights;
-  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-  for (const ModelImage& image : model.images) {
+  for (const ModelImage& image : model.images)
     heights.push_back(image.centre[2] - camera_height);
-    mean += Eigen::Vector2d(image.centre[0], image.centre[1]) /
-            static_cast<double>(model.images.size());
-  }
   std::array<double, 3> plane{0, 0, median(heights)};
   for (int pass = 0; pass < 2; ++pass) {
     Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
@@ -62,7 +59,7 @@ std::array<double, 3> fit_ground(const Model& model, double camera_height) {
       const Eigen::Vector3d row(c[0], c[1], 1);
       normal += row * row.transpose();
       rhs += row * heights[i];
-      const Eigen::Vector2d d(c[0] - mean.x(), c[1] - mean.y());
+      const Eigen::Vector2d d(c[0] - mean[0], c[1] - mean[1]);
       spread += d * d.transpose();
     }
     if (normal(2, 2) < 6 ||
@@ -76,18 +73,20 @@ std::array<double, 3> fit_ground(const Model& model, double camera_height) {
   return plane;
 }
 
+// The ground, which points are facade above it, and the standoff.
 void measure_ground_and_standoff(const Model& model,
                                  const CoverageOptions& options,
                                  GroundGrid& g) {
-  g.ground = fit_ground(model, options.camera_height_m);
   Vec2 centroid{0, 0};
   for (const ModelImage& image : model.images)
     for (int a = 0; a < 2; ++a)
       centroid[a] += image.centre[a] / static_cast<double>(model.images.size());
+  g.ground = fit_ground(model, centroid, options.camera_height_m);
   g.ground_z = g.ground_at(centroid);
   std::vector<double> ranges;
-  for (const Sighted& p : g.points) {
-    if (!is_facade(g, p, options)) continue;
+  for (Sighted& p : g.points) {
+    p.facade = is_facade(g, p, options);
+    if (!p.facade) continue;
     for (int image : p.images)
       ranges.push_back(distance(p.xy, centre_xy(model.images[image])));
   }
@@ -121,11 +120,9 @@ Grid make_grid(const Model& model, const GroundGrid& g,
 
 // Each facade point's cell gets the point, the photos that see it by
 // sector, and the directions toward them (the facade faces them).
-void sight_facades(const Model& model, const CoverageOptions& options,
-                   GroundGrid& g) {
-  for (Sighted& p : g.points) {
+void sight_facades(const Model& model, GroundGrid& g) {
+  for (const Sighted& p : g.points) {
     const int i = g.grid.index(p.xy);
-    p.facade = is_facade(g, p, options);
     if (i < 0 || !p.facade) continue;
     CellState& cell = g.cells[i];
     ++cell.points;
@@ -225,7 +222,7 @@ GroundGrid build_ground_grid(const Model& model,
   measure_ground_and_standoff(model, options, g);
   g.grid = make_grid(model, g, options);
   g.cells.resize(g.grid.size());
-  sight_facades(model, options, g);
+  sight_facades(model, g);
   carve_sight_lines(model, g);
   return g;
 }

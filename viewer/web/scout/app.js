@@ -12,7 +12,7 @@ import { Camera } from './camera.js';
 import { describe } from './feedback.js';
 import { MAX_FIX_AGE_S, Position } from './position.js';
 import { checkToken } from './sign_in.js';
-import { SiteMap, scoutColour } from './site_map.js';
+import { SiteMap, enuOf, scoutColours } from './site_map.js';
 import { PhotoStore } from './store.js';
 import { TOKEN_REJECTED, Uploader } from './uploader.js';
 
@@ -364,7 +364,8 @@ const findNearbySite = serialized(async () => {
   for (const doc of sites) {
     const gps = (doc.attrs || {}).gps;
     if (!gps) continue;
-    const d = Math.hypot(gps.lat - fix.lat, (gps.lon - fix.lon) * Math.cos((fix.lat * Math.PI) / 180));
+    const { east, north } = enuOf(fix, gps.lat, gps.lon);
+    const d = Math.hypot(east, north);
     if (!best || d < best.d) best = { d, id: doc.path.split('/').pop() };
   }
   if (best && !state.site) chooseSite(best.id);
@@ -422,15 +423,15 @@ async function loadCoverage() {
 /** Each scout's name in the colour of their cameras on the map. */
 function renderLegend() {
   const list = $('scout-legend');
-  const scouts = [...siteMap.scouts].filter(Boolean).sort();
-  list.replaceChildren(...scouts.map((name) => {
+  const colours = scoutColours(siteMap.scouts);
+  list.replaceChildren(...[...colours].filter(([name]) => name).map(([name, colour]) => {
     const item = document.createElement('li');
     const swatch = document.createElement('span');
     swatch.className = 'swatch';
-    swatch.style.background = scoutColour(name, scouts);
+    swatch.style.background = colour;
     item.append(swatch, document.createTextNode(name === state.scout ? `${name} (you)` : name));
     item.dataset.scout = name;
-    item.dataset.colour = scoutColour(name, scouts);
+    item.dataset.colour = colour;
     return item;
   }));
 }

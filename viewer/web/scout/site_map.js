@@ -17,11 +17,10 @@ const SCOUT_PALETTE = ['#e69f00', '#56b4e9', '#f0e442', '#cc79a7', '#009e73', '#
 // Directions a facade cell was seen from -> its colour.
 const DIRECTION_COLOURS = ['#d7301f', '#d7301f', '#fc8d59', '#fdcc8a', '#1a9850'];
 
-/** The colour of a scout: by its place among the site's scouts' names. */
-export function scoutColour(name, scouts = [name]) {
+/** Each scout's colour (a Map by name): by its place among the names. */
+export function scoutColours(scouts) {
   const sorted = [...new Set(scouts)].sort();
-  const index = Math.max(0, sorted.indexOf(name));
-  return SCOUT_PALETTE[index % SCOUT_PALETTE.length];
+  return new Map(sorted.map((name, i) => [name, SCOUT_PALETTE[i % SCOUT_PALETTE.length]]));
 }
 
 /** The colour of a facade cell seen from `directions` compass sectors. */
@@ -258,11 +257,11 @@ export class SiteMap {
   }
 
   drawCameras(g, f) {
-    const scouts = [...this.scouts];
+    const colours = scoutColours(this.scouts);
     for (const c of this.cameras) {
       const x = f.x(c.east), y = f.y(c.north);
       const len = Math.hypot(c.look.east, c.look.north) || 1;
-      g.strokeStyle = g.fillStyle = scoutColour(c.scout, scouts);
+      g.strokeStyle = g.fillStyle = colours.get(c.scout);
       g.beginPath();
       g.arc(x, y, 3, 0, 2 * Math.PI);
       g.fill();
