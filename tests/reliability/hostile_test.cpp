@@ -498,7 +498,11 @@ TEST_F(HostileClients, LongPollsAndStreamsHoldNoWorkerThread) {
             << " WebSocket streams open on 4 workers: slowest /healthz "
             << slowest * 1000 << " ms; a write woke every long-poll within "
             << woke << " s" << std::endl;
-  EXPECT_LT(slowest, 0.1);
+  // A worker held by a poll would hold /healthz for the poll's 20 s wait.
+  // The bound is a tenth of that wait, not a latency figure: under the
+  // sanitizers with the suite in parallel one answer took 0.21 s (CI,
+  // 2026-12-06), where 0.1 s failed a server that held no thread.
+  EXPECT_LT(slowest, 2.0);
   EXPECT_LT(woke, 5.0);
 }
 
