@@ -116,13 +116,16 @@ TEST(EngineTakeover, TwoWorkersSplitTheSitesAndOneFinishesTheOthers) {
 
   // Two scouts walking: alice one photo a second, bob one every two.
   const auto fixes = ingest::read_gps_csv(fountain + "/gps.csv");
-  std::thread alice([&] {
+  // jthreads: a store read that throws below fails the test, where a
+  // joinable std::thread would abort the process without a word (it did,
+  // once, under load).
+  std::jthread alice([&] {
     for (const fs::path& p : photos(fountain + "/images")) {
       upload(*store, "alice", p, fixes.at(p.filename().string()), "fountain");
       std::this_thread::sleep_for(1s);
     }
   });
-  std::thread bob([&] {
+  std::jthread bob([&] {
     for (const fs::path& p : photos(lund + "/images")) {
       upload(*store, "bob", p, *ingest::read_exif_file(p.string()).gps, "");
       std::this_thread::sleep_for(2s);
