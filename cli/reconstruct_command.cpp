@@ -123,7 +123,7 @@ void print_progress(int n, int total, const engine::AddResult& r,
                     double model_error_px) {
   const auto& t = r.timings;
   std::cout << std::fixed << std::setprecision(2) << "[" << n << "/" << total
-            << "] " << r.id << "  " << engine::to_string(r.status);
+            << "] " << r.id << "  " << documents::to_string(r.status);
   if (!r.reason.empty()) std::cout << " (" << r.reason << ")";
   std::cout << "  features " << r.features << "  pairs " << r.matched_pairs
             << "  inliers " << r.pose_inliers << "  reproj "

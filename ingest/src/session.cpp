@@ -25,7 +25,7 @@ std::string input_kind(const db::Change& c,
   if (capture && c.op == db::OpType::kPut && c.version == 1) return "capture";
   if (capture && c.op == db::OpType::kPatch && doc) {
     const documents::Capture now = documents::capture_from_json(doc->attrs);
-    if (now.status == documents::kStatusWithdrawn &&
+    if (now.status == documents::CaptureStatus::kWithdrawn &&
         now.status_reason == "withdrawn by " + c.author)
       return "withdrawal";
   }
