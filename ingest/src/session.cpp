@@ -10,6 +10,7 @@
 #include "arscout/documents/capture.h"
 #include "arscout/ingest/gps.h"
 #include "arscout/util/base64.h"
+#include "arscout/util/error.h"
 
 namespace arscout::ingest {
 namespace {
@@ -251,6 +252,8 @@ class Replayer {
     try {
       return handler(ctx);
     } catch (const db::StoreError& e) {
+      return error_response(e);
+    } catch (const util::Error& e) {
       return error_response(e);
     }
   }
