@@ -262,7 +262,9 @@ void on_model(arscout::db::Store& store, const arscout::db::Change& change,
       seen.dense_us.emplace(id, change.time_us);
   }
   for (const auto& [id, status] : captures.items()) {
-    if (status != "registered") continue;
+    if (status != arscout::documents::to_string(
+                      arscout::documents::CaptureStatus::kRegistered))
+      continue;
     seen.registered_us.emplace(id, change.time_us);
     if (dense_current) seen.current_us.emplace(id, change.time_us);
   }
@@ -275,7 +277,7 @@ void store_photo(arscout::db::Store& store, const Photo& photo,
   arscout::documents::Capture capture;
   capture.scout = "scout-" + std::to_string(photo.scout + 1);
   capture.format = "jpeg";
-  capture.status = arscout::documents::kStatusStored;
+  capture.status = arscout::documents::CaptureStatus::kStored;
   capture.gps = meta.fixes.at(photo.path.filename().string());
   capture.filename = photo.path.filename().string();
   if (meta.has_camera) {

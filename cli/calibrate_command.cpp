@@ -11,6 +11,7 @@
 #include "arscout/db/store.h"
 #include "arscout/ingest/calibration.h"
 #include "arscout/ingest/client.h"
+#include "arscout/util/error.h"
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
@@ -19,9 +20,7 @@ namespace arscout::cli {
 namespace {
 
 namespace fs = std::filesystem;
-using db::ErrorCode;
 using db::Json;
-using db::StoreError;
 
 struct CalibrateArgs {
   std::string images;
@@ -50,27 +49,27 @@ void print_calibration(const ingest::CameraCalibration& c, int images_seen,
   out << std::defaultfloat;
 }
 
-// A failed HTTP answer as the StoreError whose kind gives the right exit
+// A failed HTTP answer as the error whose kind gives the right exit
 // code; the server's JSON error message is kept when there is one.
-StoreError http_error(const ingest::HttpResult& r, const std::string& what) {
+util::Error http_error(const ingest::HttpResult& r, const std::string& what) {
   std::string message = r.body;
   try {
     message = r.json().value("message", r.body);
   } catch (const std::exception&) {
     // Not JSON (a proxy's error page, say): the body itself is the message.
   }
-  ErrorCode code = ErrorCode::kInternal;
+  util::ErrorKind kind = util::ErrorKind::kInternal;
   if (r.status == 409) {
-    code = ErrorCode::kConflict;
+    kind = util::ErrorKind::kConflict;
   } else if (r.status == 404) {
-    code = ErrorCode::kNotFound;
+    kind = util::ErrorKind::kNotFound;
   } else if (r.status == 502 || r.status == 503 || r.status == 504) {
-    code = ErrorCode::kUnavailable;
+    kind = util::ErrorKind::kUnavailable;
   } else if (r.status >= 400 && r.status < 500) {
-    code = ErrorCode::kInvalidArgument;
+    kind = util::ErrorKind::kInvalidArgument;
   }
-  return StoreError(
-      code, what + ": HTTP " + std::to_string(r.status) + ": " + message);
+  return util::Error(
+      kind, what + ": HTTP " + std::to_string(r.status) + ": " + message);
 }
 
 void put_over_http(const CalibrateArgs& a, const Json& camera,
@@ -85,7 +84,7 @@ void put_over_http(const CalibrateArgs& a, const Json& camera,
     r = client.request("PUT", target, camera.dump(),
                        {{"Content-Type", "application/json"}});
   } catch (const ingest::NetworkError& e) {
-    throw StoreError(ErrorCode::kUnavailable, e.what());
+    throw util::Error(util::ErrorKind::kUnavailable, e.what());
   }
   if (r.status != 200 && r.status != 201) throw http_error(r, "PUT " + target);
   // The server names it: a scout's camera ids are its own
@@ -111,27 +110,27 @@ ingest::CameraCalibration calibrate(const std::vector<std::string>& images,
     return ingest::calibrate_chessboard(images, board, square_m, nullptr,
                                         report);
   } catch (const std::runtime_error& e) {
-    throw StoreError(ErrorCode::kInvalidArgument, e.what());
+    throw util::Error(util::ErrorKind::kInvalidArgument, e.what());
   }
 }
 
 // The id becomes one path segment and, with --server, part of a URL.
 void check_camera_id(const std::string& id) {
   if (id.find('/') != std::string::npos)
-    throw StoreError(ErrorCode::kInvalidArgument,
-                     "--camera-id must be one path segment of "
-                     "[A-Za-z0-9._-], not '" +
-                         id + "'");
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      "--camera-id must be one path segment of "
+                      "[A-Za-z0-9._-], not '" +
+                          id + "'");
   db::validate_path("/cameras/" + id);
 }
 
 int run_calibrate(const CalibrateArgs& a) {
   auto board = ingest::parse_board_size(a.board);
   if (!board)
-    throw StoreError(ErrorCode::kInvalidArgument,
-                     "--board must be COLSxROWS inner corners, each 3 to 100 "
-                     "(e.g. 9x6), not '" +
-                         a.board + "'");
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      "--board must be COLSxROWS inner corners, each 3 to 100 "
+                      "(e.g. 9x6), not '" +
+                          a.board + "'");
   check_camera_id(a.camera_id);
   // Without a destination the document is the output, so the report goes to
   // stderr and stdout stays clean JSON.

@@ -8,6 +8,7 @@
 #include <iostream>
 
 #include "arscout/db/errors.h"
+#include "arscout/util/error.h"
 #include "arscout/util/file.h"
 #include "commands.h"
 
@@ -44,13 +45,19 @@ int exit_code_for(db::ErrorCode code) {
   }
 }
 
+int reported(db::ErrorCode code, const char* what) {
+  std::cerr << "arscout: error (" << db::to_string(code) << "): " << what
+            << "\n";
+  return exit_code_for(code);
+}
+
 int guarded(const std::function<int()>& body) {
   try {
     return body();
   } catch (const db::StoreError& e) {
-    std::cerr << "arscout: error (" << db::to_string(e.code())
-              << "): " << e.what() << "\n";
-    return exit_code_for(e.code());
+    return reported(e.code(), e.what());
+  } catch (const util::Error& e) {
+    return reported(db::code_of(e.kind()), e.what());
   } catch (const std::exception& e) {
     std::cerr << "arscout: error: " << e.what() << "\n";
     return kExitError;
@@ -70,8 +77,8 @@ std::vector<std::string> list_image_files(const std::string& dir) {
       paths.push_back(entry.path().string());
   std::sort(paths.begin(), paths.end());
   if (paths.empty())
-    throw db::StoreError(
-        db::ErrorCode::kInvalidArgument,
+    throw util::Error(
+        util::ErrorKind::kInvalidArgument,
         "no images (.jpg, .jpeg, .png, .tif, .tiff, .bmp) in " + dir);
   return paths;
 }
@@ -82,9 +89,9 @@ db::Json parse_json_argument(const std::string& text, const std::string& what) {
   try {
     return db::Json::parse(text);
   } catch (const db::Json::parse_error& e) {
-    throw db::StoreError(db::ErrorCode::kInvalidJson,
-                         what + " is not valid JSON (at byte " +
-                             std::to_string(e.byte) + "): " + e.what());
+    throw util::Error(util::ErrorKind::kInvalidJson,
+                      what + " is not valid JSON (at byte " +
+                          std::to_string(e.byte) + "): " + e.what());
   }
 }
 
@@ -92,7 +99,7 @@ std::string read_input_file(const std::string& path) {
   try {
     return util::read_file(path);
   } catch (const std::runtime_error& e) {
-    throw db::StoreError(db::ErrorCode::kInvalidArgument, e.what());
+    throw util::Error(util::ErrorKind::kInvalidArgument, e.what());
   }
 }
 
@@ -100,7 +107,7 @@ void write_output_file(const std::string& path, std::string_view bytes) {
   try {
     util::write_file_atomic(path, bytes);
   } catch (const std::runtime_error& e) {
-    throw db::StoreError(db::ErrorCode::kUnavailable, e.what());
+    throw util::Error(util::ErrorKind::kUnavailable, e.what());
   }
 }
 

@@ -4,6 +4,7 @@
 
 #include "arscout/db/path.h"
 #include "arscout/db/store.h"
+#include "arscout/util/error.h"
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
@@ -143,8 +144,8 @@ void add_get(CLI::App& dbc, DbArgs& a) {
       }
       auto doc = store->get(a.path);
       if (!doc)
-        throw db::StoreError(db::ErrorCode::kNotFound,
-                             "no document at " + a.path);
+        throw util::Error(util::ErrorKind::kNotFound,
+                          "no document at " + a.path);
       std::cout << to_json(*doc).dump(2) << std::endl;
       return kExitOk;
     });

@@ -29,7 +29,7 @@ Json capture_attrs(const std::string& scout, double lat, double lon,
   documents::Capture capture;
   capture.scout = scout;
   capture.camera = "phone-1";
-  capture.status = documents::kStatusStored;
+  capture.status = documents::CaptureStatus::kStored;
   capture.gps = documents::GpsFix{lat, lon, 353.0, h_acc, h_acc * 2, 8, "", ""};
   return documents::to_json(capture);
 }

@@ -11,9 +11,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "arscout/db/errors.h"
 #include "arscout/engine/dense_reconstruction.h"
 #include "arscout/engine/model_io.h"
+#include "arscout/util/error.h"
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
@@ -22,8 +22,6 @@ namespace arscout::cli {
 namespace {
 
 namespace fs = std::filesystem;
-using db::ErrorCode;
-using db::StoreError;
 
 struct DepthArgs {
   std::string model;
@@ -37,10 +35,10 @@ struct DepthArgs {
 fs::path sparse_folder(const fs::path& model) {
   if (fs::exists(model / "images.txt")) return model;
   if (fs::exists(model / "sparse" / "images.txt")) return model / "sparse";
-  throw StoreError(ErrorCode::kInvalidArgument,
-                   model.string() +
-                       ": no COLMAP text model (images.txt) here "
-                       "or in sparse/");
+  throw util::Error(util::ErrorKind::kInvalidArgument,
+                    model.string() +
+                        ": no COLMAP text model (images.txt) here "
+                        "or in sparse/");
 }
 
 // The photo folder: --images, else the one `arscout reconstruct` recorded
@@ -52,8 +50,8 @@ fs::path images_folder(const DepthArgs& a, const fs::path& sparse) {
   while (in >> key && std::getline(in >> std::ws, value)) {
     if (key == "images") return value;
   }
-  throw StoreError(ErrorCode::kInvalidArgument,
-                   "no --images given and no sources.txt beside the model");
+  throw util::Error(util::ErrorKind::kInvalidArgument,
+                    "no --images given and no sources.txt beside the model");
 }
 
 cv::Mat millimetres(const cv::Mat& depth) {
@@ -98,7 +96,8 @@ fs::path preview_path(const fs::path& output) {
 
 void write_png(const fs::path& path, const cv::Mat& image) {
   if (!cv::imwrite(path.string(), image))
-    throw StoreError(ErrorCode::kInternal, path.string() + ": cannot write");
+    throw util::Error(util::ErrorKind::kInternal,
+                      path.string() + ": cannot write");
 }
 
 int run_depth(const DepthArgs& a) {
@@ -107,7 +106,7 @@ int run_depth(const DepthArgs& a) {
   try {
     model = engine::read_colmap_text(sparse.string());
   } catch (const std::runtime_error& e) {
-    throw StoreError(ErrorCode::kInvalidArgument, e.what());
+    throw util::Error(util::ErrorKind::kInvalidArgument, e.what());
   }
   const fs::path images = images_folder(a, sparse);
   const engine::ImageSource source = [&](const std::string& id) {
@@ -117,7 +116,7 @@ int run_depth(const DepthArgs& a) {
   try {
     map = engine::compute_key_depth_map(model, a.key, source, a.options);
   } catch (const std::invalid_argument& e) {
-    throw StoreError(ErrorCode::kInvalidArgument, e.what());
+    throw util::Error(util::ErrorKind::kInvalidArgument, e.what());
   }
   const fs::path output = a.output;
   if (output.has_parent_path()) fs::create_directories(output.parent_path());

@@ -6,9 +6,9 @@
 
 #include <spdlog/spdlog.h>
 
-#include "arscout/db/errors.h"
 #include "arscout/db/store.h"
 #include "arscout/ingest/server.h"
+#include "arscout/util/error.h"
 #include "arscout/util/log_value.h"
 #include "cli_support.h"
 #include "command_registry.h"
@@ -162,8 +162,8 @@ void check_gc_grace(const db::BlobCollectorOptions& gc,
                               worker.state_interval) +
                       std::chrono::seconds(60);
   if (gc.interval.count() > 0 && gc.min_age < needed)
-    throw db::StoreError(
-        db::ErrorCode::kInvalidArgument,
+    throw util::Error(
+        util::ErrorKind::kInvalidArgument,
         "--gc-min-age " + std::to_string(gc.min_age.count()) +
             " is too short for --state-interval " +
             (std::ostringstream() << worker.state_interval.count() / 1000.0)
@@ -215,8 +215,8 @@ std::unique_ptr<ingest::Server> start_endpoint(
   if (a.listen.empty()) return nullptr;
   ingest::ServerOptions options;
   if (!split_listen(a.listen, &options.host, &options.port))
-    throw db::StoreError(db::ErrorCode::kInvalidArgument,
-                         "--listen must be HOST:PORT, not '" + a.listen + "'");
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      "--listen must be HOST:PORT, not '" + a.listen + "'");
   options.serve_api = false;
   options.worker_threads = 2;
   expose_worker(worker, &options);

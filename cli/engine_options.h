@@ -37,7 +37,7 @@ inline db::BlobCollectorOptions default_gc_options() {
   return {std::chrono::seconds(60), std::chrono::seconds(300)};
 }
 
-// Throws StoreError(kInvalidArgument) when the collector runs and its grace
+// Throws util::Error(kInvalidArgument) when the collector runs and its grace
 // is shorter than twice the worker's --state-interval plus a minute: the
 // features the engine stores wait for the next state to refer to them.
 void check_gc_grace(const db::BlobCollectorOptions& gc,

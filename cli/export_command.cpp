@@ -4,7 +4,7 @@
 #include <fstream>
 #include <iostream>
 
-#include "arscout/db/errors.h"
+#include "arscout/util/error.h"
 #include "arscout/viewer/exports.h"
 #include "cli_support.h"
 #include "command_registry.h"
@@ -14,8 +14,6 @@ namespace arscout::cli {
 namespace {
 
 namespace fs = std::filesystem;
-using db::ErrorCode;
-using db::StoreError;
 
 struct ExportArgs {
   std::string db;
@@ -30,10 +28,10 @@ struct ExportArgs {
 int run_export(const ExportArgs& a) {
   const auto format = viewer::parse_export_format(a.format);
   if (!format)
-    throw StoreError(ErrorCode::kInvalidArgument,
-                     "--format must be ply, colmap, geocsv, ecef-ply, las, "
-                     "3dtiles or geojson, not '" +
-                         a.format + "'");
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      "--format must be ply, colmap, geocsv, ecef-ply, las, "
+                      "3dtiles or geojson, not '" +
+                          a.format + "'");
   viewer::ExportOptions options;
   options.cloud =
       a.cloud == "sparse" ? viewer::Cloud::kSparse : viewer::Cloud::kDense;

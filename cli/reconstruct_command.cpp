@@ -14,7 +14,7 @@
 #include <set>
 #include <sstream>
 
-#include "arscout/db/errors.h"
+#include "arscout/documents/capture_status.h"
 #include "arscout/engine/camera.h"
 #include "arscout/engine/dense_reconstruction.h"
 #include "arscout/engine/image_size.h"
@@ -22,6 +22,7 @@
 #include "arscout/engine/ply.h"
 #include "arscout/engine/reconstruction.h"
 #include "arscout/ingest/gps.h"
+#include "arscout/util/error.h"
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
@@ -30,8 +31,6 @@ namespace arscout::cli {
 namespace {
 
 namespace fs = std::filesystem;
-using db::ErrorCode;
-using db::StoreError;
 
 struct ReconstructArgs {
   std::string images;
@@ -54,7 +53,7 @@ class InputSource {
       try {
         csv_ = ingest::read_gps_csv(a.gps_csv);
       } catch (const std::runtime_error& e) {
-        throw StoreError(ErrorCode::kInvalidArgument, e.what());
+        throw util::Error(util::ErrorKind::kInvalidArgument, e.what());
       }
     }
   }
@@ -87,14 +86,14 @@ class InputSource {
       const std::optional<engine::ImageSize>& size,
       const std::string& path) const {
     if (!size) {
-      throw StoreError(ErrorCode::kInvalidArgument,
-                       path + ": not a JPEG or PNG with a size");
+      throw util::Error(util::ErrorKind::kInvalidArgument,
+                        path + ": not a JPEG or PNG with a size");
     }
     if (!args_.camera.empty()) {
       try {
         return engine::read_k_matrix(args_.camera, size->width, size->height);
       } catch (const std::runtime_error& e) {
-        throw StoreError(ErrorCode::kInvalidArgument, e.what());
+        throw util::Error(util::ErrorKind::kInvalidArgument, e.what());
       }
     }
     const auto focal = engine::focal_px_from_exif(
@@ -123,7 +122,7 @@ void print_progress(int n, int total, const engine::AddResult& r,
                     double model_error_px) {
   const auto& t = r.timings;
   std::cout << std::fixed << std::setprecision(2) << "[" << n << "/" << total
-            << "] " << r.id << "  " << engine::to_string(r.status);
+            << "] " << r.id << "  " << documents::to_string(r.status);
   if (!r.reason.empty()) std::cout << " (" << r.reason << ")";
   std::cout << "  features " << r.features << "  pairs " << r.matched_pairs
             << "  inliers " << r.pose_inliers << "  reproj "
@@ -248,7 +247,8 @@ engine::Reconstruction start(const ReconstructArgs& a) {
     return engine::Reconstruction::restore(read_input_file(a.resume),
                                            a.options);
   } catch (const std::runtime_error& e) {
-    throw StoreError(ErrorCode::kInvalidArgument, a.resume + ": " + e.what());
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      a.resume + ": " + e.what());
   }
 }
 
@@ -328,7 +328,8 @@ int run_reconstruct(const ReconstructArgs& a) {
     const std::string bytes = site.serialize();
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     if (!out)
-      throw StoreError(ErrorCode::kInternal, a.save_state + ": write failed");
+      throw util::Error(util::ErrorKind::kInternal,
+                        a.save_state + ": write failed");
   }
   return kExitOk;
 }

@@ -8,9 +8,9 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgcodecs.hpp>
 
-#include "arscout/db/errors.h"
 #include "arscout/engine/model_io.h"
 #include "arscout/engine/point_render.h"
+#include "arscout/util/error.h"
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
@@ -19,8 +19,6 @@ namespace arscout::cli {
 namespace {
 
 namespace fs = std::filesystem;
-using db::ErrorCode;
-using db::StoreError;
 
 struct RenderArgs {
   std::string model;
@@ -34,8 +32,8 @@ struct RenderArgs {
   std::string output;
 };
 
-StoreError bad(const std::string& what) {
-  return StoreError(ErrorCode::kInvalidArgument, what);
+util::Error bad(const std::string& what) {
+  return util::Error(util::ErrorKind::kInvalidArgument, what);
 }
 
 // The cloud to draw: FILE.ply itself, or in a model folder its dense.ply,
@@ -72,9 +70,9 @@ engine::PinholeView camera_view(const engine::Model& model,
   for (const engine::ModelImage& image : model.images)
     if (image.id == name) found = &image;
   if (!found)
-    throw StoreError(ErrorCode::kNotFound,
-                     "no image '" + name + "' in the model (" +
-                         std::to_string(model.images.size()) + " images)");
+    throw util::Error(util::ErrorKind::kNotFound,
+                      "no image '" + name + "' in the model (" +
+                          std::to_string(model.images.size()) + " images)");
   const engine::CameraIntrinsics& c =
       model.cameras.at(found->camera).intrinsics;
   const double scale = width > 0 ? static_cast<double>(width) / c.width : 1;
@@ -116,7 +114,8 @@ int run_render(const RenderArgs& a) {
   const engine::PointRendering out = engine::render_points(
       points, view.K, view.R, view.t, view.size, a.radius);
   if (!cv::imwrite(a.output, out.bgr))
-    throw StoreError(ErrorCode::kUnavailable, a.output + ": cannot write");
+    throw util::Error(util::ErrorKind::kUnavailable,
+                      a.output + ": cannot write");
   std::cout << "drew " << points.size() << " points, "
             << cv::countNonZero(out.depth > 0) << " of " << view.size.area()
             << " pixels covered, " << view.size.width << "x" << view.size.height

@@ -14,12 +14,12 @@
 #include <string>
 #include <vector>
 
-#include "arscout/db/errors.h"
 #include "arscout/db/path.h"
 #include "arscout/engine/camera.h"
 #include "arscout/engine/image_size.h"
 #include "arscout/ingest/client.h"
 #include "arscout/ingest/scout.h"
+#include "arscout/util/error.h"
 #include "arscout/util/file.h"
 #include "cli_support.h"
 #include "command_registry.h"
@@ -313,8 +313,8 @@ std::string parse_near(const std::string& text) {
   char extra;
   if (std::sscanf(text.c_str(), "%lf,%lf%c", &lat, &lon, &extra) != 2 ||
       !(lat >= -90 && lat <= 90) || !(lon >= -180 && lon <= 180))
-    throw db::StoreError(db::ErrorCode::kInvalidArgument,
-                         "--near wants LAT,LON in degrees, got '" + text + "'");
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      "--near wants LAT,LON in degrees, got '" + text + "'");
   std::ostringstream out;
   out.precision(10);
   out << lat << "," << lon;

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 
 #include "arscout/documents/capture.h"
 #include "arscout/util/file.h"
@@ -18,7 +19,7 @@ struct VerdictWatcher::Pending {
   std::string id;
   std::string file_name;
   Clock::time_point deadline;
-  mutable bool said = false;  // "registered" printed (the poll thread's)
+  mutable bool said = false;  // registered printed (the poll thread's)
 };
 
 namespace {
@@ -113,12 +114,15 @@ bool VerdictWatcher::poll(ingest::Client& client, const Pending& p) {
     const documents::Capture capture = documents::capture_from_json(
         doc.status == 200 ? doc.json().value("attrs", nlohmann::json::object())
                           : nlohmann::json::object());
-    const std::string& status = capture.status;
-    if (status == "rejected" || status == "withdrawn") {
-      say(name + lead + status + " " + capture.status_reason);
+    using documents::CaptureStatus;
+    const std::optional<CaptureStatus> status = capture.status;
+    if (status == CaptureStatus::kRejected ||
+        status == CaptureStatus::kWithdrawn) {
+      say(name + lead + to_string(*status) + " " + capture.status_reason);
       return true;
     }
-    if (status == "registered" && registered(client, p, capture.site))
+    if (status == CaptureStatus::kRegistered &&
+        registered(client, p, capture.site))
       return true;
   } catch (const std::exception&) {  // network trouble: try again later
   }

@@ -6,6 +6,7 @@
 #include "arscout/engine/service.h"
 #include "arscout/ingest/self_signed.h"
 #include "arscout/ingest/server.h"
+#include "arscout/util/error.h"
 #include "arscout/viewer/routes.h"
 #include "cli_support.h"
 #include "command_registry.h"
@@ -134,8 +135,8 @@ void print_scout_addresses(const ingest::ServerOptions& options, int port,
 int serve(ServeArgs& a) {
   ingest::ServerOptions options;
   if (!split_listen(a.listen, &options.host, &options.port))
-    throw db::StoreError(db::ErrorCode::kInvalidArgument,
-                         "--listen must be HOST:PORT, not '" + a.listen + "'");
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      "--listen must be HOST:PORT, not '" + a.listen + "'");
   options.tls_cert = a.tls_cert;
   options.tls_key = a.tls_key;
   if (a.tls_self_signed) use_self_signed(a, &options);

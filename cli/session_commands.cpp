@@ -6,6 +6,7 @@
 
 #include "arscout/db/errors.h"
 #include "arscout/ingest/session.h"
+#include "arscout/util/error.h"
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
@@ -14,7 +15,6 @@ namespace arscout::cli {
 namespace {
 
 namespace fs = std::filesystem;
-using db::ErrorCode;
 using db::StoreError;
 
 struct SessionExportArgs {
@@ -37,7 +37,7 @@ int run_session_export(const SessionExportArgs& a) {
   {
     std::ofstream out(part, std::ios::binary | std::ios::trunc);
     if (!out)
-      throw StoreError(ErrorCode::kUnavailable, part + ": cannot write");
+      throw util::Error(util::ErrorKind::kUnavailable, part + ": cannot write");
     std::int64_t shown = 0;
     summary = ingest::export_session(
         *store, a.since, out, [&](const ingest::SessionSummary& s) {
@@ -50,7 +50,7 @@ int run_session_export(const SessionExportArgs& a) {
     out.flush();
     if (!out) {
       fs::remove(part);
-      throw StoreError(ErrorCode::kUnavailable, part + ": cannot write");
+      throw util::Error(util::ErrorKind::kUnavailable, part + ": cannot write");
     }
   }
   fs::rename(part, a.output);
@@ -75,8 +75,10 @@ int run_replay(const ReplayArgs& a) {
   try {
     s = ingest::replay_session(a.file, *store, options);
   } catch (const std::runtime_error& e) {
-    if (dynamic_cast<const StoreError*>(&e)) throw;
-    throw StoreError(ErrorCode::kInvalidArgument, e.what());
+    if (dynamic_cast<const StoreError*>(&e) ||
+        dynamic_cast<const util::Error*>(&e))
+      throw;  // an error with its own kind keeps it
+    throw util::Error(util::ErrorKind::kInvalidArgument, e.what());
   }
   std::cout << "replayed " << s.captures << " captures, " << s.withdrawals
             << " withdrawals, " << s.cameras << " cameras in " << s.seconds

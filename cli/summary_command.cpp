@@ -83,9 +83,13 @@ std::map<std::string, int> capture_statuses(
   std::map<std::string, int> counts;
   for (const std::string& id : captures) {
     auto doc = store.get("/captures/" + id);
-    const std::string status =
-        doc ? documents::capture_from_json(doc->attrs).status : "missing";
-    ++counts[status.empty() ? "?" : status];
+    if (!doc) {
+      ++counts["missing"];
+      continue;
+    }
+    // "?": no status, or a word of another version.
+    const auto status = documents::capture_from_json(doc->attrs).status;
+    ++counts[status ? to_string(*status) : "?"];
   }
   return counts;
 }

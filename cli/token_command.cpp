@@ -9,6 +9,7 @@
 
 #include "arscout/ingest/auth.h"
 #include "arscout/ingest/gps.h"
+#include "arscout/util/error.h"
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
@@ -29,7 +30,7 @@ struct TokenArgs {
 };
 
 // "--expires": a duration from now ("90m", "12h", "30d") or an RFC 3339
-// time; nullopt when none was given. Throws StoreError when unreadable.
+// time; nullopt when none was given. Throws util::Error when unreadable.
 std::optional<std::int64_t> expiry(const std::string& text) {
   if (text.empty()) return std::nullopt;
   std::smatch m;
@@ -39,10 +40,10 @@ std::optional<std::int64_t> expiry(const std::string& text) {
            std::stoll(m[1]) * unit;
   }
   if (auto t = ingest::parse_time_utc(text)) return t;
-  throw db::StoreError(db::ErrorCode::kInvalidArgument,
-                       "--expires takes a duration (90m, 12h, 30d) or an "
-                       "RFC 3339 time, not '" +
-                           text + "'");
+  throw util::Error(util::ErrorKind::kInvalidArgument,
+                    "--expires takes a duration (90m, 12h, 30d) or an "
+                    "RFC 3339 time, not '" +
+                        text + "'");
 }
 
 // Why `--qr URL` cannot pair a phone, or "" when it can.

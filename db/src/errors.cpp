@@ -28,6 +28,24 @@ const char* to_string(ErrorCode code) {
   return "internal";
 }
 
+ErrorCode code_of(util::ErrorKind kind) {
+  switch (kind) {
+    case util::ErrorKind::kInvalidArgument:
+      return ErrorCode::kInvalidArgument;
+    case util::ErrorKind::kInvalidJson:
+      return ErrorCode::kInvalidJson;
+    case util::ErrorKind::kNotFound:
+      return ErrorCode::kNotFound;
+    case util::ErrorKind::kConflict:
+      return ErrorCode::kConflict;
+    case util::ErrorKind::kUnavailable:
+      return ErrorCode::kUnavailable;
+    case util::ErrorKind::kInternal:
+      break;
+  }
+  return ErrorCode::kInternal;
+}
+
 namespace {
 std::string describe_version(std::int64_t v) {
   return v == 0 ? std::string("absent") : "version " + std::to_string(v);

@@ -46,10 +46,14 @@ Number whole_or_zero(const Json& attrs, const char* key) {
 }  // namespace
 
 Json to_json(const Capture& c) {
-  Json j{{"scout", c.scout},   {"received", c.received},
-         {"format", c.format}, {"width", c.width},
-         {"height", c.height}, {"bytes", c.bytes},
-         {"status", c.status}, {"status_reason", c.status_reason},
+  Json j{{"scout", c.scout},
+         {"received", c.received},
+         {"format", c.format},
+         {"width", c.width},
+         {"height", c.height},
+         {"bytes", c.bytes},
+         {"status", c.status ? to_string(*c.status) : ""},
+         {"status_reason", c.status_reason},
          {"taken", c.taken}};
   if (c.gps) j["gps"] = to_json(*c.gps);
   put_if_set(j, "camera", c.camera);
@@ -71,7 +75,7 @@ Capture capture_from_json(const Json& attrs) {
   c.width = whole_or_zero<int>(attrs, "width");
   c.height = whole_or_zero<int>(attrs, "height");
   c.bytes = whole_or_zero<std::uint64_t>(attrs, "bytes");
-  c.status = string_or(attrs, "status");
+  c.status = capture_status_of(string_or(attrs, "status"));
   c.status_reason = string_or(attrs, "status_reason");
   c.taken = string_or(attrs, "taken");
   if (const Json* gps = fields::find(attrs, "gps")) c.gps = gps_from_json(*gps);
@@ -86,9 +90,9 @@ Capture capture_from_json(const Json& attrs) {
   return c;
 }
 
-Json status_patch(const std::string& status, const std::string& reason,
+Json status_patch(CaptureStatus status, const std::string& reason,
                   const std::string& site, std::optional<int> component) {
-  Json patch{{"status", status}, {"status_reason", reason}};
+  Json patch{{"status", to_string(status)}, {"status_reason", reason}};
   if (!site.empty()) patch["site"] = site;
   // null removes it in a merge patch: a withdrawn or dissolved photo has
   // no component.

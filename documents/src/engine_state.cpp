@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "arscout/documents/capture_status.h"
 #include "arscout/documents/document_error.h"
 #include "json_fields.h"
 
@@ -37,7 +38,7 @@ std::int64_t whole_number(const Json& attrs, const char* key) {
 
 Json to_json(const EngineState& state) {
   return Json{{"statuses", state.statuses},
-              {"registered", state.registered},
+              {kRegisteredCount, state.registered},
               {"through_seq", state.through_seq},
               {"dense_due", state.dense_due}};
 }
@@ -49,7 +50,7 @@ EngineState engine_state_from_json(const Json& attrs) {
     throw DocumentError("engine state: the attributes must be an object");
   EngineState state;
   state.statuses = statuses_of(attrs);
-  state.registered = whole_number(attrs, "registered");
+  state.registered = whole_number(attrs, kRegisteredCount);
   state.through_seq = whole_number(attrs, "through_seq");
   const Json* due = fields::find(attrs, "dense_due");
   state.dense_due = due && due->is_boolean() && due->get<bool>();

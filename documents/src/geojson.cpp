@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "arscout/documents/capture_status.h"
 #include "arscout/documents/document_error.h"
 
 namespace arscout::documents {
@@ -49,7 +50,7 @@ Json sites_geojson(const std::vector<std::pair<std::string, Site>>& sites) {
          {"properties",
           {{"name", site.name},
            {"captures", site.captures.size()},
-           {"registered", site.registered},
+           {kRegisteredCount, site.registered},
            {"model_version", site.model_version},
            {"state", site.state},
            {"radius_m", site.radius_m},

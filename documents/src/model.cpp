@@ -2,6 +2,7 @@
 
 #include <utility>
 
+#include "arscout/documents/capture_status.h"
 #include "arscout/documents/document_error.h"
 #include "json_fields.h"
 
@@ -26,12 +27,19 @@ constexpr std::pair<const char*, double ModelTimings::*> kTimings[] = {
 
 constexpr std::pair<const char*, std::size_t ModelStatistics::*> kCounts[] = {
     {"captures", &ModelStatistics::captures},
-    {"registered", &ModelStatistics::registered},
-    {"pending", &ModelStatistics::pending},
-    {"rejected", &ModelStatistics::rejected},
+    // Captures by status, under the status's word.
+    {kRegisteredCount, &ModelStatistics::registered},
+    {to_string(CaptureStatus::kPending), &ModelStatistics::pending},
+    {to_string(CaptureStatus::kRejected), &ModelStatistics::rejected},
     {"sparse_points", &ModelStatistics::sparse_points},
     {"dense_points", &ModelStatistics::dense_points},
     {"depth_maps", &ModelStatistics::depth_maps}};
+
+Json statuses_json(const std::map<std::string, CaptureStatus>& statuses) {
+  Json j = Json::object();
+  for (const auto& [id, status] : statuses) j[id] = to_string(status);
+  return j;
+}
 
 Json geo_json(const GeoPoint& p) {
   return {{"lat", p.lat}, {"lon", p.lon}, {"alt", p.alt}};
@@ -127,7 +135,7 @@ Json to_json(const ModelDocument& m) {
             {"geo_registered", m.geo_registered},
             {"cameras", Json::array()},
             {"images", Json::array()},
-            {"captures", m.capture_statuses},
+            {"captures", statuses_json(m.capture_statuses)},
             {"statistics", statistics_json(m.statistics)},
             {"increment", {{"added", m.added}, {"withdrawn", m.withdrawn}}},
             {"timings", Json::object()}};
@@ -172,8 +180,9 @@ ModelDocument model_from_json(const Json& attrs) {
            static_cast<std::size_t>(fields::number(c, "points").value_or(0))});
   if (const Json* statuses = fields::find(attrs, "captures"))
     for (const auto& [id, status] : statuses->items())
-      if (status.is_string())
-        m.capture_statuses[id] = status.get<std::string>();
+      if (status.is_string())  // words of other versions are left out
+        if (auto known = capture_status_of(status.get<std::string>()))
+          m.capture_statuses[id] = *known;
   m.statistics = statistics_from_json(attrs);
   if (const Json* increment = fields::find(attrs, "increment")) {
     m.added = strings_at(*increment, "added");

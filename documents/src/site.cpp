@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "arscout/documents/capture_status.h"
 #include "arscout/documents/document_error.h"
 #include "json_fields.h"
 
@@ -46,7 +47,7 @@ Json to_json(const Site& s) {
             {"cameras", s.cameras},
             {"captures", s.captures},
             {"capture_count", s.captures.size()},
-            {"registered", s.registered},
+            {kRegisteredCount, s.registered},
             {"model_version", s.model_version},
             {"state", s.state},
             {"engine", s.engine}};
@@ -72,7 +73,7 @@ Site site_from_json(const Json& attrs, const std::string& id) {
   s.captures = capture_list(attrs);
   s.centre = centre_of(attrs);
   s.registered =
-      static_cast<int>(fields::number(attrs, "registered").value_or(0));
+      static_cast<int>(fields::number(attrs, kRegisteredCount).value_or(0));
   s.model_version = static_cast<std::int64_t>(
       fields::number(attrs, "model_version").value_or(0));
   s.state = fields::string_or(attrs, "state");

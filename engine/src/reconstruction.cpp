@@ -88,18 +88,6 @@ std::string camera_key(const CaptureInput& capture) {
 
 }  // namespace
 
-const char* to_string(CaptureStatus status) {
-  switch (status) {
-    case CaptureStatus::kRegistered:
-      return "registered";
-    case CaptureStatus::kPending:
-      return "pending";
-    case CaptureStatus::kRejected:
-      return "rejected";
-  }
-  return "unknown";
-}
-
 struct Reconstruction::Impl {
   ReconstructionOptions options;
   Scene scene;

@@ -6,6 +6,7 @@
 
 #include "api_handlers.h"
 #include "arscout/db/path.h"
+#include "arscout/util/error.h"
 #include "arscout/util/log_value.h"
 #include "route_table.h"
 
@@ -275,6 +276,8 @@ HttpResponse Api::handle(const HttpRequest& request) {
   try {
     response = dispatch(request, &route);
   } catch (const db::StoreError& e) {
+    response = error_response(e);
+  } catch (const util::Error& e) {
     response = error_response(e);
   } catch (const std::exception& e) {
     spdlog::error("event=handler_failed route=\"{}\" error=\"{}\"", route,

@@ -150,7 +150,8 @@ Json capture_attrs(const CaptureFields& f, const Principal& who,
   c.width = probe.width;
   c.height = probe.height;
   c.bytes = bytes;
-  c.status = c.gps ? documents::kStatusStored : documents::kStatusNeedsGps;
+  c.status = c.gps ? documents::CaptureStatus::kStored
+                   : documents::CaptureStatus::kNeedsGps;
   c.status_reason = c.gps ? "" : "no GPS in the request or the EXIF";
   c.taken = f.taken.empty() ? exif.taken : f.taken;
   c.camera = f.camera;
@@ -256,11 +257,11 @@ HttpResponse withdraw_capture(ApiContext& ctx, const HttpRequest& /*req*/,
       return HttpResponse::error(
           403, "forbidden",
           "only its own scout or an admin may withdraw " + id);
-    if (capture.status == documents::kStatusWithdrawn)
+    if (capture.status == documents::CaptureStatus::kWithdrawn)
       return HttpResponse::json(200, to_json(*doc));
     db::WriteOp op = db::WriteOp::patch(
         path,
-        documents::status_patch(documents::kStatusWithdrawn,
+        documents::status_patch(documents::CaptureStatus::kWithdrawn,
                                 "withdrawn by " + ctx.who.name),
         doc->version);
     op.author = ctx.who.name;

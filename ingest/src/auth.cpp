@@ -1,4 +1,5 @@
 #include "arscout/ingest/auth.h"
+#include "arscout/util/error.h"
 
 #include <openssl/rand.h>
 
@@ -80,15 +81,15 @@ std::string token_name_problem(const std::string& name) {
 std::string create_token(db::Store& store, Role role, const std::string& name,
                          std::optional<std::int64_t> expires_s) {
   if (expires_s && *expires_s <= now_s())
-    throw db::StoreError(
-        db::ErrorCode::kInvalidArgument,
+    throw util::Error(
+        util::ErrorKind::kInvalidArgument,
         "the expiry " + format_time_utc(*expires_s) + " is not in the future");
   if (std::string problem = token_name_problem(name); !problem.empty())
-    throw db::StoreError(db::ErrorCode::kInvalidArgument, problem);
+    throw util::Error(util::ErrorKind::kInvalidArgument, problem);
   unsigned char random[32];
   if (RAND_bytes(random, sizeof random) != 1)
-    throw db::StoreError(db::ErrorCode::kInternal,
-                         "no randomness for a token (RAND_bytes failed)");
+    throw util::Error(util::ErrorKind::kInternal,
+                      "no randomness for a token (RAND_bytes failed)");
   std::string token = "ars_" + util::to_hex(random, sizeof random);
   db::Json attrs{{"role", to_string(role)},
                  {"name", name},
@@ -160,8 +161,8 @@ std::vector<TokenInfo> revoke_tokens(db::Store& store,
                                      const std::string& id_prefix,
                                      const std::string& name) {
   if (!id_prefix.empty() && id_prefix.size() < 8)
-    throw db::StoreError(db::ErrorCode::kInvalidArgument,
-                         "a token id needs at least 8 hex digits");
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      "a token id needs at least 8 hex digits");
   std::vector<TokenInfo> chosen;
   for (const TokenInfo& t : list_tokens(store)) {
     const bool match = id_prefix.empty()
@@ -170,15 +171,15 @@ std::vector<TokenInfo> revoke_tokens(db::Store& store,
     if (match) chosen.push_back(t);
   }
   if (chosen.empty())  // nothing to revoke: "no such", as docs/cli.md says
-    throw db::StoreError(
-        db::ErrorCode::kNotFound,
+    throw util::Error(
+        util::ErrorKind::kNotFound,
         "no token matches " +
             (id_prefix.empty() ? "the name " + name : "the id " + id_prefix));
   if (!id_prefix.empty() && chosen.size() > 1)
-    throw db::StoreError(db::ErrorCode::kInvalidArgument,
-                         "the id " + id_prefix + " matches " +
-                             std::to_string(chosen.size()) +
-                             " tokens: give more digits");
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      "the id " + id_prefix + " matches " +
+                          std::to_string(chosen.size()) +
+                          " tokens: give more digits");
   std::vector<TokenInfo> revoked;
   const std::string when = format_time_utc(now_s());
   for (TokenInfo& t : chosen) {

@@ -127,6 +127,11 @@ int http_status(db::ErrorCode code) {
   return 500;
 }
 
+HttpResponse error_response(const util::Error& e) {
+  const db::ErrorCode code = db::code_of(e.kind());
+  return HttpResponse::error(http_status(code), db::to_string(code), e.what());
+}
+
 HttpResponse error_response(const db::StoreError& e) {
   Json extra = Json::object();
   // A client resolving a conflict needs the version it lost to.

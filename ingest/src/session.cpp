@@ -10,6 +10,7 @@
 #include "arscout/documents/capture.h"
 #include "arscout/ingest/gps.h"
 #include "arscout/util/base64.h"
+#include "arscout/util/error.h"
 
 namespace arscout::ingest {
 namespace {
@@ -25,7 +26,7 @@ std::string input_kind(const db::Change& c,
   if (capture && c.op == db::OpType::kPut && c.version == 1) return "capture";
   if (capture && c.op == db::OpType::kPatch && doc) {
     const documents::Capture now = documents::capture_from_json(doc->attrs);
-    if (now.status == documents::kStatusWithdrawn &&
+    if (now.status == documents::CaptureStatus::kWithdrawn &&
         now.status_reason == "withdrawn by " + c.author)
       return "withdrawal";
   }
@@ -251,6 +252,8 @@ class Replayer {
     try {
       return handler(ctx);
     } catch (const db::StoreError& e) {
+      return error_response(e);
+    } catch (const util::Error& e) {
       return error_response(e);
     }
   }

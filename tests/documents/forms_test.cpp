@@ -51,7 +51,7 @@ Capture capture() {
   c.width = 3072;
   c.height = 2048;
   c.bytes = 1234567;
-  c.status = kStatusStored;
+  c.status = CaptureStatus::kStored;
   c.taken = "2026-11-21T13:05:00Z";
   c.gps = fix();
   c.camera = "fountain";
@@ -76,9 +76,9 @@ TEST(CaptureForm, ReadsLenientlyAndPatchesStatus) {
   EXPECT_FALSE(c.gps);  // not a valid fix: none
   EXPECT_THROW(capture_from_json(Json::array()), DocumentError);
   Json doc = to_json(capture());
-  doc.merge_patch(status_patch(kStatusRejected, "no GPS", "s-a"));
+  doc.merge_patch(status_patch(CaptureStatus::kRejected, "no GPS", "s-a"));
   const Capture patched = capture_from_json(doc);
-  EXPECT_EQ(patched.status, kStatusRejected);
+  EXPECT_EQ(patched.status, CaptureStatus::kRejected);
   EXPECT_EQ(patched.status_reason, "no GPS");
   EXPECT_EQ(patched.site, "s-a");
 }
@@ -131,7 +131,7 @@ ModelDocument model() {
   image.geodetic = GeoPoint{47.0701, 15.4402, 354};
   image.dense = true;
   m.images.push_back(image);
-  m.capture_statuses = {{"alice.0000.jpg", "registered"}};
+  m.capture_statuses = {{"alice.0000.jpg", CaptureStatus::kRegistered}};
   m.statistics.captures = 1;
   m.statistics.registered = 1;
   m.statistics.sparse_points = 120;

@@ -11,6 +11,7 @@
 #include "arscout/db/errors.h"
 #include "arscout/db/store.h"
 #include "arscout/ingest/auth.h"
+#include "arscout/util/error.h"
 #include "route_table.h"
 #include "test_stores.h"
 
@@ -79,6 +80,23 @@ TEST(StoreErrors, OneStatusPerCode) {
   EXPECT_EQ(allow_of(error_response(
                 db::StoreError(db::ErrorCode::kUnavailable, "down"))),
             "");
+}
+
+// An error that is not the store's answers as the store's code of its kind.
+TEST(StoreErrors, AnErrorOfAnotherKindAnswersAsItsCode) {
+  const std::pair<util::ErrorKind, int> expected[] = {
+      {util::ErrorKind::kInvalidArgument, 422},
+      {util::ErrorKind::kInvalidJson, 400},
+      {util::ErrorKind::kNotFound, 404},
+      {util::ErrorKind::kConflict, 409},
+      {util::ErrorKind::kUnavailable, 503},
+      {util::ErrorKind::kInternal, 500}};
+  for (const auto& [kind, status] : expected) {
+    const HttpResponse r = error_response(util::Error(kind, "why"));
+    EXPECT_EQ(r.status, status);
+    EXPECT_EQ(Json::parse(r.body)["error"], db::to_string(db::code_of(kind)));
+    EXPECT_EQ(Json::parse(r.body)["message"], "why");
+  }
 }
 
 class RoutesTest : public ::testing::Test {

@@ -19,6 +19,7 @@
 #include "arscout/ingest/change_stream.h"
 #include "arscout/ingest/client.h"
 #include "arscout/ingest/image_budget.h"
+#include "arscout/util/error.h"
 #include "flaky_upload.h"
 #include "png_bomb.h"
 #include "raw_http.h"
@@ -399,7 +400,7 @@ TEST_F(HostileClients, ScoutsCannotTakeEachOthersCaptureIds) {
   const std::string bob =
       ingest::create_token(*store, ingest::Role::kScout, "bob");
   EXPECT_THROW(ingest::create_token(*store, ingest::Role::kScout, "al.ice"),
-               db::StoreError);
+               util::Error);
   const auto upload = [&](const std::string& token, const std::string& id,
                           int image) {
     ingest::Client client({server_->url(), token});

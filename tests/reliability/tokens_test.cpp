@@ -12,6 +12,7 @@
 #include "arscout/ingest/change_stream.h"
 #include "arscout/ingest/client.h"
 #include "arscout/util/clock.h"
+#include "arscout/util/error.h"
 #include "serve_process.h"
 #include "test_stores.h"
 
@@ -106,7 +107,7 @@ TEST(TokenLifecycle, AnExpiredTokenIsRefused) {
   EXPECT_LT(until_closed(stream), 1.5);
   EXPECT_THROW(ingest::create_token(*store, ingest::Role::kScout, "late",
                                     std::time(nullptr) - 1),
-               db::StoreError);
+               util::Error);
 }
 
 }  // namespace

@@ -27,6 +27,7 @@
 #include "arscout/ingest/auth.h"
 #include "arscout/ingest/client.h"
 #include "arscout/ingest/server.h"
+#include "arscout/util/error.h"
 #include "arscout/viewer/exports.h"
 #include "arscout/viewer/overlay.h"
 #include "arscout/viewer/routes.h"
@@ -146,7 +147,7 @@ TEST_F(FountainSite, OverlayDrawsTheModelOverThePhoto) {
   std::cout << "overlay of 0005.jpg: " << drawn * 100
             << " % of the pixels drawn" << std::endl;
   EXPECT_GT(drawn, 0.3);
-  EXPECT_THROW(overlay_jpeg(*store_, "alice.nope.jpg", {}), db::StoreError);
+  EXPECT_THROW(overlay_jpeg(*store_, "alice.nope.jpg", {}), util::Error);
 }
 
 TEST_F(FountainSite, ColmapExportReadsBackWithTheSamePoses) {

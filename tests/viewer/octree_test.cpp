@@ -10,6 +10,7 @@
 
 #include "arscout/db/errors.h"
 #include "arscout/db/store.h"
+#include "arscout/util/error.h"
 #include "cloud_octree.h"
 #include "point_octree.h"
 #include "synthetic_street.h"
@@ -113,7 +114,7 @@ class CloudOctreeCacheTest : public ::testing::Test {
 
 TEST_F(CloudOctreeCacheTest, BuildsOncePerVersionAndFollowsTheModel) {
   CloudOctreeCache cache;
-  EXPECT_THROW(cache.current(*store_, "s", Cloud::kDense), db::StoreError);
+  EXPECT_THROW(cache.current(*store_, "s", Cloud::kDense), util::Error);
   street_cloud::write_street_site(*store_, "s",
                                   street_cloud::synthetic_street(20000));
   const auto first = cache.current(*store_, "s", Cloud::kDense);
@@ -163,8 +164,8 @@ TEST_F(CloudOctreeCacheTest, AMergedSiteServesTheModelOfTheSiteItGrewInto) {
   try {
     load_site_model(*store_, "nosuchsite");
     ADD_FAILURE() << "no error for a site that does not exist";
-  } catch (const db::StoreError& e) {
-    EXPECT_EQ(e.code(), db::ErrorCode::kNotFound);
+  } catch (const util::Error& e) {
+    EXPECT_EQ(e.kind(), util::ErrorKind::kNotFound);
     EXPECT_NE(std::string(e.what()).find("no site nosuchsite"),
               std::string::npos);
   }

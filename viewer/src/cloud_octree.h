@@ -65,7 +65,7 @@ class CloudOctreeCache {
       : max_bytes_(max_bytes) {}
 
   // The octree of the site's current model, its dense cloud when it has one
-  // and `which` is kDense. Throws db::StoreError kNotFound without a model.
+  // and `which` is kDense. Throws util::Error kNotFound without a model.
   std::shared_ptr<const CloudOctree> current(db::Store& store,
                                              const std::string& site,
                                              Cloud which);

@@ -1,4 +1,5 @@
 #include "arscout/viewer/exports.h"
+#include "arscout/util/error.h"
 
 #include <bit>
 #include <chrono>
@@ -8,7 +9,6 @@
 #include <random>
 #include <sstream>
 
-#include "arscout/db/errors.h"
 #include "arscout/documents/document_error.h"
 #include "arscout/documents/geojson.h"
 #include "arscout/engine/geo.h"
@@ -24,8 +24,6 @@ namespace arscout::viewer {
 namespace {
 
 namespace fs = std::filesystem;
-using db::ErrorCode;
-using db::StoreError;
 
 // A folder of its own under the system's temporary directory, removed with
 // everything in it when the scope ends: the model writers write files.
@@ -51,11 +49,11 @@ class ScratchDir {
 engine::Geodetic origin_of(const SiteModel& model) {
   const auto& origin = model.document.enu_origin;
   if (!model.document.geo_registered || !origin)
-    throw StoreError(ErrorCode::kInvalidArgument,
-                     "site " + model.site +
-                         ": the model is not geo-registered yet (fewer than "
-                         "three registered captures with GPS), so it has no "
-                         "geographic frame to export");
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      "site " + model.site +
+                          ": the model is not geo-registered yet (fewer than "
+                          "three registered captures with GPS), so it has no "
+                          "geographic frame to export");
   return {origin->lat, origin->lon, origin->alt};
 }
 
@@ -91,8 +89,8 @@ std::string tileset_zip(const std::vector<engine::ColoredPoint>& cloud,
                         const engine::Geodetic& origin, const std::string& site,
                         std::int64_t updated_us) {
   if (cloud.empty())
-    throw StoreError(ErrorCode::kNotFound,
-                     "site " + site + ": the model has no point cloud");
+    throw util::Error(util::ErrorKind::kNotFound,
+                      "site " + site + ": the model has no point cloud");
   ZipWriter zip;
   for (const TilesetFile& file : build_point_tileset(cloud, origin))
     zip.add(site + "/" + file.path, file.bytes, updated_us / 1000000);
@@ -106,7 +104,7 @@ std::string cameras_geojson_text(const SiteModel& model) {
     return documents::cameras_geojson(model.document)
         .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   } catch (const documents::DocumentError& e) {
-    throw StoreError(ErrorCode::kInvalidArgument, e.what());
+    throw util::Error(util::ErrorKind::kInvalidArgument, e.what());
   }
 }
 
@@ -227,8 +225,8 @@ ExportFile export_site(db::Store& store, const std::string& site,
       site + "-v" + std::to_string(model.version) + "-" + which;
   if (format == ExportFormat::kPly) {
     if (model.sparse_blob.empty())
-      throw StoreError(ErrorCode::kNotFound,
-                       "site " + site + ": the model has no point cloud");
+      throw util::Error(util::ErrorKind::kNotFound,
+                        "site " + site + ": the model has no point cloud");
     // The sparse cloud is one blob; the dense one is joined from its tiles.
     if (which == "sparse")
       return {base + ".ply", "application/x-ply",
@@ -254,7 +252,7 @@ ExportFile export_site(db::Store& store, const std::string& site,
               encode_site_las(load_cloud(store, model, cloud), origin, options,
                               model.updated_us)};
     } catch (const std::invalid_argument& e) {
-      throw StoreError(ErrorCode::kInvalidArgument, e.what());
+      throw util::Error(util::ErrorKind::kInvalidArgument, e.what());
     }
   }
   const std::string comment = "arscout site " + site + " model v" +
@@ -282,7 +280,7 @@ SitePoint project_site_point(db::Store& store, const std::string& site,
     point.xyz = output.from_geodetic(point.wgs84);
     return point;
   } catch (const std::invalid_argument& e) {
-    throw StoreError(ErrorCode::kInvalidArgument, e.what());
+    throw util::Error(util::ErrorKind::kInvalidArgument, e.what());
   }
 }
 

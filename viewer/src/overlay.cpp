@@ -1,4 +1,5 @@
 #include "arscout/viewer/overlay.h"
+#include "arscout/util/error.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,14 +8,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "arscout/db/errors.h"
 #include "arscout/ingest/image_budget.h"
 
 namespace arscout::viewer {
 namespace {
-
-using db::ErrorCode;
-using db::StoreError;
 
 // The drawn depth range: the 2nd to 98th percentile, so a few stray points
 // do not wash the colours out.
@@ -143,18 +140,19 @@ cv::Mat draw_overlay(const cv::Mat& photo, const ImageCamera& camera,
 std::string overlay_jpeg(db::Store& store, const std::string& capture,
                          const OverlayOptions& options) {
   const auto doc = store.get("/captures/" + capture);
-  if (!doc) throw StoreError(ErrorCode::kNotFound, "no capture " + capture);
+  if (!doc)
+    throw util::Error(util::ErrorKind::kNotFound, "no capture " + capture);
   const std::string site = doc->attrs.value("site", "");
   if (site.empty() || !doc->blobs.count("image"))
-    throw StoreError(ErrorCode::kNotFound,
-                     "capture " + capture + " is not in a site yet");
+    throw util::Error(util::ErrorKind::kNotFound,
+                      "capture " + capture + " is not in a site yet");
   const SiteModel model = load_site_model(store, site);
   const auto camera = image_camera(model, capture);
   if (!camera)
-    throw StoreError(ErrorCode::kNotFound,
-                     "capture " + capture + " is not registered in site " +
-                         site + "'s model (version " +
-                         std::to_string(model.version) + ")");
+    throw util::Error(util::ErrorKind::kNotFound,
+                      "capture " + capture + " is not registered in site " +
+                          site + "'s model (version " +
+                          std::to_string(model.version) + ")");
   const std::string bytes = store.get_blob(doc->blobs.at("image"));
   std::string why;
   const cv::Mat photo = ingest::decode_within_budget(
@@ -162,8 +160,8 @@ std::string overlay_jpeg(db::Store& store, const std::string& capture,
       // As the engine reads it: its poses are for the pixels as stored.
       cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION, &why);
   if (photo.empty())
-    throw StoreError(ErrorCode::kInternal,
-                     "the photo of capture " + capture + ": " + why);
+    throw util::Error(util::ErrorKind::kInternal,
+                      "the photo of capture " + capture + ": " + why);
   const cv::Mat drawn = draw_overlay(
       photo, *camera, load_cloud(store, model, options.cloud), options);
   std::vector<uchar> jpeg;

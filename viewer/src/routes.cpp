@@ -1,4 +1,5 @@
 #include "arscout/viewer/routes.h"
+#include "arscout/util/error.h"
 
 #include <array>
 #include <cmath>
@@ -26,7 +27,6 @@ namespace {
 // site's LAS and 3D Tiles files.
 constexpr std::size_t kExportCacheBytes = 256u << 20;
 
-using db::ErrorCode;
 using db::StoreError;
 using ingest::HttpRequest;
 using ingest::HttpResponse;
@@ -98,7 +98,7 @@ std::string thumbnail_jpeg(db::Store& store, const std::string& capture,
                            int size) {
   const auto doc = store.get("/captures/" + capture);
   if (!doc || !doc->blobs.count("image"))
-    throw StoreError(ErrorCode::kNotFound, "no capture " + capture);
+    throw util::Error(util::ErrorKind::kNotFound, "no capture " + capture);
   const std::string bytes = store.get_blob(doc->blobs.at("image"));
   // A reduced decode is far quicker than decoding 12 MP and shrinking.
   const int width = doc->attrs.value("width", 0);
@@ -112,8 +112,8 @@ std::string thumbnail_jpeg(db::Store& store, const std::string& capture,
   cv::Mat image = ingest::decode_within_budget(
       bytes, flag | cv::IMREAD_IGNORE_ORIENTATION, &why);
   if (image.empty())
-    throw StoreError(ErrorCode::kInternal,
-                     "the photo of capture " + capture + ": " + why);
+    throw util::Error(util::ErrorKind::kInternal,
+                      "the photo of capture " + capture + ": " + why);
   const double scale = std::min(
       1.0, static_cast<double>(size) / std::max(image.cols, image.rows));
   if (scale < 1)
@@ -307,7 +307,8 @@ HttpResponse octree_node(CloudOctreeCache& cache, db::Store& store,
 }
 
 // GET /v1/{collection}/{id}/{leaf}. Other methods get ingest's 405, and a
-// db::StoreError the API's status for it, as on every other route.
+// db::StoreError or util::Error the API's status for it, as on every other
+// route.
 ingest::ApiRoute route(
     const std::string& name, const std::string& collection,
     const std::string& leaf,
@@ -323,6 +324,8 @@ ingest::ApiRoute route(
       db::validate_path("/" + collection + "/" + id);  // ".." is no id
       return make(req, id);
     } catch (const StoreError& e) {
+      return ingest::error_response(e);
+    } catch (const util::Error& e) {
       return ingest::error_response(e);
     }
   };
@@ -341,6 +344,8 @@ ingest::ApiRoute octree_node_route(db::Store& store,
     try {
       return octree_node(*cache, store, req);
     } catch (const StoreError& e) {
+      return ingest::error_response(e);
+    } catch (const util::Error& e) {
       return ingest::error_response(e);
     }
   };

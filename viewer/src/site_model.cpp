@@ -1,4 +1,5 @@
 #include "arscout/viewer/site_model.h"
+#include "arscout/util/error.h"
 
 #include <Eigen/Geometry>
 
@@ -24,8 +25,8 @@ documents::ModelDocument read_model_document(const db::Document& doc,
   try {
     return documents::model_from_json(doc.attrs);
   } catch (const documents::DocumentError& e) {
-    throw StoreError(ErrorCode::kInternal,
-                     "the model of site " + site + " is damaged: " + e.what());
+    throw util::Error(util::ErrorKind::kInternal,
+                      "the model of site " + site + " is damaged: " + e.what());
   }
 }
 
@@ -36,15 +37,17 @@ std::string model_holder(db::Store& store, const std::string& site) {
   for (int hops = 0; hops < 64; ++hops) {  // a bounded chain of merges
     const auto doc = store.get("/sites/" + at);
     if (!doc) {
-      if (at == site) throw StoreError(ErrorCode::kNotFound, "no site " + site);
+      if (at == site)
+        throw util::Error(util::ErrorKind::kNotFound, "no site " + site);
       return at;
     }
     std::string next;
     try {
       next = documents::site_from_json(doc->attrs, at).merged_into;
     } catch (const documents::DocumentError& e) {
-      throw StoreError(ErrorCode::kInternal, "the document of site " + at +
-                                                 " is damaged: " + e.what());
+      throw util::Error(
+          util::ErrorKind::kInternal,
+          "the document of site " + at + " is damaged: " + e.what());
     }
     if (next.empty() || next.find('/') != std::string::npos) return at;
     at = next;
@@ -56,14 +59,14 @@ std::string model_holder(db::Store& store, const std::string& site) {
 
 SiteModel load_site_model(db::Store& store, const std::string& requested) {
   if (requested.empty() || requested.find('/') != std::string::npos)
-    throw StoreError(ErrorCode::kInvalidArgument,
-                     "'" + requested + "' is not a site id");
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      "'" + requested + "' is not a site id");
   db::validate_path("/sites/" + requested + "/model");
   const std::string site = model_holder(store, requested);
   const auto doc = store.get("/sites/" + site + "/model");
   if (!doc)
-    throw StoreError(ErrorCode::kNotFound,
-                     "site " + site + " has no model yet");
+    throw util::Error(util::ErrorKind::kNotFound,
+                      "site " + site + " has no model yet");
   SiteModel model;
   model.site = site;
   model.version = doc->version;
@@ -78,8 +81,8 @@ SiteModel load_site_model(db::Store& store, const std::string& requested) {
 engine::Model load_full_model(db::Store& store, const SiteModel& model) {
   const auto state = engine::load_site_reconstruction(store, model.site);
   if (!state)
-    throw StoreError(ErrorCode::kNotFound,
-                     "site " + model.site + " has no engine state");
+    throw util::Error(util::ErrorKind::kNotFound,
+                      "site " + model.site + " has no engine state");
   engine::Model full = state->model();
   std::vector<std::string> stated, restored;
   for (const documents::ModelImageEntry& image : model.document.images)
@@ -87,10 +90,10 @@ engine::Model load_full_model(db::Store& store, const SiteModel& model) {
   for (const engine::ModelImage& image : full.images)
     restored.push_back(image.id);
   if (stated != restored)
-    throw StoreError(ErrorCode::kUnavailable,
-                     "site " + model.site +
-                         ": the engine committed while the model was read; "
-                         "try again");
+    throw util::Error(util::ErrorKind::kUnavailable,
+                      "site " + model.site +
+                          ": the engine committed while the model was read; "
+                          "try again");
   return full;
 }
 
@@ -101,6 +104,8 @@ engine::Model load_consistent_full_model(db::Store& store,
     *model = load_site_model(store, site);
     try {
       return load_full_model(store, *model);
+    } catch (const util::Error& e) {  // the engine committed meanwhile
+      if (e.kind() != util::ErrorKind::kUnavailable || attempt == 4) throw;
     } catch (const StoreError& e) {
       if (e.code() != ErrorCode::kUnavailable || attempt == 4) throw;
     }
@@ -127,9 +132,9 @@ std::optional<ImageCamera> image_camera(const SiteModel& model,
   if (!image) return std::nullopt;
   const documents::ModelCameraEntry* entry = model.document.camera_of(*image);
   if (!entry)
-    throw db::StoreError(db::ErrorCode::kInternal,
-                         "model of " + model.site + ": image " + capture +
-                             " names an unknown camera");
+    throw util::Error(util::ErrorKind::kInternal,
+                      "model of " + model.site + ": image " + capture +
+                          " names an unknown camera");
   ImageCamera camera;
   camera.id = capture;
   camera.intrinsics = entry->camera;

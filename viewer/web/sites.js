@@ -1,6 +1,7 @@
 // The site list and the open site's capture statuses, as table rows.
 // Server data goes into the DOM as text only.
 
+import { CaptureStatus } from './capture_status.js';
 import { el, formatLatLon, formatTime } from './util.js';
 
 /** A site's id from its document path "/sites/ID". */
@@ -92,7 +93,7 @@ export function captureStatuses(id, site, model, captureDocs) {
     const status = attrs.status || inModel[capture] || 'unknown';
     // A stored capture the model lists as pending was tried but is not
     // registered yet (the engine tries again as the model grows).
-    const waiting = status === 'stored' && inModel[capture] === 'pending';
+    const waiting = status === CaptureStatus.STORED && inModel[capture] === CaptureStatus.PENDING;
     return {
       id: capture,
       filename: attrs.filename || '',
@@ -120,7 +121,7 @@ export function renderCaptures(tbody, rows, { onSelect, onOverlay, onViewFrom })
     const statusCell = el('td', {}, [state]);
     if (capture.reason) statusCell.append(el('div', { className: 'capture-reason', text: capture.reason }));
     const actions = el('td', { className: 'actions' });
-    if (capture.status === 'registered') {
+    if (capture.status === CaptureStatus.REGISTERED) {
       const button = el('button', { text: 'overlay', attrs: { type: 'button', title: 'the model drawn over the photo' } });
       button.addEventListener('click', (event) => {
         event.stopPropagation();

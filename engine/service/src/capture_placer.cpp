@@ -27,14 +27,14 @@ std::vector<std::pair<std::string, Work>> CapturePlacer::place(
   if (!doc || doc->kind != "capture") return {};
   const std::string id(db::leaf_name(change.path));
   const documents::Capture capture = documents::capture_from_json(doc->attrs);
-  if (capture.status == documents::kStatusWithdrawn) {
+  if (capture.status == documents::CaptureStatus::kWithdrawn) {
     auto site = board_.directory.site_of(id);
     if (!site) return {};
     return {
         {*site, Work{Work::Kind::kWithdraw, id, change.seq, capture.scout}}};
   }
-  if (capture.status != documents::kStatusStored &&
-      capture.status != documents::kStatusNeedsGps)
+  if (capture.status != documents::CaptureStatus::kStored &&
+      capture.status != documents::CaptureStatus::kNeedsGps)
     return unsaved_work(change, id, capture);
   // The engine patches `site` in the batch that commits the capture into
   // its site's state: a capture carrying it (a photo still waiting for
@@ -92,7 +92,7 @@ std::vector<std::pair<std::string, Work>> CapturePlacer::wait_for_position(
   board_.store.batch({db::WriteOp::patch(
       change.path,
       documents::status_patch(
-          documents::kStatusNeedsGps,
+          documents::CaptureStatus::kNeedsGps,
           "waiting for a position: no GPS fix, no site hint, and no photo "
           "of " +
               capture.scout + "'s placed within " +
@@ -110,7 +110,7 @@ std::vector<std::pair<std::string, Work>> CapturePlacer::wait_for_position(
 std::vector<std::pair<std::string, Work>> CapturePlacer::unsaved_work(
     const db::Change& change, const std::string& id,
     const documents::Capture& capture) {
-  if (capture.status == documents::kStatusRejected) return {};
+  if (capture.status == documents::CaptureStatus::kRejected) return {};
   const auto site = board_.directory.site_of(id);
   if (!site || change.seq <= leases_.settled_through(*site)) return {};
   return {{*site, Work{Work::Kind::kAdd, id, change.seq, capture.scout}}};

@@ -76,8 +76,7 @@ documents::ModelDocument model_document(
   for (const ModelComponent& c : model.components)
     doc.components.push_back({c.id, static_cast<std::size_t>(c.images),
                               static_cast<std::size_t>(c.points)});
-  for (const CaptureState& c : captures)
-    doc.capture_statuses[c.id] = to_string(c.status);
+  for (const CaptureState& c : captures) doc.capture_statuses[c.id] = c.status;
   doc.statistics = statistics(model, captures, report);
   doc.added = report.added;
   doc.withdrawn = report.withdrawn;

@@ -25,19 +25,6 @@ using Clock = std::chrono::steady_clock;
 
 using util::seconds_since;
 
-// What a capture's document says about it, as the published status.
-std::string published_status(CaptureStatus status) {
-  switch (status) {
-    case CaptureStatus::kRegistered:
-      return "registered";
-    case CaptureStatus::kRejected:
-      return "rejected";
-    case CaptureStatus::kPending:
-      break;
-  }
-  return "stored";  // waiting for the site to have enough captures
-}
-
 std::string site_path(const std::string& site, const std::string& leaf) {
   return "/sites/" + site + "/" + leaf;
 }
@@ -194,7 +181,8 @@ void SiteJob::add(const std::string& capture, bool more_follow,
                    : sparse_->add_capture(input);
   } catch (const std::invalid_argument& e) {
     // A photo the engine cannot use is rejected, not retried forever.
-    pending_statuses_[capture] = std::string("rejected\n") + e.what();
+    pending_statuses_[capture] =
+        to_string(CaptureStatus::kRejected) + ("\n" + std::string(e.what()));
     return;
   }
   report->added.push_back(capture);
@@ -299,7 +287,8 @@ Increment SiteJob::run(const std::vector<Work>& work,
 void SiteJob::add_status_ops(const std::vector<CaptureState>& captures,
                              std::vector<db::WriteOp>* ops) {
   for (const CaptureState& c : captures) {
-    const std::string status = published_status(c.status);
+    const std::string status =
+        to_string(documents::capture_document_status(c.status));
     const std::string key =
         status + "\n" +
         (c.component >= 0 ? "#" + std::to_string(c.component) : c.reason);
@@ -316,7 +305,9 @@ void SiteJob::add_status_ops(const std::vector<CaptureState>& captures,
     }
     ops->push_back(db::WriteOp::patch(
         "/captures/" + capture,
-        documents::status_patch(key.substr(0, cut), reason, id_, component)));
+        documents::status_patch(
+            documents::parse_capture_status(key.substr(0, cut)), reason, id_,
+            component)));
   }
 }
 

@@ -157,7 +157,7 @@ void SparseLane::after_engine_fault(SiteQueue& q, const std::vector<Work>& work,
   try {
     db::WriteOp op = db::WriteOp::patch(
         "/captures/" + w.capture,
-        documents::status_patch(documents::kStatusRejected,
+        documents::status_patch(documents::CaptureStatus::kRejected,
                                 "the engine failed on this photo " +
                                     std::to_string(kEngineFailures) +
                                     " times: " + what));

@@ -70,7 +70,7 @@ std::string accepted_text(const HttpResult& answer, const std::string& id,
   text << (why.empty() ? "" : " (" + why + ")") << "  " << answer.status;
   if (answer.headers.count("idempotent-replay")) text << " replay";
   text << " " << id << " seq " << doc.value("seq", Json()).dump() << " "
-       << (capture.status.empty() ? "?" : capture.status);
+       << (capture.status ? to_string(*capture.status) : "?");
   if (model) text << "  " << *model;
   return text.str();
 }

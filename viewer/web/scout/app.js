@@ -5,6 +5,7 @@
 // verdicts.
 
 import { ApiClient, healthz } from '../api.js';
+import { CaptureStatus } from '../capture_status.js';
 import { LiveFeed } from '../live.js';
 import { parsePly } from '../ply.js';
 import { debounce, serialized } from '../util.js';
@@ -322,11 +323,11 @@ async function refreshCapture(captureId) {
     store.setSetting('scout', state.scout);
   }
   const changes = { status: attrs.status, reason: attrs.status_reason || '', site: attrs.site || '' };
-  if (attrs.status === 'withdrawn') changes.state = 'withdrawn';
+  if (attrs.status === CaptureStatus.WITHDRAWN) changes.state = 'withdrawn';
   if (changes.site && changes.site !== state.site) chooseSite(changes.site);
   const record = await store.update(captureId, changes);
   if (record) renderPhoto(record);
-  if (attrs.status === 'registered' && state.model) stampVersions(state.model);
+  if (attrs.status === CaptureStatus.REGISTERED && state.model) stampVersions(state.model);
 }
 
 /** Photos registered in `model` that have no model version yet get its version. */
@@ -336,9 +337,9 @@ async function stampVersions(model) {
     const status = statuses[serverIdOf(photo)];
     if (!status || photo.state !== 'sent') continue;
     const changes = {};
-    if (status === 'registered' && !photo.modelVersion) changes.modelVersion = model.version;
-    if (status !== 'registered' && photo.modelVersion) changes.modelVersion = 0;
-    if (status !== photo.status && photo.status !== 'withdrawn') changes.status = status;
+    if (status === CaptureStatus.REGISTERED && !photo.modelVersion) changes.modelVersion = model.version;
+    if (status !== CaptureStatus.REGISTERED && photo.modelVersion) changes.modelVersion = 0;
+    if (status !== photo.status && photo.status !== CaptureStatus.WITHDRAWN) changes.status = status;
     if (!Object.keys(changes).length) continue;
     const record = await store.update(photo.captureId, changes);
     if (record) renderPhoto(record);
@@ -484,7 +485,7 @@ async function follow() {
   }
   feed.start(since);
   for (const photo of state.photos.values()) {
-    if (photo.state === 'sent' && photo.status !== 'withdrawn') refreshCapture(photo.captureId);
+    if (photo.state === 'sent' && photo.status !== CaptureStatus.WITHDRAWN) refreshCapture(photo.captureId);
   }
   if (state.site) loadModel();
 }
@@ -531,7 +532,7 @@ async function openSeeThrough(captureId) {
   const overlay = $('see-through-overlay');
   overlay.hidden = true;
   overlay.removeAttribute('data-capture');
-  if (photo.status === 'registered') {
+  if (photo.status === CaptureStatus.REGISTERED) {
     overlay.src = await overlayUrl(captureId, 1280).catch(() => '');
     overlay.hidden = !overlay.src;
     if (overlay.src) overlay.dataset.capture = captureId;
@@ -545,7 +546,7 @@ async function withdrawShown() {
     if (photo.state === 'sent') {
       await api.request(`/v1/captures/${encodeURIComponent(serverIdOf(photo))}`, { method: 'DELETE' });
     }
-    const record = await store.update(photo.captureId, { state: 'withdrawn', status: 'withdrawn', blob: null, modelVersion: 0 });
+    const record = await store.update(photo.captureId, { state: 'withdrawn', status: CaptureStatus.WITHDRAWN, blob: null, modelVersion: 0 });
     if (record) renderPhoto(record);
     setView('photos');
   } catch (err) {

@@ -4,6 +4,8 @@
 // (12 2D-3D matches, 5 inliers)"); a scout needs to know what to do next.
 // Each known reason maps to advice; an unknown one is shown as it is.
 
+import { CaptureStatus } from '../capture_status.js';
+
 const ADVICE = [
   [/no verified matches with any nearby capture/i,
     'too little overlap with earlier photos: step back or turn less between shots'],
@@ -46,18 +48,18 @@ export function describe(photo) {
       break;
   }
   switch (photo.status) {
-    case 'registered':
+    case CaptureStatus.REGISTERED:
       return {
         label: photo.modelVersion ? `registered · model v${photo.modelVersion}` : 'registered',
         tone: 'ok',
       };
-    case 'rejected':
+    case CaptureStatus.REJECTED:
       return { label: `rejected: ${advice(photo.reason)}`, tone: 'bad' };
-    case 'pending':
+    case CaptureStatus.PENDING:
       return { label: `not placed yet: ${advice(photo.reason)}`, tone: 'busy' };
-    case 'needs-gps':
+    case CaptureStatus.NEEDS_GPS:
       return { label: 'stored without a position: it joins your next photo with a fix (within 10 minutes)', tone: 'busy' };
-    case 'withdrawn':
+    case CaptureStatus.WITHDRAWN:
       return { label: 'withdrawn', tone: 'muted' };
     default:
       return { label: 'stored · waiting for the engine', tone: 'busy' };

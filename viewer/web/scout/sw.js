@@ -5,7 +5,7 @@
 // The API (/v1/, /healthz) is never cached: photos wait in IndexedDB
 // (store.js), not here.
 
-const CACHE = 'arscout-scout-v3';
+const CACHE = 'arscout-scout-v4';
 const SHELL = [
   './',
   'index.html',
@@ -22,6 +22,7 @@ const SHELL = [
   'icons/icon-192.png',
   'icons/icon-512.png',
   '../api.js',
+  '../capture_status.js',
   '../live.js',
   '../ply.js',
   '../util.js',

@@ -10,6 +10,7 @@
 // gives a new token.
 
 import { ApiError } from '../api.js';
+import { CaptureStatus } from '../capture_status.js';
 
 /** What a scout reads when the server stops accepting the token. */
 export const TOKEN_REJECTED =
@@ -142,7 +143,7 @@ export class Uploader {
       const doc = await response.json().catch(() => ({}));
       const attrs = doc.attrs || {};
       await this.update(photo, {
-        state: 'sent', blob: null, error: '', status: attrs.status || 'stored',
+        state: 'sent', blob: null, error: '', status: attrs.status || CaptureStatus.STORED,
         reason: attrs.status_reason || '', site: attrs.site || '',
         // The server keeps the id under the scout's name (docs/api.md).
         serverId: (doc.path || '').replace(/^\/captures\//, '') || photo.captureId,

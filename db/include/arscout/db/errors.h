@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "arscout/util/error.h"
+
 namespace arscout::db {
 
 enum class ErrorCode {
@@ -26,6 +28,10 @@ enum class ErrorCode {
 
 // Stable lower-case name of a code, e.g. "conflict" (used in JSON errors).
 const char* to_string(ErrorCode code);
+
+// The code of the same meaning as an error kind of the rest of arscout
+// (util/error.h), through which the CLI and the HTTP layer map both.
+ErrorCode code_of(util::ErrorKind kind);
 
 class StoreError : public std::runtime_error {
  public:

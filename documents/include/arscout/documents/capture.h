@@ -9,17 +9,10 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include "arscout/documents/capture_status.h"
 #include "arscout/documents/gps.h"
 
 namespace arscout::documents {
-
-// Statuses: the API writes "stored" (with a GPS fix), "needs-gps" (without)
-// and "withdrawn"; the engine writes "rejected" and the statuses of
-// docs/service.md ("registered", "pending", ...).
-inline constexpr char kStatusStored[] = "stored";
-inline constexpr char kStatusNeedsGps[] = "needs-gps";
-inline constexpr char kStatusWithdrawn[] = "withdrawn";
-inline constexpr char kStatusRejected[] = "rejected";
 
 // What the photo's EXIF said, as far as the engine may use it.
 struct CaptureExif {
@@ -36,7 +29,9 @@ struct Capture {
   int width = 0;         // pixels, from the image's own header
   int height = 0;
   std::uint64_t bytes = 0;
-  std::string status;
+  // None when the document holds no status or a word this version does
+  // not know (capture_status.h has the words and who writes which).
+  std::optional<CaptureStatus> status;
   std::string status_reason;
   std::string taken;  // RFC 3339, or "" when unknown
   std::optional<GpsFix> gps;
@@ -46,25 +41,26 @@ struct Capture {
   CaptureExif exif;
   std::string site;  // set by the engine once placed, else ""
   // The component of the site's model it registered in (docs/engine.md,
-  // "Components"), set by the engine with the status "registered".
+  // "Components"), set by the engine with the status registered.
   std::optional<int> component;
 };
 
 // The stored attributes: every field above, except that camera, site_hint,
-// filename, site, gps and the EXIF fields are left out when empty.
+// filename, site, gps and the EXIF fields are left out when empty (and
+// status is "" when none).
 nlohmann::json to_json(const Capture& capture);
 
 // Reads what a capture document holds. Lenient, as readers of documents
 // written by other versions must be: a missing or mistyped field reads as
-// its default, and a gps that is not a valid fix (gps_from_json) as none.
+// its default, a gps that is not a valid fix (gps_from_json) and a status
+// that is no capture status's word as none.
 // Throws DocumentError only when `attrs` is not a JSON object.
 Capture capture_from_json(const nlohmann::json& attrs);
 
 // The merge patch that sets a capture's status (and, when `site` is given,
 // the site it was placed in). `component` is written when registered and
 // removed otherwise.
-nlohmann::json status_patch(const std::string& status,
-                            const std::string& reason,
+nlohmann::json status_patch(CaptureStatus status, const std::string& reason,
                             const std::string& site = "",
                             std::optional<int> component = std::nullopt);
 

@@ -13,7 +13,8 @@
 namespace arscout::documents {
 
 struct EngineState {
-  // What was last published per capture ("registered", "failed", ...).
+  // What was last published per capture, as the engine service keys it
+  // (engine/service site_job.cpp: the status's word, then its reason).
   std::map<std::string, std::string> statuses;
   std::int64_t registered = 0;   // images in the sparse model
   std::int64_t through_seq = 0;  // the last feed position folded in
@@ -21,7 +22,8 @@ struct EngineState {
                                  // the two phases left it behind)
 };
 
-// {"statuses": {capture: status}, "registered", "through_seq", "dense_due"}.
+// {"statuses": {capture: status}, registered (the count), "through_seq",
+//  "dense_due"}.
 nlohmann::json to_json(const EngineState& state);
 
 // The patch a dense phase writes when it ends: {"dense_due": dense_due}.

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "arscout/documents/camera.h"
+#include "arscout/documents/capture_status.h"
 #include "arscout/documents/site.h"
 
 namespace arscout::documents {
@@ -75,7 +76,7 @@ struct ModelDocument {
   std::vector<ModelImageEntry> images;  // in order of registration
   // Largest first; empty in models written before components.
   std::vector<ModelComponentEntry> components;
-  std::map<std::string, std::string> capture_statuses;  // "captures"
+  std::map<std::string, CaptureStatus> capture_statuses;  // "captures"
   ModelStatistics statistics;
   std::vector<std::string> added;      // "increment": new in this version
   std::vector<std::string> withdrawn;  // and removed in it

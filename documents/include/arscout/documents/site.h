@@ -43,7 +43,7 @@ struct Site {
 
 // {"name", "radius", "fixes", "extent_m", "reach_m", "cameras", "captures",
 //  "capture_count",
-//  "gps": {"lat", "lon", "alt"} (with a centre), "registered",
+//  "gps": {"lat", "lon", "alt"} (with a centre), registered (the count),
 //  "model_version", "state", "engine", "merged_into" (when merged)}.
 nlohmann::json to_json(const Site& site);
 

@@ -36,6 +36,7 @@
 #include <string>
 #include <vector>
 
+#include "arscout/documents/capture_status.h"
 #include "arscout/engine/camera.h"
 #include "arscout/engine/geo.h"
 
@@ -144,8 +145,9 @@ struct StageTimings {
   double total_s = 0;
 };
 
-enum class CaptureStatus { kRegistered, kPending, kRejected };
-const char* to_string(CaptureStatus status);
+// The one list of capture statuses (documents/capture_status.h): a
+// capture the engine holds is registered, pending or rejected.
+using documents::CaptureStatus;
 
 struct AddResult {
   std::string id;

@@ -46,7 +46,7 @@ std::string token_name_problem(const std::string& name);
 // Creates a token for `name` with `role` and returns it (the only time it is
 // seen). For a scout also creates /scouts/{name} if it does not exist.
 // With `expires_s` (seconds since the Unix epoch, UTC) the token stops
-// working then. Throws db::StoreError for an invalid name or an expiry in
+// working then. Throws util::Error for an invalid name or an expiry in
 // the past.
 std::string create_token(db::Store& store, Role role, const std::string& name,
                          std::optional<std::int64_t> expires_s = std::nullopt);
@@ -79,7 +79,7 @@ std::vector<TokenInfo> list_tokens(db::Store& store);
 // Revokes the tokens whose id starts with `id_prefix` (at least 8 hex
 // digits, and it must name exactly one token) or, with an empty prefix,
 // every token of `name`. Returns the tokens revoked now (already revoked
-// ones are left as they are). Throws db::StoreError: kInvalidArgument when
+// ones are left as they are). Throws util::Error: kInvalidArgument when
 // the selection is ambiguous or the prefix too short, kNotFound when it
 // matches nothing.
 std::vector<TokenInfo> revoke_tokens(db::Store& store,

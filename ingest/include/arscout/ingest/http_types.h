@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "arscout/db/errors.h"
+#include "arscout/util/error.h"
 
 namespace arscout::ingest {
 
@@ -89,5 +90,8 @@ int http_status(db::ErrorCode code);
 // That status with {"error": the code's name, "message": e.what()}, and
 // "current_version" for a conflict.
 HttpResponse error_response(const db::StoreError& e);
+// The same for an error that is not the store's, through the store's code
+// of its kind (db::code_of): a viewer route's kNotFound is a 404 too.
+HttpResponse error_response(const util::Error& e);
 
 }  // namespace arscout::ingest

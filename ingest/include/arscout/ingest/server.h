@@ -24,8 +24,8 @@ namespace arscout::ingest {
 // that have the same pattern (ingest's documents: one route to read, one
 // to write); a method none of them takes is 405 with Allow. A request
 // without a valid token is 401, a role below the route's 403; the handler
-// runs on the handler pool, and a db::StoreError it throws is answered
-// with error_response (http_types.h).
+// runs on the handler pool, and a db::StoreError or util::Error it throws
+// is answered with error_response (http_types.h).
 struct ApiRoute {
   ApiRoute() = default;
   // A route found by `matches` alone, for any method and any valid token.

@@ -58,7 +58,7 @@ struct ExportOptions {
   std::string heights = "ellipsoid";
 };
 
-// Throws db::StoreError: kNotFound without a model; kInvalidArgument for
+// Throws util::Error: kNotFound without a model; kInvalidArgument for
 // geocsv, ecef-ply, las, 3dtiles or geojson on a model that is not
 // geo-registered (its frame is arbitrary, so there is no honest geography to
 // give), and for a CRS or heights option that does not fit the site (the
@@ -84,7 +84,7 @@ std::string encode_ecef_ply(const std::vector<engine::ColoredPoint>& points,
 
 // A point of the site's ENU frame in an output CRS (the viewer's picked
 // point): its WGS84 position and its coordinates in `crs` with `heights`
-// (as ExportOptions). Throws db::StoreError kNotFound without a model,
+// (as ExportOptions). Throws util::Error kNotFound without a model,
 // kInvalidArgument when the model is not geo-registered or the CRS does not
 // fit the site.
 struct SitePoint {

@@ -44,7 +44,7 @@ cv::Mat draw_overlay(const cv::Mat& photo, const ImageCamera& camera,
                      const OverlayOptions& options);
 
 // The overlay of capture `capture` as JPEG bytes, from the store: its
-// photo, its site's current model. Throws db::StoreError kNotFound when the
+// photo, its site's current model. Throws util::Error kNotFound when the
 // capture is unknown or not (yet) registered in its site's model.
 std::string overlay_jpeg(db::Store& store, const std::string& capture,
                          const OverlayOptions& options);

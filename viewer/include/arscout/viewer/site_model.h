@@ -39,14 +39,14 @@ struct SiteModel {
 
 // The model of site `requested`, or of the site it grew into (its document
 // says `merged_into`; followed through later merges): then `SiteModel::site`
-// names that one. Throws db::StoreError kNotFound ("no site S") for a site
+// names that one. Throws util::Error kNotFound ("no site S") for a site
 // that was never placed, kNotFound ("site S has no model yet") when there
 // is no model document yet, kInvalidArgument for a site id that is not a
 // path segment, kInternal when the document does not hold the model form.
 SiteModel load_site_model(db::Store& store, const std::string& requested);
 
 // The full model (keypoints and tracks included), restored from the
-// engine state that was committed with `model`. Throws db::StoreError
+// engine state that was committed with `model`. Throws util::Error
 // kUnavailable when the state and the document disagree on the registered
 // images (the engine committed between the two reads: read both again).
 engine::Model load_full_model(db::Store& store, const SiteModel& model);
