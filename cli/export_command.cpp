@@ -26,12 +26,11 @@ struct ExportArgs {
 };
 
 int run_export(const ExportArgs& a) {
-  const auto format = viewer::parse_export_format(a.format);
+  const viewer::Exporter* format = viewer::find_exporter(a.format);
   if (!format)
     throw util::Error(util::ErrorKind::kInvalidArgument,
-                      "--format must be ply, colmap, geocsv, ecef-ply, las, "
-                      "3dtiles or geojson, not '" +
-                          a.format + "'");
+                      "--format must be " + viewer::exporter_names(", ") +
+                          ", not '" + a.format + "'");
   viewer::ExportOptions options;
   options.cloud =
       a.cloud == "sparse" ? viewer::Cloud::kSparse : viewer::Cloud::kDense;
@@ -51,34 +50,53 @@ int run_export(const ExportArgs& a) {
   return kExitOk;
 }
 
+// The formats, a line each, from the registry: the command's help footer.
+std::string formats_help() {
+  std::string help = "Formats (GET /v1/exports lists the same):";
+  for (const viewer::Exporter* e : viewer::exporters())
+    help += "\n  " + std::string(e->name) + " (" + std::string(e->extension) +
+            "): " + std::string(e->summary);
+  return help;
+}
+
+// The formats that read an option (Exporter::takes_cloud, takes_crs).
+std::string formats_taking(bool viewer::Exporter::*option) {
+  std::string names;
+  for (const viewer::Exporter* e : viewer::exporters()) {
+    if (!(e->*option)) continue;
+    if (!names.empty()) names += ", ";
+    names += e->name;
+  }
+  return names;
+}
+
 void add_export_command(CLI::App& app) {
   static ExportArgs args;
   CLI::App* cmd = app.add_subcommand(
       "export",
-      "write a site's current model as ply (ENU), colmap (text model, tar), "
-      "geocsv (camera positions), ecef-ply or las (GIS), 3dtiles (a zip "
-      "for Cesium) or geojson (the cameras, for web maps); docs/frames.md");
+      "write a site's current model in a standard file (docs/frames.md)");
+  cmd->footer(formats_help());
   cmd->add_option("--db", args.db,
                   "database URL: sqlite:FILE or postgresql://...")
       ->required();
   cmd->add_option("--site", args.site, "site id, e.g. s-alice-0000")
       ->required();
-  cmd->add_option("--format", args.format,
-                  "ply | colmap | geocsv | ecef-ply | las | 3dtiles | geojson")
+  cmd->add_option("--format", args.format, viewer::exporter_names(" | "))
       ->required();
   cmd->add_option("--cloud", args.cloud,
-                  "for ply, ecef-ply, las and 3dtiles: dense (when the model "
-                  "has one) or "
-                  "sparse")
+                  "for " + formats_taking(&viewer::Exporter::takes_cloud) +
+                      ": dense (when the model has one) or sparse")
       ->capture_default_str()
       ->check(CLI::IsMember({"dense", "sparse"}));
+  const std::string crs_formats = formats_taking(&viewer::Exporter::takes_crs);
   cmd->add_option("--crs", args.crs,
-                  "for las: utm (the site's UTM zone) or EPSG:<code> of a "
-                  "projected or geographic CRS covering the site")
+                  "for " + crs_formats +
+                      ": utm (the site's UTM zone) or EPSG:<code> of a "
+                      "projected or geographic CRS covering the site")
       ->capture_default_str();
   cmd->add_option("--heights", args.heights,
-                  "for las: ellipsoid (WGS84) or egm96 (above the EGM96 "
-                  "geoid)")
+                  "for " + crs_formats +
+                      ": ellipsoid (WGS84) or egm96 (above the EGM96 geoid)")
       ->capture_default_str()
       ->check(CLI::IsMember({"ellipsoid", "egm96"}));
   cmd->add_option("-o,--output", args.output, "file to write ('-': stdout)")

@@ -509,8 +509,9 @@ TEST_F(HostileRoundTwo, TheServerStaysUpUnderEveryAttackAtOnce) {
   // The acceptance's 100 ms is asserted in the long run only (ctest -L
   // long, alone on the machine): beside the suite's other tests, a time
   // says more about them than about this server.
-  if (std::getenv("ARSCOUT_ATTACKS") && !kSanitized)
+  if (std::getenv("ARSCOUT_ATTACKS") && !kSanitized) {
     EXPECT_LT(health.slowest_ms(), 100);
+  }
 }
 
 }  // namespace

@@ -254,6 +254,7 @@ async function run(config, page) {
   }
 
   await checkViewFromPhoto(page);
+  await checkExportButtons(page, config);
 
   const finalShot = config.screenshot.replace(/\.png$/i, '') + '-after.png';
   await page.screenshot({ path: finalShot });
@@ -298,6 +299,24 @@ async function checkViewFromPhoto(page) {
   });
   if (Math.hypot(...back.map((v, i) => v - home[i])) > 1e-6) fail('reset did not return to the site\'s view');
   log(`view from ${id}: the eye at its centre, looking along its axis; reset returns`);
+}
+
+/**
+ * The export buttons are the server's registry (GET /v1/exports), one per
+ * format, in its order (issue 39): a format added on the server needs no
+ * change to the page.
+ */
+async function checkExportButtons(page, config) {
+  const response = await fetch(`${config.server}/v1/exports`, {
+    headers: { Authorization: `Bearer ${config.plannerToken}` },
+  });
+  if (!response.ok) fail(`GET /v1/exports: ${response.status}`);
+  const listed = (await response.json()).formats.map((f) => f.name);
+  const buttons = await page.$$eval('#exports button[data-format]', (all) => all.map((b) => b.dataset.format));
+  if (listed.length < 7 || JSON.stringify(buttons) !== JSON.stringify(listed)) {
+    fail(`export buttons ${buttons.join(', ')} against the registry's ${listed.join(', ')}`);
+  }
+  log(`export buttons: ${buttons.join(', ')} (GET /v1/exports)`);
 }
 
 async function main() {

@@ -151,7 +151,7 @@ TEST_F(FountainSite, OverlayDrawsTheModelOverThePhoto) {
 }
 
 TEST_F(FountainSite, ColmapExportReadsBackWithTheSamePoses) {
-  const ExportFile file = export_site(*store_, site_, ExportFormat::kColmap);
+  const ExportFile file = export_site(*store_, site_, "colmap");
   EXPECT_EQ(file.content_type, "application/x-tar");
   std::ofstream(dir_ / "model.tar", std::ios::binary) << file.bytes;
   ASSERT_EQ(std::system(("tar -xf '" + (dir_ / "model.tar").string() +
@@ -192,7 +192,7 @@ TEST_F(FountainSite, ColmapExportReadsBackWithTheSamePoses) {
 }
 
 TEST_F(FountainSite, GeoCsvIsTheModelsGeoRegistration) {
-  const ExportFile file = export_site(*store_, site_, ExportFormat::kGeoCsv);
+  const ExportFile file = export_site(*store_, site_, "geocsv");
   std::ofstream(dir_ / "cameras.csv") << file.bytes;
   const auto rows = eval::read_geo_csv((dir_ / "cameras.csv").string());
   const Json& images = model_.attrs.at("images");
@@ -222,9 +222,8 @@ TEST_F(FountainSite, GeoCsvIsTheModelsGeoRegistration) {
 }
 
 TEST_F(FountainSite, PlyExportsHoldTheCloudsInTheirFrames) {
-  const ExportFile enu = export_site(*store_, site_, ExportFormat::kPly);
-  const ExportFile sparse =
-      export_site(*store_, site_, ExportFormat::kPly, Cloud::kSparse);
+  const ExportFile enu = export_site(*store_, site_, "ply");
+  const ExportFile sparse = export_site(*store_, site_, "ply", Cloud::kSparse);
   EXPECT_EQ(sparse.bytes, store_->get_blob(model_.sparse_blob));
   // The dense PLY joins the stored tiles, point for point.
   const auto cloud = engine::decode_ply(enu.bytes);
@@ -237,7 +236,7 @@ TEST_F(FountainSite, PlyExportsHoldTheCloudsInTheirFrames) {
                 cloud[i].g == tiles[i].g && cloud[i].b == tiles[i].b)
         << "point " << i;
 
-  const ExportFile ecef = export_site(*store_, site_, ExportFormat::kEcefPly);
+  const ExportFile ecef = export_site(*store_, site_, "ecef-ply");
   const size_t end = ecef.bytes.find("end_header\n");
   ASSERT_NE(end, std::string::npos);
   EXPECT_NE(ecef.bytes.find("element vertex " + std::to_string(cloud.size())),
@@ -268,7 +267,7 @@ TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
 
   const auto tar = client.get("/v1/sites/" + site_ + "/export?format=colmap");
   ASSERT_EQ(tar.status, 200) << tar.body;
-  EXPECT_EQ(tar.body, export_site(*store_, site_, ExportFormat::kColmap).bytes);
+  EXPECT_EQ(tar.body, export_site(*store_, site_, "colmap").bytes);
   EXPECT_NE(tar.headers.at("content-disposition").find("colmap.tar"),
             std::string::npos);
   const auto overlay = client.get("/v1/captures/alice.0003.jpg/overlay.jpg");
@@ -309,8 +308,7 @@ TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
       client.get("/v1/sites/" + site_ + "/export?format=3dtiles");
   ASSERT_EQ(tiles.status, 200);
   EXPECT_EQ(tiles.headers.at("content-type"), "application/zip");
-  EXPECT_EQ(tiles.body,
-            export_site(*store_, site_, ExportFormat::k3dTiles).bytes);
+  EXPECT_EQ(tiles.body, export_site(*store_, site_, "3dtiles").bytes);
   EXPECT_NE(tiles.body.find(site_ + "/tileset.json"), std::string::npos);
   EXPECT_EQ(client.get("/v1/sites/" + site_ + "/export?format=obj").status,
             400);
@@ -338,8 +336,7 @@ TEST_F(FountainSite, ExportCommandWritesTheSameFile) {
       site_ + " --format geocsv -o " + out;
   ASSERT_EQ(std::system(command.c_str()), 0);
   store_ = db::Store::open("sqlite:" + (dir_ / "arscout.db").string());
-  EXPECT_EQ(read_file(out),
-            export_site(*store_, site_, ExportFormat::kGeoCsv).bytes);
+  EXPECT_EQ(read_file(out), export_site(*store_, site_, "geocsv").bytes);
   // The cameras as GeoJSON: the bytes GET .../cameras.geojson serves.
   const std::string geojson = (dir_ / "cameras.geojson").string();
   store_.reset();
@@ -367,9 +364,9 @@ TEST_F(FountainSite, ExportCommandWritesTheSameFile) {
 TEST_F(FountainSite, LasExportsAgreeAndCarryGeoidHeights) {
   ExportOptions egm96;
   egm96.heights = "egm96";
-  const ExportFile las = export_site(*store_, site_, ExportFormat::kLas, egm96);
+  const ExportFile las = export_site(*store_, site_, "las", egm96);
   const ExportFile ellipsoidal =
-      export_site(*store_, site_, ExportFormat::kLas, ExportOptions{});
+      export_site(*store_, site_, "las", ExportOptions{});
   ASSERT_EQ(las.bytes.substr(0, 4), "LASF");
   std::uint64_t count = 0;
   std::uint32_t offset = 0;

@@ -6,12 +6,15 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
 
+#include "arscout/util/error.h"
+#include "arscout/viewer/exporter.h"
 #include "arscout/viewer/exports.h"
 #include "arscout/viewer/overlay.h"
 #include "tar_writer.h"
@@ -228,15 +231,39 @@ TEST(ViewerEcefPly, DoublesInEcefWithTheColours) {
                std::invalid_argument);
 }
 
-TEST(ViewerExportFormat, NamesRoundTrip) {
-  for (const char* name :
-       {"ply", "colmap", "geocsv", "ecef-ply", "las", "3dtiles", "geojson"}) {
-    const auto format = parse_export_format(name);
-    ASSERT_TRUE(format) << name;
-    EXPECT_STREQ(to_string(*format), name);
+// The registry (exporter.h): the formats users' scripts name are there,
+// each found by its name and described for --help, GET /v1/exports and the
+// viewer.
+TEST(ExportRegistry, EveryFormatIsFoundByItsNameAndDescribed) {
+  std::set<std::string_view> names;
+  for (const Exporter* e : exporters()) {
+    EXPECT_TRUE(names.insert(e->name).second) << e->name << " twice";
+    EXPECT_EQ(find_exporter(e->name), e);
+    EXPECT_EQ(e->extension.substr(0, 1), ".") << e->name;
+    EXPECT_NE(e->mime_type.find('/'), std::string_view::npos) << e->name;
+    EXPECT_FALSE(e->summary.empty()) << e->name;
+    EXPECT_NE(e->write, nullptr) << e->name;
   }
-  EXPECT_FALSE(parse_export_format("PLY"));
-  EXPECT_FALSE(parse_export_format(""));
+  for (const char* name :
+       {"ply", "colmap", "geocsv", "ecef-ply", "las", "3dtiles", "geojson"})
+    EXPECT_TRUE(names.count(name)) << name;
+  EXPECT_FALSE(find_exporter("PLY"));
+  EXPECT_FALSE(find_exporter(""));
+  EXPECT_EQ(exporter_names(" | ").substr(0, 12), "ply | colmap");
+}
+
+TEST(ExportRegistry, AnUnknownFormatIsRefusedNamingTheFormats) {
+  auto store = db::Store::open(testing::fresh_sqlite_url());
+  try {
+    export_site(*store, "s1", "obj");
+    FAIL() << "an unknown format was exported";
+  } catch (const util::Error& e) {
+    EXPECT_EQ(e.kind(), util::ErrorKind::kInvalidArgument);
+    const std::string what = e.what();
+    EXPECT_NE(what.find("'obj'"), std::string::npos) << what;
+    for (const Exporter* format : exporters())
+      EXPECT_NE(what.find(format->name), std::string::npos) << what;
+  }
 }
 
 }  // namespace

@@ -137,13 +137,13 @@ HttpResponse thumbnail(db::Store& store, const HttpRequest& req,
 HttpResponse site_export(ExportCache& cache, db::Store& store,
                          const HttpRequest& req, const std::string& site) {
   auto it = req.query.find("format");
-  const auto format =
-      it == req.query.end() ? std::nullopt : parse_export_format(it->second);
+  const Exporter* format =
+      it == req.query.end() ? nullptr : find_exporter(it->second);
   if (!format)
-    return HttpResponse::error(
-        400, "bad_request",
-        "query parameter 'format' must be ply, colmap, geocsv, ecef-ply, las, "
-        "3dtiles or geojson");
+    return HttpResponse::error(400, "bad_request",
+                               "query parameter 'format' must be " +
+                                   exporter_names(", ") +
+                                   " (GET /v1/exports lists them)");
   std::optional<HttpResponse> bad;
   ExportOptions options;
   if (auto cloud = cloud_query(req, &bad)) options.cloud = *cloud;
@@ -159,7 +159,7 @@ HttpResponse site_export(ExportCache& cache, db::Store& store,
   const SiteModel model = load_site_model(store, site);
   const std::string key =
       model.site + "/" + std::to_string(model.version) + "/" +
-      to_string(*format) + "/" +
+      std::string(format->name) + "/" +
       (options.cloud == Cloud::kDense ? "dense" : "sparse") + "/" +
       options.crs + "/" + options.heights;
   const std::shared_ptr<const ExportFile> file = cache.get(
@@ -332,6 +332,30 @@ ingest::ApiRoute route(
   return r;
 }
 
+// GET /v1/exports: the export formats, as the registry lists them, for
+// clients that offer them (the web viewer's export buttons).
+ingest::ApiRoute exports_route() {
+  ingest::ApiRoute r;
+  r.name = "GET /v1/exports";
+  r.methods = {"GET"};
+  r.pattern = "/v1/exports";
+  r.handle = [](const HttpRequest&, const ingest::Principal&) {
+    Json formats = Json::array();
+    for (const Exporter* e : exporters()) {
+      Json options = Json::array();
+      if (e->takes_cloud) options.push_back("cloud");
+      if (e->takes_crs) options.insert(options.end(), {"crs", "heights"});
+      formats.push_back({{"name", e->name},
+                         {"extension", e->extension},
+                         {"mime_type", e->mime_type},
+                         {"summary", e->summary},
+                         {"options", options}});
+    }
+    return HttpResponse::json(200, Json{{"formats", formats}});
+  };
+  return r;
+}
+
 }  // namespace
 
 ingest::ApiRoute octree_node_route(db::Store& store,
@@ -381,6 +405,7 @@ std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
               return site_cameras_geojson(*s, id);
             }),
       std::move(export_route),
+      exports_route(),
       route("GET /v1/sites/*/octree", "sites", "octree",
             [s, octrees](const HttpRequest& req, const std::string& id) {
               return site_octree(*octrees, *s, req, id);

@@ -92,6 +92,7 @@ async function start() {
   status.clear();
   await refreshSites();
   if (!tokenStore.get()) return; // the token was rejected
+  loadExportFormats().catch((err) => report(err, 'the export formats were not loaded'));
   feed.start(state.lastSeq);
   openFromHash();
 }
@@ -617,9 +618,6 @@ function wireControls() {
   viewer.setPointSize(Number(size.value));
   $('show-frusta').addEventListener('change', (event) => viewer.frusta.setVisible(event.target.checked));
   $('reset-view').addEventListener('click', () => viewer.resetView());
-  for (const button of $('exports').querySelectorAll('button[data-format]')) {
-    button.addEventListener('click', () => exportSite(button.dataset.format));
-  }
   overlayDialog.init();
   wireViewOptions();
   window.addEventListener('hashchange', () => {
@@ -627,26 +625,40 @@ function wireControls() {
   });
 }
 
-const EXPORT_EXTENSIONS = {
-  ply: '.ply', 'ecef-ply': '.ply', geocsv: '.csv', colmap: '.tar', las: '.las', '3dtiles': '.zip',
-};
+/** The export formats as the server's registry lists them (GET
+ * /v1/exports): one button each, with its summary as the tooltip. */
+async function loadExportFormats() {
+  const row = $('exports');
+  if (row.childElementCount) return;
+  const { formats } = await api.json('/v1/exports');
+  for (const format of formats) {
+    const button = document.createElement('button');
+    button.type = 'button';
+    button.dataset.format = format.name;
+    button.textContent = format.name;
+    button.title = format.summary + (format.options.includes('crs') ? ' (in the CRS and heights chosen above)' : '');
+    button.addEventListener('click', () => exportSite(format));
+    row.append(button);
+  }
+}
 
 async function exportSite(format) {
   const id = state.site;
   if (!id) return;
-  status.show(`exporting ${format}...`);
+  status.show(`exporting ${format.name}...`);
   try {
-    const query = new URLSearchParams({ format });
-    // LAS takes the CRS and heights chosen for picked points.
-    if (format === 'las') {
+    const query = new URLSearchParams({ format: format.name });
+    // A format in a chosen CRS takes the CRS and heights chosen for picked
+    // points.
+    if (format.options.includes('crs')) {
       query.set('crs', $('crs').value.trim() || 'utm');
       query.set('heights', $('heights').value);
     }
     const url = `/v1/sites/${encodePath(id)}/export?${query}`;
-    const name = await api.saveAs(url, `${id}-${format}`, EXPORT_EXTENSIONS[format] || '');
+    const name = await api.saveAs(url, `${id}-${format.name}`, format.extension);
     status.show(`downloaded ${name}`);
   } catch (err) {
-    report(err, `export ${format} failed`);
+    report(err, `export ${format.name} failed`);
   }
 }
 

@@ -21,21 +21,24 @@ namespace {
 // (0.5, 0.5), ours (OpenCV's) at (0, 0).
 constexpr double kColmapPixelShift = 0.5;
 
-std::ofstream open_for_writing(const std::string& path, bool binary = false) {
-  std::ofstream out(path, binary ? std::ios::binary : std::ios::out);
-  if (!out) throw std::runtime_error(path + ": cannot write");
-  // Enough digits that every double reads back bit for bit.
+// Enough digits that every double reads back bit for bit.
+void full_precision(std::ostream& out) {
   out << std::setprecision(std::numeric_limits<double>::max_digits10);
-  return out;
 }
 
-void finish(std::ofstream& out, const std::string& path) {
+// Writes `path` with `write`, throwing "PATH: cannot write" or "PATH: write
+// failed".
+template <typename Write>
+void write_text_file(const std::string& path, Write write) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot write");
+  write(out);
   out.close();
   if (!out) throw std::runtime_error(path + ": write failed");
 }
 
-void write_cameras(const Model& model, const std::string& path) {
-  auto out = open_for_writing(path);
+void write_cameras(const Model& model, std::ostream& out) {
+  full_precision(out);
   out << "# Camera list with one line of data per camera:\n"
       << "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
       << "# Number of cameras: " << model.cameras.size() << "\n";
@@ -48,11 +51,10 @@ void write_cameras(const Model& model, const std::string& path) {
     if (c.k3 != 0) out << ' ' << c.k3 << " 0 0 0";
     out << '\n';
   }
-  finish(out, path);
 }
 
-void write_images(const Model& model, const std::string& path) {
-  auto out = open_for_writing(path);
+void write_images(const Model& model, std::ostream& out) {
+  full_precision(out);
   out << "# Image list with two lines of data per image:\n"
       << "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n"
       << "#   POINTS2D[] as (X, Y, POINT3D_ID)\n"
@@ -71,11 +73,10 @@ void write_images(const Model& model, const std::string& path) {
     }
     out << '\n';
   }
-  finish(out, path);
 }
 
-void write_points(const Model& model, const std::string& path) {
-  auto out = open_for_writing(path);
+void write_points(const Model& model, std::ostream& out) {
+  full_precision(out);
   out << "# 3D point list with one line of data per point:\n"
       << "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, "
          "POINT2D_IDX)\n"
@@ -89,7 +90,6 @@ void write_points(const Model& model, const std::string& path) {
       out << ' ' << image + 1 << ' ' << keypoint;
     out << '\n';
   }
-  finish(out, path);
 }
 
 // Nearest float, an infinity beyond float's range (a plain cast would be
@@ -443,9 +443,36 @@ double mean_reprojection(const Model& model) {
 
 void write_colmap_text(const Model& model, const std::string& dir) {
   std::filesystem::create_directories(dir);
-  write_cameras(model, dir + "/cameras.txt");
-  write_images(model, dir + "/images.txt");
-  write_points(model, dir + "/points3D.txt");
+  for (const ColmapTextFile file :
+       {ColmapTextFile::kCameras, ColmapTextFile::kImages,
+        ColmapTextFile::kPoints})
+    write_text_file(dir + "/" + colmap_file_name(file), [&](std::ostream& out) {
+      write_colmap_text(model, file, out);
+    });
+}
+
+const char* colmap_file_name(ColmapTextFile file) {
+  switch (file) {
+    case ColmapTextFile::kCameras:
+      return "cameras.txt";
+    case ColmapTextFile::kImages:
+      return "images.txt";
+    case ColmapTextFile::kPoints:
+      return "points3D.txt";
+  }
+  return "?";
+}
+
+void write_colmap_text(const Model& model, ColmapTextFile file,
+                       std::ostream& out) {
+  switch (file) {
+    case ColmapTextFile::kCameras:
+      return write_cameras(model, out);
+    case ColmapTextFile::kImages:
+      return write_images(model, out);
+    case ColmapTextFile::kPoints:
+      return write_points(model, out);
+  }
 }
 
 Model read_colmap_text(const std::string& dir) {
@@ -473,7 +500,10 @@ void write_points_ply(const Model& model, const std::string& path) {
 }
 
 void write_geo_csv(const Model& model, const std::string& path) {
-  auto out = open_for_writing(path);
+  write_text_file(path, [&](std::ostream& out) { write_geo_csv(model, out); });
+}
+
+void write_geo_csv(const Model& model, std::ostream& out) {
   out << "image,latitude,longitude,altitude\n";
   out << std::fixed;
   for (const ModelImage& image : model.images) {
@@ -482,7 +512,6 @@ void write_geo_csv(const Model& model, const std::string& path) {
         << image.geodetic->lon << ',' << std::setprecision(3)
         << image.geodetic->alt << '\n';
   }
-  finish(out, path);
 }
 
 }  // namespace arscout::engine

@@ -2,6 +2,7 @@
 // binary PLY and the camera table CSV (written).
 #pragma once
 
+#include <ostream>
 #include <string>
 
 #include "arscout/engine/reconstruction.h"
@@ -12,6 +13,13 @@ namespace arscout::engine {
 // FULL_OPENCV when k3 is set) in COLMAP's pixel convention (centre of the
 // top-left pixel at 0.5, 0.5); the world frame is the model's. Creates DIR.
 void write_colmap_text(const Model& model, const std::string& dir);
+
+// One of the COLMAP text model's three files, its name, and its text
+// written to a stream (what write_colmap_text puts in each file).
+enum class ColmapTextFile { kCameras, kImages, kPoints };
+const char* colmap_file_name(ColmapTextFile file);
+void write_colmap_text(const Model& model, ColmapTextFile file,
+                       std::ostream& out);
 
 // The inverse of write_colmap_text: DIR/cameras.txt, images.txt and
 // points3D.txt as a Model, in file order. Also reads models written by
@@ -41,5 +49,6 @@ void write_points_ply(const Model& model, const std::string& path);
 // image,latitude,longitude,altitude for every geo-registered image (an
 // empty table, header only, when the model is not geo-registered).
 void write_geo_csv(const Model& model, const std::string& path);
+void write_geo_csv(const Model& model, std::ostream& out);
 
 }  // namespace arscout::engine

@@ -1,0 +1,44 @@
+#include "export_support.h"
+
+#include "arscout/util/error.h"
+
+namespace arscout::viewer::formats {
+
+std::string versioned_name(const SiteModel& model, std::string_view what,
+                           std::string_view extension) {
+  return model.site + "-v" + std::to_string(model.version) + "-" +
+         std::string(what) + std::string(extension);
+}
+
+std::string cloud_file_name(const SiteModel& model, Cloud cloud,
+                            const Exporter& format, std::string_view suffix) {
+  return versioned_name(model, cloud_name(model, cloud) + std::string(suffix),
+                        format.extension);
+}
+
+engine::Geodetic geographic_origin(const SiteModel& model) {
+  const auto& origin = model.document.enu_origin;
+  if (!model.document.geo_registered || !origin)
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      "site " + model.site +
+                          ": the model is not geo-registered yet (fewer than "
+                          "three registered captures with GPS), so it has no "
+                          "geographic frame to export");
+  return {origin->lat, origin->lon, origin->alt};
+}
+
+std::vector<engine::ColoredPoint> nonempty_cloud(db::Store& store,
+                                                 const SiteModel& model,
+                                                 Cloud cloud) {
+  std::vector<engine::ColoredPoint> points = load_cloud(store, model, cloud);
+  if (points.empty())
+    throw util::Error(util::ErrorKind::kNotFound,
+                      "site " + model.site + ": the model has no point cloud");
+  return points;
+}
+
+void put(std::ostream& out, const std::string& bytes) {
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+}  // namespace arscout::viewer::formats
