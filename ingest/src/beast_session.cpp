@@ -23,6 +23,7 @@
 
 namespace arscout::ingest {
 
+// http/'s pieces by their short names: inside this file `http` is Beast's.
 using http::BodyRate;
 using http::parse_target;
 
