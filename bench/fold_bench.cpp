@@ -22,7 +22,7 @@
 #include "arscout/engine/camera.h"
 #include "arscout/engine/image_size.h"
 #include "arscout/engine/reconstruction.h"
-#include "arscout/ingest/gps.h"
+#include "arscout/metadata/gps.h"
 #include "arscout/util/file.h"
 #include "model_eval.h"
 
@@ -56,7 +56,7 @@ std::vector<engine::CaptureInput> scene_captures(const Options& o) {
   std::sort(names.begin(), names.end());
   names.resize(std::min<size_t>(names.size(), o.views));
   if (names.empty()) throw std::runtime_error("no images/*.jpg in " + o.scene);
-  const auto fixes = ingest::read_gps_csv(o.scene + "/gps.csv");
+  const auto fixes = metadata::read_gps_csv(o.scene + "/gps.csv");
   std::vector<engine::CaptureInput> result;
   for (const std::string& name : names) {
     engine::CaptureInput c;

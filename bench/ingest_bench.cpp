@@ -1,7 +1,7 @@
 // ingest_bench: the HTTP ingest path end to end on one backend, each figure
 // the median of several runs on a fresh store: an in-process Server on
 // 127.0.0.1 (any free port, default ServerOptions but no upload limits) over
-// that store, driven by N client threads with one ingest::Client and one scout
+// that store, driven by N client threads with one http::Client and one scout
 // token each.
 //
 //   uploads: POST /v1/captures of real 1-3 MB JPEGs (raw body, metadata with
@@ -40,14 +40,15 @@
 #include <CLI/CLI.hpp>
 
 #include "arscout/db/store.h"
+#include "arscout/http/client.h"
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/client.h"
 #include "arscout/ingest/server.h"
 #include "bench_support.h"
 
 namespace {
 
 namespace db = arscout::db;
+namespace http = arscout::http;
 namespace ingest = arscout::ingest;
 using arscout::bench::Clock;
 using arscout::bench::ms_between;
@@ -188,7 +189,7 @@ std::string excerpt(const std::string& body) {
 
 // What one client thread does once all clients are connected: its requests,
 // each timed into latency_ms.
-using ClientWork = std::function<void(int client, ingest::Client& http,
+using ClientWork = std::function<void(int client, http::Client& http,
                                       std::vector<double>& latency_ms)>;
 
 struct PhaseTiming {
@@ -206,13 +207,13 @@ PhaseTiming run_clients(const Fixture& fx, int clients, const ClientWork& work,
   std::vector<std::thread> threads;
   for (int c = 0; c < clients; ++c) {
     threads.emplace_back([&, c] {
-      ingest::ClientOptions options;
+      http::ClientOptions options;
       options.server = fx.base_url;
       options.token = fx.tokens[c];
-      ingest::Client http(options);
+      http::Client http(options);
       bool ok = false;
       try {
-        ingest::HttpResult health = http.get("/healthz");
+        http::HttpResult health = http.get("/healthz");
         ok = health.status == 200;
         if (!ok) failures.record("connect", "GET /healthz: " + health.body);
       } catch (const std::exception& e) {
@@ -238,17 +239,17 @@ PhaseTiming run_clients(const Fixture& fx, int clients, const ClientWork& work,
 }
 
 // Sends one request and times it; a NetworkError is recorded as a failure.
-std::optional<ingest::HttpResult> timed_request(
-    ingest::Client& http, const std::string& method, const std::string& target,
+std::optional<http::HttpResult> timed_request(
+    http::Client& http, const std::string& method, const std::string& target,
     const std::string& body,
     const std::vector<std::pair<std::string, std::string>>& headers,
     std::vector<double>& latency_ms, Failures& failures) {
   try {
     auto t0 = Clock::now();
-    ingest::HttpResult result = http.request(method, target, body, headers);
+    http::HttpResult result = http.request(method, target, body, headers);
     latency_ms.push_back(ms_between(t0, Clock::now()));
     return result;
-  } catch (const ingest::NetworkError& e) {
+  } catch (const http::NetworkError& e) {
     failures.record("network", e.what());
     return std::nullopt;
   }
@@ -261,10 +262,10 @@ struct RouteTotals {
 };
 
 RouteTotals route_totals(const Fixture& fx, const std::string& route) {
-  ingest::ClientOptions options;
+  http::ClientOptions options;
   options.server = fx.base_url;
-  ingest::Client http(options);
-  ingest::HttpResult r = http.get("/metrics");
+  http::Client http(options);
+  http::HttpResult r = http.get("/metrics");
   if (r.status != 200)
     throw std::runtime_error("GET /metrics: status " +
                              std::to_string(r.status));
@@ -326,7 +327,7 @@ db::Json capture_metadata(const std::string& id, const Image& image,
 }
 
 // Empty when the answer is the 201 of a newly stored capture `id`.
-std::string upload_problem(const ingest::HttpResult& r, const std::string& id) {
+std::string upload_problem(const http::HttpResult& r, const std::string& id) {
   if (r.status != 201) return excerpt(r.body);
   if (r.headers.count("idempotent-replay")) return "an idempotent replay";
   db::Json doc = r.json();
@@ -349,7 +350,7 @@ struct UploadPlan {
 
 // One client's uploads, cycling through the images from an offset of its own
 // so that the clients send different images at the same time.
-void upload_all(const UploadPlan& plan, int client, ingest::Client& http,
+void upload_all(const UploadPlan& plan, int client, http::Client& http,
                 std::vector<double>& latency_ms, Failures& failures) {
   std::string body;
   for (int i = 0; i < plan.per_client; ++i) {
@@ -383,7 +384,7 @@ void measure_uploads(const Fixture& fx, const UploadPlan& plan, int clients,
   Failures failures;
   PhaseTiming t = run_phase(
       fx, "POST /v1/captures", clients,
-      [&](int c, ingest::Client& http, std::vector<double>& latency_ms) {
+      [&](int c, http::Client& http, std::vector<double>& latency_ms) {
         upload_all(plan, c, http, latency_ms, failures);
       },
       failures);
@@ -433,7 +434,7 @@ void seed_docs(db::Store& store, int docs) {
 }
 
 // One client's GETs, cycling over the documents from an offset of its own.
-void get_all(const Config& cfg, int client, ingest::Client& http,
+void get_all(const Config& cfg, int client, http::Client& http,
              std::vector<double>& latency_ms, Failures& failures) {
   for (int k = 0; k < cfg.gets_per_client; ++k) {
     int i = (client * cfg.gets_per_client + k) % cfg.docs;
@@ -454,7 +455,7 @@ void measure_gets(const Fixture& fx, const Config& cfg, int clients,
   Failures failures;
   PhaseTiming t = run_phase(
       fx, "GET /v1/docs/*", clients,
-      [&](int c, ingest::Client& http, std::vector<double>& latency_ms) {
+      [&](int c, http::Client& http, std::vector<double>& latency_ms) {
         get_all(cfg, c, http, latency_ms, failures);
       },
       failures);

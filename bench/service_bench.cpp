@@ -73,7 +73,7 @@
 #include "arscout/engine/camera.h"
 #include "arscout/engine/image_size.h"
 #include "arscout/engine/service.h"
-#include "arscout/ingest/gps.h"
+#include "arscout/metadata/gps.h"
 #include "bench_support.h"
 #include "model_eval.h"
 #include "progress_log.h"
@@ -202,7 +202,7 @@ std::vector<Photo> walk_photos(const Options& o) {
 // its GPS, and its focal length for the engine's intrinsics.
 struct SceneMetadata {
   bool has_camera = false;  // images/K.txt, stored as /cameras/bench
-  std::map<std::string, arscout::ingest::GpsFix> fixes;  // by file name
+  std::map<std::string, arscout::metadata::GpsFix> fixes;  // by file name
 };
 
 SceneMetadata read_metadata(const Options& o,
@@ -210,11 +210,11 @@ SceneMetadata read_metadata(const Options& o,
   SceneMetadata meta;
   meta.has_camera = fs::exists(o.scene + "/images/K.txt");
   if (fs::exists(o.scene + "/gps.csv")) {
-    meta.fixes = arscout::ingest::read_gps_csv(o.scene + "/gps.csv");
+    meta.fixes = arscout::metadata::read_gps_csv(o.scene + "/gps.csv");
     return meta;
   }
   for (const Photo& photo : photos) {
-    const auto exif = arscout::ingest::read_exif_file(photo.path.string());
+    const auto exif = arscout::metadata::read_exif_file(photo.path.string());
     if (!exif.gps)
       throw std::runtime_error(photo.path.string() +
                                ": no gps.csv in the scene and no GPS in the "
@@ -283,7 +283,7 @@ void store_photo(arscout::db::Store& store, const Photo& photo,
   if (meta.has_camera) {
     capture.camera = "bench";
   } else {
-    const auto exif = arscout::ingest::read_exif_file(photo.path.string());
+    const auto exif = arscout::metadata::read_exif_file(photo.path.string());
     capture.exif = {exif.focal_35mm, exif.focal_mm, exif.make, exif.model};
   }
   arscout::db::WriteOp op =

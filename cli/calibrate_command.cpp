@@ -9,8 +9,8 @@
 
 #include "arscout/db/path.h"
 #include "arscout/db/store.h"
-#include "arscout/ingest/calibration.h"
-#include "arscout/ingest/client.h"
+#include "arscout/engine/calibration.h"
+#include "arscout/http/client.h"
 #include "arscout/util/error.h"
 #include "cli_support.h"
 #include "command_registry.h"
@@ -32,7 +32,7 @@ struct CalibrateArgs {
   std::string db;
 };
 
-void print_calibration(const ingest::CameraCalibration& c, int images_seen,
+void print_calibration(const engine::CameraCalibration& c, int images_seen,
                        std::ostream& out) {
   out << std::fixed << std::setprecision(2) << "calibrated from "
       << c.images_used << " of " << images_seen << " images (" << c.width << "x"
@@ -51,7 +51,7 @@ void print_calibration(const ingest::CameraCalibration& c, int images_seen,
 
 // A failed HTTP answer as the error whose kind gives the right exit
 // code; the server's JSON error message is kept when there is one.
-util::Error http_error(const ingest::HttpResult& r, const std::string& what) {
+util::Error http_error(const http::HttpResult& r, const std::string& what) {
   std::string message = r.body;
   try {
     message = r.json().value("message", r.body);
@@ -74,16 +74,16 @@ util::Error http_error(const ingest::HttpResult& r, const std::string& what) {
 
 void put_over_http(const CalibrateArgs& a, const Json& camera,
                    std::ostream& out) {
-  ingest::ClientOptions options;
+  http::ClientOptions options;
   options.server = a.server;
   options.token = a.token;
-  ingest::Client client(options);
+  http::Client client(options);
   const std::string target = "/v1/cameras/" + a.camera_id;
-  ingest::HttpResult r;
+  http::HttpResult r;
   try {
     r = client.request("PUT", target, camera.dump(),
                        {{"Content-Type", "application/json"}});
-  } catch (const ingest::NetworkError& e) {
+  } catch (const http::NetworkError& e) {
     throw util::Error(util::ErrorKind::kUnavailable, e.what());
   }
   if (r.status != 200 && r.status != 201) throw http_error(r, "PUT " + target);
@@ -103,11 +103,11 @@ void put_in_store(const CalibrateArgs& a, const Json& camera,
 
 // Too few usable photos or mixed image sizes are bad input (exit 2), not an
 // internal failure.
-ingest::CameraCalibration calibrate(const std::vector<std::string>& images,
-                                    ingest::BoardSize board, double square_m,
-                                    const ingest::ImageStatusCallback& report) {
+engine::CameraCalibration calibrate(const std::vector<std::string>& images,
+                                    engine::BoardSize board, double square_m,
+                                    const engine::ImageStatusCallback& report) {
   try {
-    return ingest::calibrate_chessboard(images, board, square_m, nullptr,
+    return engine::calibrate_chessboard(images, board, square_m, nullptr,
                                         report);
   } catch (const std::runtime_error& e) {
     throw util::Error(util::ErrorKind::kInvalidArgument, e.what());
@@ -125,7 +125,7 @@ void check_camera_id(const std::string& id) {
 }
 
 int run_calibrate(const CalibrateArgs& a) {
-  auto board = ingest::parse_board_size(a.board);
+  auto board = engine::parse_board_size(a.board);
   if (!board)
     throw util::Error(util::ErrorKind::kInvalidArgument,
                       "--board must be COLSxROWS inner corners, each 3 to 100 "

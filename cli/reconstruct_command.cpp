@@ -21,7 +21,7 @@
 #include "arscout/engine/model_io.h"
 #include "arscout/engine/ply.h"
 #include "arscout/engine/reconstruction.h"
-#include "arscout/ingest/gps.h"
+#include "arscout/metadata/gps.h"
 #include "arscout/util/error.h"
 #include "cli_support.h"
 #include "command_registry.h"
@@ -51,7 +51,7 @@ class InputSource {
   explicit InputSource(const ReconstructArgs& a) : args_(a) {
     if (!a.gps_csv.empty()) {
       try {
-        csv_ = ingest::read_gps_csv(a.gps_csv);
+        csv_ = metadata::read_gps_csv(a.gps_csv);
       } catch (const std::runtime_error& e) {
         throw util::Error(util::ErrorKind::kInvalidArgument, e.what());
       }
@@ -63,7 +63,7 @@ class InputSource {
     input.id = fs::path(path).filename().string();
     input.image_bytes = read_input_file(path);
     const auto size = engine::read_image_size(input.image_bytes);
-    const ingest::ExifInfo exif = ingest::read_exif(input.image_bytes);
+    const metadata::ExifInfo exif = metadata::read_exif(input.image_bytes);
     input.camera_id = camera_id(exif, size);
     input.camera = camera(exif, size, path);
     input.gps = gps(input.id, exif);
@@ -71,7 +71,7 @@ class InputSource {
   }
 
  private:
-  std::string camera_id(const ingest::ExifInfo& exif,
+  std::string camera_id(const metadata::ExifInfo& exif,
                         const std::optional<engine::ImageSize>& size) const {
     if (!args_.camera.empty()) return "K:" + args_.camera;
     std::ostringstream id;
@@ -82,7 +82,7 @@ class InputSource {
   }
 
   std::optional<engine::CameraIntrinsics> camera(
-      const ingest::ExifInfo& exif,
+      const metadata::ExifInfo& exif,
       const std::optional<engine::ImageSize>& size,
       const std::string& path) const {
     if (!size) {
@@ -104,7 +104,7 @@ class InputSource {
   }
 
   std::optional<engine::GeoFix> gps(const std::string& name,
-                                    const ingest::ExifInfo& exif) const {
+                                    const metadata::ExifInfo& exif) const {
     if (!args_.gps_csv.empty()) {
       auto it = csv_.find(name);
       if (it == csv_.end()) return std::nullopt;
@@ -115,7 +115,7 @@ class InputSource {
   }
 
   const ReconstructArgs& args_;
-  std::map<std::string, ingest::GpsFix> csv_;
+  std::map<std::string, metadata::GpsFix> csv_;
 };
 
 void print_progress(int n, int total, const engine::AddResult& r,

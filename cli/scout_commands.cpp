@@ -17,8 +17,8 @@
 #include "arscout/db/path.h"
 #include "arscout/engine/camera.h"
 #include "arscout/engine/image_size.h"
-#include "arscout/ingest/client.h"
-#include "arscout/ingest/scout.h"
+#include "arscout/http/client.h"
+#include "arscout/scout/scout.h"
 #include "arscout/util/error.h"
 #include "arscout/util/file.h"
 #include "cli_support.h"
@@ -30,8 +30,8 @@ namespace arscout::cli {
 namespace {
 
 namespace fs = std::filesystem;
-using ingest::Client;
-using ingest::HttpResult;
+using http::Client;
+using http::HttpResult;
 using Json = nlohmann::json;
 
 // ---- shared: server options, answers, errors
@@ -62,8 +62,8 @@ void add_server_options(CLI::App& cmd, ServerArgs& a) {
       ->check(CLI::ExistingFile);
 }
 
-ingest::ClientOptions client_options(const ServerArgs& a) {
-  ingest::ClientOptions o;
+http::ClientOptions client_options(const ServerArgs& a) {
+  http::ClientOptions o;
   o.server = a.server;
   o.token = a.token;
   o.timeout = std::chrono::milliseconds(std::llround(a.timeout_s * 1000));
@@ -90,7 +90,7 @@ int exit_code_for_status(int status) {
 
 int report_error_answer(const HttpResult& r) {
   std::cerr << "arscout: error (HTTP " << r.status
-            << "): " << ingest::answer_error_text(r) << "\n";
+            << "): " << scout::answer_error_text(r) << "\n";
   return exit_code_for_status(r.status);
 }
 
@@ -99,7 +99,7 @@ void run_client_command(const std::function<int()>& body) {
   run_command([&] {
     try {
       return body();
-    } catch (const ingest::NetworkError& e) {
+    } catch (const http::NetworkError& e) {
       std::cerr << "arscout: error (unavailable): " << e.what() << "\n";
       return static_cast<int>(kExitUnavailable);
     }
@@ -110,7 +110,7 @@ void run_client_command(const std::function<int()>& body) {
 // ---------------------------------------------------------------------
 
 // The options as CLI11 binds them; the upload client itself is
-// ingest::ScoutClient (arscout/ingest/scout.h).
+// scout::ScoutClient (arscout/scout/scout.h).
 struct ScoutArgs {
   ServerArgs server;
   std::string dir;
@@ -132,8 +132,8 @@ struct ScoutArgs {
   bool wait_verdicts = false;
 };
 
-ingest::ScoutOptions scout_options(const ScoutArgs& a) {
-  ingest::ScoutOptions o;
+scout::ScoutOptions scout_options(const ScoutArgs& a) {
+  scout::ScoutOptions o;
   o.client = client_options(a.server);
   o.gps_csv = a.gps_csv;
   o.gpx = a.gpx;
@@ -171,7 +171,7 @@ int put_camera_from_k(const ScoutArgs& a, const fs::path& first_photo) {
   }
   k.source = "calibrated";
   const Json camera = documents::to_json(k);
-  ingest::Client client(client_options(a.server));
+  http::Client client(client_options(a.server));
   const std::string target = "/v1/cameras/" + a.camera;
   const auto r = client.request("PUT", target, camera.dump(),
                                 {{"Content-Type", "application/json"}});
@@ -197,18 +197,18 @@ int run_scout(const ScoutArgs& a) {
   }
   install_stop_handlers();
   std::unique_ptr<VerdictWatcher> verdicts;
-  ingest::ScoutHooks hooks;
+  scout::ScoutHooks hooks;
   hooks.stop_requested = stop_requested;
   hooks.on_stored = [&verdicts](const std::string& id,
                                 const std::string& name) {
     verdicts->add(id, name);
   };
   // First: a bad GPS file is reported before anything else is done.
-  ingest::ScoutClient scout(scout_options(a), hooks);
+  scout::ScoutClient scout(scout_options(a), hooks);
   verdicts = std::make_unique<VerdictWatcher>(
       client_options(a.server), a.overlay_dir, a.overlay_timeout_s);
-  const auto photos = a.dir.empty() ? ingest::sorted_by_file_name(a.files)
-                                    : ingest::list_photos(a.dir, std::cerr);
+  const auto photos = a.dir.empty() ? scout::sorted_by_file_name(a.files)
+                                    : scout::list_photos(a.dir, std::cerr);
   if (photos.empty() && !a.watch) {
     std::cerr << "arscout scout: no .jpg/.jpeg/.png photos in " << a.dir
               << "\n";
@@ -230,7 +230,7 @@ int run_scout(const ScoutArgs& a) {
   }
   verdicts.reset();  // no more verdict lines after the summary
   const std::size_t left_over = a.watch ? 0 : photos.size() - handled;
-  std::cout << ingest::scout_summary(scout.totals(), left_over) << std::endl;
+  std::cout << scout::scout_summary(scout.totals(), left_over) << std::endl;
   return scout.totals().failed == 0 && left_over == 0 ? kExitOk : kExitError;
 }
 

@@ -29,7 +29,7 @@ void say(const std::string& line) { std::cout << line + "\n" << std::flush; }
 
 }  // namespace
 
-VerdictWatcher::VerdictWatcher(ingest::ClientOptions client, std::string dir,
+VerdictWatcher::VerdictWatcher(http::ClientOptions client, std::string dir,
                                double timeout_s)
     : client_options_(std::move(client)),
       dir_(std::move(dir)),
@@ -68,7 +68,7 @@ int VerdictWatcher::finish() {
 }
 
 void VerdictWatcher::run() {
-  ingest::Client client(client_options_);
+  http::Client client(client_options_);
   std::unique_lock lock(mutex_);
   while (!stopping_) {
     // Poll a copy: add() must not wait for the network.
@@ -84,7 +84,7 @@ void VerdictWatcher::run() {
   }
 }
 
-bool VerdictWatcher::registered(ingest::Client& client, const Pending& p,
+bool VerdictWatcher::registered(http::Client& client, const Pending& p,
                                 const std::string& site) {
   if (!p.said) {
     const auto model = client.get("/v1/docs/sites/" + site + "/model");
@@ -106,7 +106,7 @@ bool VerdictWatcher::registered(ingest::Client& client, const Pending& p,
   return true;
 }
 
-bool VerdictWatcher::poll(ingest::Client& client, const Pending& p) {
+bool VerdictWatcher::poll(http::Client& client, const Pending& p) {
   const std::string& name = p.file_name;
   const std::string lead = dir_.empty() ? "  " : "  no overlay: ";
   try {

@@ -13,7 +13,7 @@
 #include <string>
 #include <thread>
 
-#include "arscout/ingest/client.h"
+#include "arscout/http/client.h"
 
 namespace arscout::cli {
 
@@ -21,7 +21,7 @@ class VerdictWatcher {
  public:
   // Gives up on a photo `timeout_s` after add() when it is not registered.
   // `overlay_dir` "": no overlays.
-  VerdictWatcher(ingest::ClientOptions client, std::string overlay_dir,
+  VerdictWatcher(http::ClientOptions client, std::string overlay_dir,
                  double timeout_s);
   ~VerdictWatcher();  // stops without waiting for the pending photos
   VerdictWatcher(const VerdictWatcher&) = delete;
@@ -36,13 +36,13 @@ class VerdictWatcher {
   struct Pending;
   void run();
   // True when the photo is done with (its verdict said, or given up).
-  bool poll(ingest::Client& client, const Pending& p);
+  bool poll(http::Client& client, const Pending& p);
   // Says the photo is registered, with its model version, and saves its
   // overlay when asked to; false when the overlay is not ready yet.
-  bool registered(ingest::Client& client, const Pending& p,
+  bool registered(http::Client& client, const Pending& p,
                   const std::string& site);
 
-  ingest::ClientOptions client_options_;
+  http::ClientOptions client_options_;
   std::string dir_;
   double timeout_s_;
   std::mutex mutex_;

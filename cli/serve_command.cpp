@@ -4,7 +4,7 @@
 #include <thread>
 
 #include "arscout/engine/service.h"
-#include "arscout/ingest/self_signed.h"
+#include "arscout/http/self_signed.h"
 #include "arscout/ingest/server.h"
 #include "arscout/util/error.h"
 #include "arscout/viewer/routes.h"
@@ -104,9 +104,9 @@ void mount_viewer(const std::string& web_root, ingest::ServerOptions* options) {
 // --tls-self-signed: the certificate kept for this machine's names (made
 // on first use, remade when a name is new or it nears its end).
 void use_self_signed(const ServeArgs& a, ingest::ServerOptions* options) {
-  const std::vector<std::string> names = ingest::machine_names();
-  const ingest::SelfSignedCertificate cert = ingest::ensure_self_signed(
-      a.tls_dir.empty() ? ingest::default_tls_dir() : a.tls_dir, names);
+  const std::vector<std::string> names = http::machine_names();
+  const http::SelfSignedCertificate cert = http::ensure_self_signed(
+      a.tls_dir.empty() ? http::default_tls_dir() : a.tls_dir, names);
   options->tls_cert = cert.cert_path;
   options->tls_key = cert.key_path;
   std::string list;
@@ -123,7 +123,7 @@ void use_self_signed(const ServeArgs& a, ingest::ServerOptions* options) {
 void print_scout_addresses(const ingest::ServerOptions& options, int port,
                            bool tls) {
   if (options.host != "0.0.0.0" && options.host != "::") return;
-  for (const std::string& name : ingest::machine_names()) {
+  for (const std::string& name : http::machine_names()) {
     if (name == "localhost" || name == "127.0.0.1" || name == "::1") continue;
     const bool v6 = name.find(':') != std::string::npos;
     std::cout << "scout app at " << (tls ? "https://" : "http://")

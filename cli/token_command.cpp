@@ -8,7 +8,7 @@
 #include <regex>
 
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/gps.h"
+#include "arscout/metadata/gps.h"
 #include "arscout/util/error.h"
 #include "cli_support.h"
 #include "command_registry.h"
@@ -39,7 +39,7 @@ std::optional<std::int64_t> expiry(const std::string& text) {
     return static_cast<std::int64_t>(std::time(nullptr)) +
            std::stoll(m[1]) * unit;
   }
-  if (auto t = ingest::parse_time_utc(text)) return t;
+  if (auto t = metadata::parse_time_utc(text)) return t;
   throw util::Error(util::ErrorKind::kInvalidArgument,
                     "--expires takes a duration (90m, 12h, 30d) or an "
                     "RFC 3339 time, not '" +

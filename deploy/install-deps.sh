@@ -17,7 +17,7 @@ packages=(
   libgeographiclib-dev libboost-dev nlohmann-json3-dev libexiv2-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libspdlog-dev
   libssl-dev openssl
-  # expat: the XML parser of the GPX reader (ingest/src/gps_gpx.cpp)
+  # expat: the XML parser of the GPX reader (metadata/src/gps_gpx.cpp)
   libexpat1-dev
   # PROJ and its grids (EGM96): the output CRSs of the LAS export
   # (viewer/src/output_crs.cpp); cs2cs (proj-bin) and gdalsrsinfo (gdal-bin)

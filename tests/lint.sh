@@ -26,7 +26,7 @@ git ls-files -z '*.cpp' '*.h' '*.cu' '*.mm' |
 }
 
 echo "== clang-tidy: the libraries' and the executable's sources"
-libraries='util|documents|db|ingest|engine|viewer|cli'
+libraries='util|documents|db|http|metadata|ingest|scout|engine|viewer|cli'
 jobs=$(nproc)
 run-clang-tidy -p "$build" -j "$jobs" -quiet \
   "$PWD/($libraries)/.*\\.cpp\$" > "$build/clang-tidy.log" 2>&1 || {

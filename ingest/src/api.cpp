@@ -154,7 +154,7 @@ HttpResponse document_response(int status, const db::Document& doc) {
 }
 
 Api::Api(db::Store& store, Metrics& metrics, std::vector<ApiRoute> routes,
-         std::vector<StaticMount> static_mounts)
+         std::vector<http::StaticMount> static_mounts)
     : store_(store),
       metrics_(metrics),
       routes_(builtin_routes(std::move(routes))),

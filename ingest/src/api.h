@@ -12,7 +12,6 @@
 
 #include "arscout/db/store.h"
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/http_types.h"
 #include "arscout/ingest/server.h"
 #include "client_limits.h"
 #include "metrics.h"
@@ -24,7 +23,7 @@ class Api {
  public:
   // `routes` go before ingest's own /v1 routes (ServerOptions::routes).
   Api(db::Store& store, Metrics& metrics, std::vector<ApiRoute> routes = {},
-      std::vector<StaticMount> static_mounts = {});
+      std::vector<http::StaticMount> static_mounts = {});
   // From ServerOptions: serve_api, extra_metrics, health_details.
   Api(db::Store& store, Metrics& metrics, const ServerOptions& options);
   // The route table's handlers hold `this`.
@@ -80,15 +79,10 @@ class Api {
   std::unique_ptr<ClientLimits> limits_ = std::make_unique<ClientLimits>();
   StoreHealth store_health_{store_};
   std::vector<ApiRoute> routes_;  // /healthz, /metrics, added, ingest's /v1
-  std::vector<StaticMount> static_mounts_;
+  std::vector<http::StaticMount> static_mounts_;
   bool serve_api_ = true;
   std::function<std::string()> extra_metrics_;
   std::function<Json()> health_details_;
 };
-
-// static_files.cpp: a GET or HEAD under one of `mounts` (the longest
-// matching prefix), or nullopt when no mount covers the path.
-std::optional<HttpResponse> serve_static(const std::vector<StaticMount>& mounts,
-                                         const HttpRequest& request);
 
 }  // namespace arscout::ingest

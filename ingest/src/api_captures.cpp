@@ -5,12 +5,22 @@
 #include "api_handlers.h"
 #include "arscout/db/path.h"
 #include "arscout/documents/capture.h"
-#include "arscout/ingest/gps.h"
+#include "arscout/http/multipart.h"
+#include "arscout/metadata/gps.h"
 #include "arscout/util/sha256.h"
 #include "image_probe.h"
-#include "multipart.h"
 
 namespace arscout::ingest {
+
+// A capture's fix and EXIF (arscout/metadata/gps.h).
+using metadata::ExifInfo;
+using metadata::format_time_utc;
+using metadata::gps_from_json;
+using metadata::GpsFix;
+using metadata::parse_time_utc;
+using metadata::read_exif;
+using metadata::validate_gps;
+
 namespace {
 
 // Metadata is a few fields (docs/api.md); the cap keeps a part of up to
@@ -33,12 +43,12 @@ struct Upload {
 std::optional<HttpResponse> read_upload(const HttpRequest& req, Upload* up) {
   std::string error;
   std::string meta_text;
-  std::string boundary = multipart_boundary(req.header("content-type"));
+  std::string boundary = http::multipart_boundary(req.header("content-type"));
   if (!boundary.empty()) {
-    auto parts = parse_multipart(req.body, boundary, &error);
+    auto parts = http::parse_multipart(req.body, boundary, &error);
     if (!parts) return HttpResponse::error(400, "bad_request", error);
     bool has_image = false, has_metadata = false;
-    for (const FormPart& p : *parts) {
+    for (const http::FormPart& p : *parts) {
       bool& seen = p.name == "image" ? has_image : has_metadata;
       if (p.name != "image" && p.name != "metadata") continue;
       // Two of a kind would leave which one counts to the parser's order.
@@ -63,7 +73,7 @@ std::optional<HttpResponse> read_upload(const HttpRequest& req, Upload* up) {
   }
   if (meta_text.size() > kMaxMetadataBytes) return metadata_too_large();
   if (!meta_text.empty()) {
-    auto meta = parse_json_body(meta_text, &error);
+    auto meta = http::parse_json_body(meta_text, &error);
     if (!meta)
       return HttpResponse::error(400, "invalid_json",
                                  "capture metadata: " + error);

@@ -68,7 +68,7 @@ HttpResponse write_doc(ApiContext& ctx, const HttpRequest& req,
     return HttpResponse::json(
         200, Json{{"path", r.path}, {"version", r.version}, {"seq", r.seq}});
   }
-  auto body = parse_json_body(req.body, &error);
+  auto body = http::parse_json_body(req.body, &error);
   if (!body) return HttpResponse::error(400, "invalid_json", error);
   if (req.method == "PATCH") {
     op.type = db::OpType::kPatch;

@@ -7,8 +7,9 @@
 #include <string_view>
 
 #include "arscout/db/store.h"
+#include "arscout/http/json_body.h"
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/http_types.h"
+#include "arscout/ingest/server.h"
 #include "client_limits.h"
 #include "metrics.h"
 
@@ -56,17 +57,13 @@ std::string capture_camera(db::Store& store, const Principal& who,
                            const std::string& id);
 
 // Shared helpers (api.cpp). Store errors are answered with
-// error_response (http_types.h).
+// error_response (store_errors.h); bodies are parsed with
+// http::parse_json_body.
 // Parses a query parameter as an integer in [min, max]; nullopt + *error.
 std::optional<std::int64_t> int_param(const HttpRequest& req,
                                       const std::string& name,
                                       std::int64_t fallback, std::int64_t min,
                                       std::int64_t max, std::string* error);
-// Parses a JSON body; nullopt and *error (naming the byte) when malformed,
-// nested more than 512 levels deep or holding a number beyond a double's
-// range.
-std::optional<Json> parse_json_body(const std::string& text,
-                                    std::string* error);
 bool can_read(const Principal& who, const std::string& doc_path);
 // `text` in double quotes: an ETag header's value.
 std::string etag_value(std::string_view text);

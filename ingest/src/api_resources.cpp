@@ -5,7 +5,6 @@
 #include "arscout/db/path.h"
 #include "arscout/documents/document_error.h"
 #include "arscout/documents/geojson.h"
-#include "arscout/ingest/calibration.h"
 
 namespace arscout::ingest {
 namespace {
@@ -185,7 +184,7 @@ HttpResponse put_camera(ApiContext& ctx, const HttpRequest& req,
     return HttpResponse::error(413, "payload_too_large",
                                "a camera document is at most 16 KiB");
   std::string error;
-  auto body = parse_json_body(req.body, &error);
+  auto body = http::parse_json_body(req.body, &error);
   if (!body) return HttpResponse::error(400, "invalid_json", error);
   error = documents::validate_camera(*body);
   if (!error.empty()) return HttpResponse::error(422, "unprocessable", error);
@@ -272,7 +271,7 @@ HttpResponse patch_site(ApiContext& ctx, const HttpRequest& req,
                                "admins may)");
   db::validate_path("/sites/" + id);
   std::string problem;
-  const auto body = parse_json_body(req.body, &problem);
+  const auto body = http::parse_json_body(req.body, &problem);
   if (!body) return HttpResponse::error(400, "invalid_json", problem);
   const std::string name = site_name(*body, &problem);
   if (name.empty()) return HttpResponse::error(422, "unprocessable", problem);

@@ -7,8 +7,8 @@
 #include <ctime>
 
 #include "arscout/db/path.h"
-#include "arscout/ingest/gps.h"
 #include "arscout/util/sha256.h"
+#include "arscout/util/time.h"
 
 namespace arscout::ingest {
 namespace {
@@ -57,7 +57,7 @@ std::optional<Role> role_from_string(const std::string& text) {
 std::string TokenInfo::state(std::int64_t at_s) const {
   if (!revoked.empty()) return "revoked";
   if (!expires.empty()) {
-    const auto end = parse_time_utc(expires);
+    const auto end = util::parse_time_utc(expires);
     if (!end || *end <= at_s) return "expired";
   }
   return "active";
@@ -81,9 +81,9 @@ std::string token_name_problem(const std::string& name) {
 std::string create_token(db::Store& store, Role role, const std::string& name,
                          std::optional<std::int64_t> expires_s) {
   if (expires_s && *expires_s <= now_s())
-    throw util::Error(
-        util::ErrorKind::kInvalidArgument,
-        "the expiry " + format_time_utc(*expires_s) + " is not in the future");
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      "the expiry " + util::format_time_utc(*expires_s) +
+                          " is not in the future");
   if (std::string problem = token_name_problem(name); !problem.empty())
     throw util::Error(util::ErrorKind::kInvalidArgument, problem);
   unsigned char random[32];
@@ -93,8 +93,8 @@ std::string create_token(db::Store& store, Role role, const std::string& name,
   std::string token = "ars_" + util::to_hex(random, sizeof random);
   db::Json attrs{{"role", to_string(role)},
                  {"name", name},
-                 {"created", format_time_utc(now_s())}};
-  if (expires_s) attrs["expires"] = format_time_utc(*expires_s);
+                 {"created", util::format_time_utc(now_s())}};
+  if (expires_s) attrs["expires"] = util::format_time_utc(*expires_s);
   std::vector<db::WriteOp> ops = {
       db::WriteOp::put(token_path(token), "token", attrs, 0)};
   if (role == Role::kScout && !store.get("/scouts/" + name))
@@ -181,7 +181,7 @@ std::vector<TokenInfo> revoke_tokens(db::Store& store,
                           std::to_string(chosen.size()) +
                           " tokens: give more digits");
   std::vector<TokenInfo> revoked;
-  const std::string when = format_time_utc(now_s());
+  const std::string when = util::format_time_utc(now_s());
   for (TokenInfo& t : chosen) {
     if (!t.revoked.empty()) continue;
     store.patch(std::string(kTokens) + "/" + t.id, db::Json{{"revoked", when}});

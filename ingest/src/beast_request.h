@@ -12,7 +12,7 @@
 #include <cstdint>
 #include <string>
 
-#include "arscout/ingest/http_types.h"
+#include "arscout/http/http_types.h"
 #include "arscout/ingest/server.h"
 
 namespace arscout::ingest {

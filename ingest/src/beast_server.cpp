@@ -18,10 +18,10 @@
 #include <thread>
 
 #include "api.h"
+#include "arscout/http/keyed_limit.h"
 #include "arscout/ingest/server.h"
 #include "beast_session.h"
 #include "change_watch.h"
-#include "keyed_limit.h"
 
 namespace arscout::ingest {
 

@@ -17,11 +17,16 @@
 #include <optional>
 
 #include "api_handlers.h"
+#include "arscout/http/body_rate.h"
 #include "arscout/util/process.h"
 #include "beast_request.h"
-#include "body_rate.h"
 
 namespace arscout::ingest {
+
+// http/'s pieces by their short names: inside this file `http` is Beast's.
+using http::BodyRate;
+using http::parse_target;
+
 namespace {
 
 namespace asio = boost::asio;

@@ -11,12 +11,16 @@
 #include <optional>
 
 #include "api.h"
+#include "arscout/http/byte_budget.h"
+#include "arscout/http/keyed_limit.h"
 #include "arscout/ingest/server.h"
-#include "byte_budget.h"
 #include "change_watch.h"
-#include "keyed_limit.h"
 
 namespace arscout::ingest {
+
+// The server's caps and budgets (arscout/http/), by their short names here.
+using http::ByteBudget;
+using http::KeyedLimit;
 
 // What every session of one server shares.
 struct SessionContext {

@@ -9,9 +9,9 @@
 #include <string>
 
 #include "arscout/db/store.h"
-#include "arscout/ingest/http_types.h"
+#include "arscout/http/http_types.h"
+#include "arscout/http/keyed_rate.h"
 #include "arscout/ingest/server.h"
-#include "keyed_rate.h"
 
 namespace arscout::ingest {
 
@@ -37,7 +37,7 @@ class NewPlaces {
   bool near_site(db::Store& store, double lat, double lon) const;
 
   const double distance_m_;
-  KeyedRate rate_;
+  http::KeyedRate rate_;
   std::mutex mutex_;
   std::map<std::string, std::deque<Place>> recent_;  // per token, newest last
 };
@@ -47,9 +47,9 @@ struct ClientLimits {
   ClientLimits();
   explicit ClientLimits(const ServerOptions& options);
 
-  KeyedRate uploads;        // per token name
-  NewPlaces new_places;     // per token name
-  KeyedRate auth_failures;  // per client address
+  http::KeyedRate uploads;        // per token name
+  NewPlaces new_places;           // per token name
+  http::KeyedRate auth_failures;  // per client address
 };
 
 // 429 `kind` with `message` and Retry-After: seconds.

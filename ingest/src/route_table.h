@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "arscout/http/http_types.h"
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/http_types.h"
 #include "arscout/ingest/server.h"
 
 namespace arscout::ingest {

@@ -8,9 +8,9 @@
 
 #include "api_handlers.h"
 #include "arscout/documents/capture.h"
-#include "arscout/ingest/gps.h"
 #include "arscout/util/base64.h"
 #include "arscout/util/error.h"
+#include "arscout/util/time.h"
 
 namespace arscout::ingest {
 namespace {
@@ -299,7 +299,7 @@ SessionSummary export_session(
               {"since", since},
               {"last_seq", last},
               {"backend", store.backend()},
-              {"exported", format_time_utc(std::time(nullptr))}}
+              {"exported", util::format_time_utc(std::time(nullptr))}}
              .dump()
       << '\n';
   SessionWriter writer(store, out);

@@ -25,8 +25,8 @@
 
 #include "api.h"
 #include "api_handlers.h"
+#include "arscout/http/http_types.h"
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/http_types.h"
 #include "arscout/ingest/server.h"
 #include "beast_request.h"
 #include "fuzz_store.h"
@@ -86,7 +86,7 @@ std::string encode(std::string_view text, bool keep_slash) {
 
 // parse_target inverts percent-encoding: encoding what it decoded and
 // parsing that again gives the same path and parameters.
-void check_target_round_trip(const ingest::ParsedTarget& parsed) {
+void check_target_round_trip(const arscout::http::ParsedTarget& parsed) {
   std::string target = encode(parsed.path, true);
   char separator = '?';
   for (const auto& [key, value] : parsed.query) {
@@ -94,14 +94,15 @@ void check_target_round_trip(const ingest::ParsedTarget& parsed) {
     target += encode(key, false) + "=" + encode(value, false);
     separator = '&';
   }
-  const auto again = ingest::parse_target(target);
+  const auto again = arscout::http::parse_target(target);
   check(again.has_value(), "an encoded target parses");
   check(again->path == parsed.path, "the path survives a round trip");
   check(again->query == parsed.query, "the query survives a round trip");
 }
 
 // What the API reads from a request before a handler runs.
-void check_api_view(const ingest::Api& api, const ingest::HttpRequest& req) {
+void check_api_view(const ingest::Api& api,
+                    const arscout::http::HttpRequest& req) {
   const std::string route = api.route_template(req.method, req.path);
   check(!route.empty(), "every request has a route name for the metrics");
   for (const char* name : {"since", "limit", "depth", "wait"}) {
@@ -135,7 +136,7 @@ class ApiUnderTest {
     return *api_;
   }
 
-  void authorize(ingest::HttpRequest& req) const {
+  void authorize(arscout::http::HttpRequest& req) const {
     if (auto header = req.headers.find("authorization");
         header != req.headers.end() && header->second.starts_with("Bearer ")) {
       if (auto token = tokens_.find(header->second.substr(7));
@@ -154,7 +155,7 @@ class ApiUnderTest {
   std::map<std::string, std::string> tokens_;
 };
 
-void check_answer(const ingest::HttpResponse& response) {
+void check_answer(const arscout::http::HttpResponse& response) {
   if (response.status >= 200 && response.status < 500) return;
   std::fprintf(stderr, "answered %d: %s\n", response.status,
                response.body.c_str());
@@ -181,9 +182,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data,
   if (length && *length > options.max_body_bytes) return 0;  // 413
   if (beast::websocket::is_upgrade(parser.get())) {
     // HttpSession::upgrade reads the target of the header alone.
-    ingest::HttpRequest req =
+    arscout::http::HttpRequest req =
         ingest::to_request(ingest::BeastRequest(parser.release()));
-    auto parsed = ingest::parse_target(req.target);
+    auto parsed = arscout::http::parse_target(req.target);
     if (!parsed) return 0;
     check_target_round_trip(*parsed);
     req.path = std::move(parsed->path);
@@ -192,7 +193,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data,
     ingest::Api& api = api_under_test.next();
     api_under_test.authorize(req);
     auto checked = api.check_subscribe(req);
-    if (auto* refusal = std::get_if<ingest::HttpResponse>(&checked))
+    if (auto* refusal = std::get_if<arscout::http::HttpResponse>(&checked))
       check_answer(*refusal);
     return 0;
   }
@@ -202,10 +203,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data,
   read_until(
       parser, rest, [&] { return parser.is_done(); }, ec);
   if (ec) return 0;
-  ingest::HttpRequest req = ingest::to_request(parser.release());
+  arscout::http::HttpRequest req = ingest::to_request(parser.release());
   check(req.body.size() <= options.max_body_bytes, "the body limit holds");
   check(!req.method.empty(), "a parsed request has a method");
-  auto parsed = ingest::parse_target(req.target);
+  auto parsed = arscout::http::parse_target(req.target);
   if (!parsed) return 0;  // 400
   check_target_round_trip(*parsed);
   req.path = std::move(parsed->path);

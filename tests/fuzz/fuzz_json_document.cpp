@@ -20,18 +20,19 @@ namespace {
 
 namespace db = arscout::db;
 namespace ingest = arscout::ingest;
+namespace http = arscout::http;
 using arscout::fuzz::check;
 using Json = db::Json;
 
 constexpr const char* kPath = "/fuzz/doc";
 const Json kBase = {{"a", 1}, {"b", {{"c", {1, 2}}, {"d", "x"}}}, {"e", "y"}};
 
-ingest::HttpResponse request(db::Store& store, const std::string& method,
-                             const std::string& body) {
+http::HttpResponse request(db::Store& store, const std::string& method,
+                           const std::string& body) {
   static ingest::Metrics metrics;
   static const ingest::Principal admin{ingest::Role::kAdmin, "fuzz"};
   ingest::ApiContext ctx{store, metrics, admin};
-  ingest::HttpRequest req;
+  http::HttpRequest req;
   req.method = method;
   req.target = std::string("/v1/docs") + kPath;
   req.path = req.target;
@@ -45,7 +46,7 @@ ingest::HttpResponse request(db::Store& store, const std::string& method,
 
 // The refusals a body alone can earn: malformed JSON (400), an unknown
 // blob (404), too large (413), not a document (422).
-void check_status(const ingest::HttpResponse& r, const char* what) {
+void check_status(const http::HttpResponse& r, const char* what) {
   const int s = r.status;
   if (s == 200 || s == 201 || s == 400 || s == 404 || s == 413 || s == 422)
     return;
@@ -53,7 +54,7 @@ void check_status(const ingest::HttpResponse& r, const char* what) {
   arscout::fuzz::fail("a document write is answered 2xx or a client error");
 }
 
-Json stored(const ingest::HttpResponse& r) {
+Json stored(const http::HttpResponse& r) {
   Json doc = Json::parse(r.body);
   check(doc.value("path", "") == kPath, "the response is the document");
   return doc;
@@ -69,11 +70,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data,
   const std::string body(arscout::fuzz::as_text(data, size));
 
   std::string error;
-  const std::optional<Json> parsed = ingest::parse_json_body(body, &error);
+  const std::optional<Json> parsed = http::parse_json_body(body, &error);
   check(parsed.has_value() == error.empty(),
         "parse_json_body sets an error exactly when it fails");
 
-  ingest::HttpResponse put = request(store, "PUT", body);
+  http::HttpResponse put = request(store, "PUT", body);
   check_status(put, "PUT");
   if (put.status < 300) {
     check(parsed.has_value(), "a PUT accepted parsable JSON");
@@ -85,10 +86,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data,
           "a PUT stores the blob references sent");
   }
 
-  ingest::HttpResponse base =
+  http::HttpResponse base =
       request(store, "PUT", Json{{"kind", "base"}, {"attrs", kBase}}.dump());
   check(base.status == 200 || base.status == 201, "the base document is put");
-  ingest::HttpResponse patch = request(store, "PATCH", body);
+  http::HttpResponse patch = request(store, "PATCH", body);
   check_status(patch, "PATCH");
   if (patch.status < 300) {
     check(parsed.has_value(), "a PATCH accepted parsable JSON");

@@ -1,19 +1,19 @@
-// multipart/form-data capture uploads (ingest/src/multipart.h). The input's
-// first line is the Content-Type header, the rest the body. A malformed
-// body must end in nullopt with an error; the parts of a well-formed one
-// must lie inside the body, in order, each named. Parts whose names and
+// multipart/form-data capture uploads (http/include/arscout/http/multipart.h).
+// The input's first line is the Content-Type header, the rest the body. A
+// malformed body must end in nullopt with an error; the parts of a well-formed
+// one must lie inside the body, in order, each named. Parts whose names and
 // types are plain tokens must survive being written out again and parsed.
 #include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "arscout/http/multipart.h"
 #include "fuzz_support.h"
-#include "multipart.h"
 
 namespace {
 
-namespace ingest = arscout::ingest;
+namespace http = arscout::http;
 using arscout::fuzz::check;
 
 bool plain_token(std::string_view s) {
@@ -26,10 +26,10 @@ bool plain_token(std::string_view s) {
   return true;
 }
 
-std::string write_form(const std::vector<ingest::FormPart>& parts,
+std::string write_form(const std::vector<http::FormPart>& parts,
                        const std::string& boundary) {
   std::string body = "preamble\r\n";
-  for (const ingest::FormPart& p : parts) {
+  for (const http::FormPart& p : parts) {
     body += "--" + boundary + "\r\n";
     body += "Content-Disposition: form-data; name=\"" + p.name + "\"";
     if (!p.filename.empty()) body += "; filename=\"" + p.filename + "\"";
@@ -43,16 +43,16 @@ std::string write_form(const std::vector<ingest::FormPart>& parts,
   return body + "--" + boundary + "--\r\nepilogue";
 }
 
-void check_round_trip(const std::vector<ingest::FormPart>& parts,
+void check_round_trip(const std::vector<http::FormPart>& parts,
                       const std::string& boundary) {
   if (parts.empty()) return;  // "--b--" alone has no first boundary line
-  for (const ingest::FormPart& p : parts)
+  for (const http::FormPart& p : parts)
     if (!plain_token(p.name) || !plain_token(p.filename) ||
         !plain_token(p.content_type))
       return;
   const std::string body = write_form(parts, boundary);
   std::string error;
-  const auto again = ingest::parse_multipart(body, boundary, &error);
+  const auto again = http::parse_multipart(body, boundary, &error);
   check(again.has_value(), "a written form parses");
   check(again->size() == parts.size(), "a written form keeps its parts");
   for (std::size_t i = 0; i < parts.size(); ++i) {
@@ -76,14 +76,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data,
   // It ends where libFuzzer's copy of the input ends, which ASan guards.
   const std::string_view view = input.substr(newline + 1);
 
-  const std::string boundary = ingest::multipart_boundary(content_type);
+  const std::string boundary = http::multipart_boundary(content_type);
   std::string error;
-  const auto parts = ingest::parse_multipart(view, boundary, &error);
+  const auto parts = http::parse_multipart(view, boundary, &error);
   check(parts.has_value() == error.empty(),
         "parse_multipart sets an error exactly when it fails");
   if (!parts) return 0;
   const char* previous_end = view.data();
-  for (const ingest::FormPart& p : *parts) {
+  for (const http::FormPart& p : *parts) {
     check(!p.name.empty(), "every part has a name");
     check(p.body.data() >= previous_end &&
               p.body.data() + p.body.size() <= view.data() + view.size(),

@@ -2,7 +2,7 @@
 // truth: a pinhole camera with radial distortion looks at a planar board
 // from known poses, so the recovered intrinsics can be compared with the
 // camera that took the pictures.
-#include "arscout/ingest/calibration.h"
+#include "arscout/engine/calibration.h"
 
 #include <sys/wait.h>
 
@@ -29,6 +29,11 @@
 #include "tool_process.h"
 
 namespace arscout::ingest {
+
+using engine::BoardSize;
+using engine::calibrate_chessboard;
+using engine::CameraCalibration;
+using engine::parse_board_size;
 namespace {
 
 namespace fs = std::filesystem;

@@ -13,6 +13,8 @@
 #include "test_stores.h"
 
 namespace arscout::ingest {
+
+using http::StaticMount;
 namespace {
 
 namespace fs = std::filesystem;

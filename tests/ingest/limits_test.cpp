@@ -14,13 +14,19 @@
 #include "api.h"
 #include "api_handlers.h"
 #include "arscout/db/store.h"
+#include "arscout/http/byte_budget.h"
+#include "arscout/http/keyed_rate.h"
 #include "arscout/ingest/auth.h"
-#include "byte_budget.h"
 #include "client_limits.h"
-#include "keyed_rate.h"
 #include "test_stores.h"
 
 namespace arscout::ingest {
+
+using http::ByteBudget;
+using http::KeyedRate;
+using http::parse_json_body;
+using http::serve_static;
+using http::StaticMount;
 namespace {
 
 using Clock = std::chrono::steady_clock;

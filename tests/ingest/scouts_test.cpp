@@ -13,12 +13,16 @@
 
 #include "arscout/db/store.h"
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/gps.h"
 #include "arscout/ingest/server.h"
+#include "arscout/metadata/gps.h"
 #include "test_stores.h"
 #include "tool_process.h"
 
 namespace arscout::ingest {
+
+using metadata::GpsFix;
+using metadata::read_exif_file;
+using metadata::read_gps_csv;
 namespace {
 
 using namespace std::chrono_literals;

@@ -13,14 +13,20 @@
 #include <gtest/gtest.h>
 
 #include "arscout/db/store.h"
+#include "arscout/http/change_stream.h"
+#include "arscout/http/client.h"
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/change_stream.h"
-#include "arscout/ingest/client.h"
 #include "arscout/ingest/server.h"
 #include "raw_http.h"
 #include "test_stores.h"
 
 namespace arscout::ingest {
+
+using http::ChangeStream;
+using http::Client;
+using http::ClientOptions;
+using http::HttpResult;
+using http::NetworkError;
 namespace {
 
 using namespace std::chrono_literals;

@@ -8,12 +8,15 @@
 #include <gtest/gtest.h>
 
 #include "arscout/db/store.h"
-#include "body_rate.h"
+#include "arscout/http/body_rate.h"
+#include "arscout/http/keyed_limit.h"
 #include "change_watch.h"
-#include "keyed_limit.h"
 #include "test_stores.h"
 
 namespace arscout::ingest {
+
+using http::BodyRate;
+using http::KeyedLimit;
 namespace {
 
 using namespace std::chrono_literals;

@@ -24,9 +24,9 @@
 #include <gtest/gtest.h>
 
 #include "arscout/db/store.h"
+#include "arscout/http/change_stream.h"
+#include "arscout/http/client.h"
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/change_stream.h"
-#include "arscout/ingest/client.h"
 #include "flaky_upload.h"
 #include "raw_http.h"
 #include "scratch_disks.h"
@@ -46,20 +46,20 @@ std::string metadata(const std::string& id) {
       .dump();
 }
 
-ingest::HttpResult upload(ingest::Client& client, const std::string& id,
-                          const std::string& jpeg) {
+http::HttpResult upload(http::Client& client, const std::string& id,
+                        const std::string& jpeg) {
   return client.request(
       "POST", "/v1/captures", jpeg,
       {{"Content-Type", "image/jpeg"}, {"X-Capture-Metadata", metadata(id)}});
 }
 
-ingest::Client client_for(const testing::ServeProcess& server,
-                          const std::string& token) {
-  ingest::ClientOptions options;
+http::Client client_for(const testing::ServeProcess& server,
+                        const std::string& token) {
+  http::ClientOptions options;
   options.server = server.url();
   options.token = token;
   options.timeout = 30s;
-  return ingest::Client(options);
+  return http::Client(options);
 }
 
 // ---- PostgreSQL restarted under the server ----
@@ -110,7 +110,7 @@ bool wait_for_health(const testing::ServeProcess& server, int status,
   while (std::chrono::steady_clock::now() < deadline) {
     try {
       if (client.get("/healthz").status == status) return true;
-    } catch (const ingest::NetworkError&) {
+    } catch (const http::NetworkError&) {
     }
     std::this_thread::sleep_for(100ms);
   }
@@ -155,7 +155,7 @@ TEST(PostgresRestart, ServerAnswers503WhileDownAndScoutsLoseNothing) {
   EXPECT_TRUE(wait_for_health(server, 503, 10s));
   auto client = client_for(server, tester);
   const std::string mine = testing::noise_jpeg(424242, 320, 240);
-  ingest::HttpResult refused = upload(client, "t-during-outage", mine);
+  http::HttpResult refused = upload(client, "t-during-outage", mine);
   EXPECT_EQ(refused.status, 503) << refused.body;
   EXPECT_EQ(refused.json().value("error", ""), "unavailable") << refused.body;
   EXPECT_EQ(refused.headers["retry-after"], "1");
@@ -179,7 +179,7 @@ TEST(PostgresRestart, ServerAnswers503WhileDownAndScoutsLoseNothing) {
   ASSERT_TRUE(pg.run("up"));
   EXPECT_TRUE(wait_for_health(server, 200, 30s)) << "no recovery";
   {
-    ingest::ChangeStream stream({server.url(), tester}, 0);
+    http::ChangeStream stream({server.url(), tester}, 0);
     EXPECT_TRUE(stream.next(10s)) << "no change through a stream after it";
   }
   EXPECT_GT(store->last_seq(), seq_before - 1);
@@ -198,7 +198,7 @@ TEST(PostgresRestart, ServerAnswers503WhileDownAndScoutsLoseNothing) {
   }
   std::cout << "PostgreSQL down 3 s and restarted: " << kScouts << " scouts x "
             << kPhotos << " photos, " << retries << " retries\n";
-  ingest::HttpResult retried = upload(client, "t-during-outage", mine);
+  http::HttpResult retried = upload(client, "t-during-outage", mine);
   EXPECT_EQ(retried.status, 201) << retried.body;
 
   db::Query all;
@@ -304,7 +304,7 @@ TEST_F(SqliteDisk, FullDiskGivesA503AndLosesNothing) {
   ARSCOUT_DISK_OR_SKIP(disk);
   serve_on(disk.dir());
   auto client = client_for(*server_, token_);
-  ingest::HttpResult refused;
+  http::HttpResult refused;
   int next = 0;
   for (; next < 200; ++next) {
     refused = upload(client, id(next), photo(next));
@@ -323,7 +323,7 @@ TEST_F(SqliteDisk, FullDiskGivesA503AndLosesNothing) {
   EXPECT_EQ(upload(client, id(next), photo(next)).status, 503);
 
   ASSERT_TRUE(disk.remount("64m", false));  // space freed
-  ingest::HttpResult retried = upload(client, id(next), photo(next));
+  http::HttpResult retried = upload(client, id(next), photo(next));
   EXPECT_EQ(retried.status, 201) << retried.body;
   if (retried.status == 201) stored_.push_back(next);
   stop_server();
@@ -371,7 +371,7 @@ TEST_F(SqliteDisk, DiskTurningReadOnlyUnderTheServerGives503AndLosesNothing) {
   ASSERT_TRUE(disk.fail()) << disk.error();
 
   auto client = client_for(*server_, token_);
-  const ingest::HttpResult refused = upload(client, id(6), photo(6));
+  const http::HttpResult refused = upload(client, id(6), photo(6));
   std::cout << "disk turned read-only: " << refused.body << "\n";
   EXPECT_EQ(refused.status, 503) << refused.body;
   EXPECT_EQ(refused.json().value("error", ""), "unavailable");

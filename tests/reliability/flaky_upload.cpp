@@ -57,13 +57,13 @@ void interrupted_upload(std::uint16_t port, const std::string& token,
   close(fd);
 }
 
-UploadOutcome upload_until_stored(ingest::Client& client,
+UploadOutcome upload_until_stored(http::Client& client,
                                   const std::string& metadata,
                                   const std::string& jpeg, int max_tries) {
   UploadOutcome out;
   for (int attempt = 0; attempt < max_tries; ++attempt) {
     try {
-      ingest::HttpResult r = client.request(
+      http::HttpResult r = client.request(
           "POST", "/v1/captures", jpeg,
           {{"Content-Type", "image/jpeg"}, {"X-Capture-Metadata", metadata}});
       ++out.attempts;
@@ -74,7 +74,7 @@ UploadOutcome upload_until_stored(ingest::Client& client,
         out.replay = replay != r.headers.end() && replay->second == "true";
         return out;
       }
-    } catch (const ingest::NetworkError& e) {
+    } catch (const http::NetworkError& e) {
       out.status = 0;
       out.body = e.what();
     }

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "arscout/ingest/client.h"
+#include "arscout/http/client.h"
 
 namespace arscout::testing {
 
@@ -37,7 +37,7 @@ void interrupted_upload(std::uint16_t port, const std::string& token,
 
 // POST /v1/captures until it is answered 201 (or a 4xx, which is final),
 // retrying network errors and 5xx with a short back-off, at most max_tries.
-UploadOutcome upload_until_stored(ingest::Client& client,
+UploadOutcome upload_until_stored(http::Client& client,
                                   const std::string& metadata,
                                   const std::string& jpeg, int max_tries = 40);
 

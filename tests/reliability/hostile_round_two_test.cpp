@@ -26,8 +26,8 @@
 #include <gtest/gtest.h>
 
 #include "arscout/db/store.h"
+#include "arscout/http/client.h"
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/client.h"
 #include "arscout/util/process.h"
 #include "flaky_upload.h"
 #include "raw_http.h"
@@ -288,7 +288,7 @@ TEST_F(HostileRoundTwo, BlobsAreSentAsTheClientReadsThem) {
   auto server = serve("blobs");
   const std::uint16_t port = testing::port_of(server->url());
   // Whole, and a range, as they were stored.
-  ingest::Client planner({server->url(), planner_});
+  http::Client planner({server->url(), planner_});
   const auto whole = planner.get("/v1/blobs/" + hash);
   ASSERT_EQ(whole.status, 200);
   EXPECT_TRUE(whole.body == bytes);
@@ -337,7 +337,7 @@ TEST_F(HostileRoundTwo, AStreamReadsNoLargeFrame) {
             << std::endl;
   EXPECT_LT(most, 16000000u) << "a whole 16 MB frame was taken";
   EXPECT_LT(grown_mb, 64);
-  ingest::Client probe({server->url(), ""});
+  http::Client probe({server->url(), ""});
   EXPECT_EQ(probe.get("/healthz").status, 200);
 }
 
@@ -349,7 +349,7 @@ TEST_F(HostileRoundTwo, LogsHeadersHeadAndRedirects) {
   const std::string web = std::string(ARSCOUT_SOURCE_DIR) + "/viewer/web";
   auto server = serve("log", {"--log-level", "info", "--web-root", web});
   const std::uint16_t port = testing::port_of(server->url());
-  ingest::Client planner({server->url(), planner_});
+  http::Client planner({server->url(), planner_});
   EXPECT_EQ(planner.get("/v1/subscribe?access_token=" + planner_).status, 400);
   EXPECT_EQ(planner.get("/v1/subscribe?access%5Ftoken=" + planner_).status,
             400);
@@ -481,8 +481,8 @@ TEST_F(HostileRoundTwo, TheServerStaysUpUnderEveryAttackAtOnce) {
           attacker([&] { never_read(port, planner_, hash, 10s); }));
     if (attacks_row(5))
       clients.emplace_back(attacker([&] {
-        ingest::Client c({"http://127.0.0.1:" + std::to_string(port), planner_,
-                          std::chrono::seconds(300)});
+        http::Client c({"http://127.0.0.1:" + std::to_string(port), planner_,
+                        std::chrono::seconds(300)});
         const auto r = c.get("/v1/sites/street/export?format=las");
         exports_ok += r.status == 200 && r.body.size() > 1000000;
       }));

@@ -15,9 +15,9 @@
 #include <gtest/gtest.h>
 
 #include "arscout/db/store.h"
+#include "arscout/http/change_stream.h"
+#include "arscout/http/client.h"
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/change_stream.h"
-#include "arscout/ingest/client.h"
 #include "arscout/ingest/image_budget.h"
 #include "arscout/util/error.h"
 #include "flaky_upload.h"
@@ -170,7 +170,7 @@ TEST_F(HostileClients, MetadataIsCheckedBeforeItIsStored) {
   auto store = db::Store::open(url_);
   const std::string scout =
       ingest::create_token(*store, ingest::Role::kScout, "sam");
-  ingest::Client client({server_->url(), scout});
+  http::Client client({server_->url(), scout});
   const std::string jpeg = testing::noise_jpeg(1, 64, 48);
   const auto upload = [&](const std::string& meta) {
     return client.request(
@@ -226,19 +226,19 @@ TEST_F(HostileClients, MetadataIsCheckedBeforeItIsStored) {
 TEST_F(HostileClients, CameraIdsBelongToTheScoutThatSendsThem) {
   auto store = db::Store::open(url_);
   const auto token = [&](ingest::Role role, const char* name) {
-    return ingest::Client(
+    return http::Client(
         {server_->url(), ingest::create_token(*store, role, name)});
   };
-  ingest::Client alice = token(ingest::Role::kScout, "alice");
-  ingest::Client bob = token(ingest::Role::kScout, "bob");
-  ingest::Client root = token(ingest::Role::kAdmin, "root");
+  http::Client alice = token(ingest::Role::kScout, "alice");
+  http::Client bob = token(ingest::Role::kScout, "bob");
+  http::Client root = token(ingest::Role::kAdmin, "root");
   const auto camera = [](double fx) {
     return nlohmann::json{
         {"fx", fx},     {"fy", fx},      {"cx", 319.5},          {"cy", 239.5},
         {"width", 640}, {"height", 480}, {"source", "estimated"}}
         .dump();
   };
-  const auto put = [&](ingest::Client& who, const std::string& id,
+  const auto put = [&](http::Client& who, const std::string& id,
                        const std::string& body) {
     return who.request("PUT", "/v1/cameras/" + id, body,
                        {{"Content-Type", "application/json"}});
@@ -292,7 +292,7 @@ TEST_F(HostileClients, CameraIdsBelongToTheScoutThatSendsThem) {
 // it and the one pool of decode slots.
 TEST_F(HostileClients, DecodesStayWithinTheBudgetWhateverTheMetadataSays) {
   auto store = db::Store::open(url_);
-  ingest::Client scout(
+  http::Client scout(
       {server_->url(),
        ingest::create_token(*store, ingest::Role::kScout, "sam")});
   const auto upload = [&](const std::string& png, const std::string& id) {
@@ -326,7 +326,7 @@ TEST_F(HostileClients, DecodesStayWithinTheBudgetWhateverTheMetadataSays) {
   std::vector<int> statuses(16);
   for (int i = 0; i < 16; ++i)
     viewers.emplace_back([&, i] {
-      ingest::Client c({server_->url(), planner_, std::chrono::seconds(300)});
+      http::Client c({server_->url(), planner_, std::chrono::seconds(300)});
       statuses[i] = c.get("/v1/captures/sam.largest/thumbnail.jpg?size=" +
                           std::to_string(128 + i))
                         .status;
@@ -360,7 +360,7 @@ TEST_F(HostileClients, TheFeedShowsNoTokensToScoutsOrPlanners) {
   const std::string scout =
       ingest::create_token(*store, ingest::Role::kScout, "sam");
   for (const std::string& token : {planner_, scout}) {
-    ingest::Client client({server_->url(), token});
+    http::Client client({server_->url(), token});
     for (const char* query :
          {"/v1/changes?since=0&pattern=/auth/**", "/v1/changes?since=0"}) {
       const auto answer = client.get(query).json();
@@ -374,7 +374,7 @@ TEST_F(HostileClients, TheFeedShowsNoTokensToScoutsOrPlanners) {
         client.get("/v1/changes?since=0&pattern=/auth/**&wait=1").json();
     EXPECT_TRUE(polled["changes"].empty()) << polled.dump();
     // The WebSocket: the scout's own /scouts/sam arrives, no token does.
-    ingest::ChangeStream stream({server_->url(), token}, 0);
+    http::ChangeStream stream({server_->url(), token}, 0);
     int seen = 0;
     while (auto change = stream.next(std::chrono::milliseconds(1500))) {
       ++seen;
@@ -384,7 +384,7 @@ TEST_F(HostileClients, TheFeedShowsNoTokensToScoutsOrPlanners) {
     EXPECT_GE(seen, 1);
   }
   // An admin still sees the tokens.
-  ingest::Client root({server_->url(), admin});
+  http::Client root({server_->url(), admin});
   const auto all = root.get("/v1/changes?since=0&pattern=/auth/**").json();
   EXPECT_EQ(all["changes"].size(), 3u) << all.dump();
 }
@@ -403,7 +403,7 @@ TEST_F(HostileClients, ScoutsCannotTakeEachOthersCaptureIds) {
                util::Error);
   const auto upload = [&](const std::string& token, const std::string& id,
                           int image) {
-    ingest::Client client({server_->url(), token});
+    http::Client client({server_->url(), token});
     return client.request(
         "POST", "/v1/captures", testing::noise_jpeg(image, 64, 48),
         {{"Content-Type", "image/jpeg"},
@@ -449,20 +449,20 @@ TEST_F(HostileClients, LongPollsAndStreamsHoldNoWorkerThread) {
   std::vector<std::thread> polls;
   for (int i = 0; i < kPolls; ++i)
     polls.emplace_back([&, i] {
-      ingest::Client c({server.url(), scout, std::chrono::seconds(40)});
+      http::Client c({server.url(), scout, std::chrono::seconds(40)});
       const auto r = c.get(poll);
       statuses[i] = r.status;
       if (r.status == 200)
         delivered[i] = static_cast<int>(r.json()["changes"].size());
     });
-  std::vector<std::unique_ptr<ingest::ChangeStream>> streams;
+  std::vector<std::unique_ptr<http::ChangeStream>> streams;
   for (int i = 0; i < kStreams; ++i)
-    streams.push_back(std::make_unique<ingest::ChangeStream>(
-        ingest::ClientOptions{server.url(), scout}, head));
+    streams.push_back(std::make_unique<http::ChangeStream>(
+        http::ClientOptions{server.url(), scout}, head));
   std::this_thread::sleep_for(std::chrono::seconds(1));  // all are waiting
 
   // 4 workers, 64 waiting clients: /healthz answers at once.
-  ingest::Client probe({server.url(), ""});
+  http::Client probe({server.url(), ""});
   double slowest = 0;
   for (int i = 0; i < 10; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -472,10 +472,10 @@ TEST_F(HostileClients, LongPollsAndStreamsHoldNoWorkerThread) {
                                     .count());
   }
   // One more from the same token is past its cap; another token's is not.
-  ingest::Client more({server.url(), scout});
+  http::Client more({server.url(), scout});
   const auto refused = more.get(poll);
   EXPECT_EQ(refused.status, 429) << refused.body;
-  ingest::Client other({server.url(), planner_});
+  http::Client other({server.url(), planner_});
   EXPECT_EQ(
       other.get("/v1/changes?since=" + std::to_string(head) + "&wait=1").status,
       200);

@@ -16,8 +16,8 @@
 #include <gtest/gtest.h>
 
 #include "arscout/db/store.h"
+#include "arscout/http/client.h"
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/client.h"
 #include "flaky_upload.h"
 #include "serve_process.h"
 #include "test_stores.h"
@@ -82,11 +82,11 @@ class LoadTest : public ::testing::TestWithParam<std::string> {
   ScoutTally run_scout(const testing::ServeProcess& server, int s,
                        std::atomic<int>* done) {
     ScoutTally tally;
-    ingest::ClientOptions options;
+    http::ClientOptions options;
     options.server = server.url();
     options.token = tokens_[s];
     options.timeout = 30s;
-    ingest::Client client(options);
+    http::Client client(options);
     std::mt19937 rng(static_cast<unsigned>(s));
     std::uniform_real_distribution<double> fraction(0.05, 0.95);
     for (int i = 0; i < captures_; ++i) {
@@ -180,9 +180,9 @@ TEST_P(LoadTest, ConcurrentScoutsWithAbortedUploadsStoreEachCaptureOnce) {
       << "interrupted bodies must not leave blobs behind";
   const int lost = check_store_holds_every_capture();
 
-  ingest::ClientOptions anonymous;
+  http::ClientOptions anonymous;
   anonymous.server = server.url();
-  ingest::Client probe(anonymous);
+  http::Client probe(anonymous);
   EXPECT_EQ(probe.get("/healthz").status, 200) << "the server survived";
   EXPECT_LT(peak, kPeakRssBoundKib);
 

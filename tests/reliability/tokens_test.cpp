@@ -8,9 +8,9 @@
 #include <gtest/gtest.h>
 
 #include "arscout/db/store.h"
+#include "arscout/http/change_stream.h"
+#include "arscout/http/client.h"
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/change_stream.h"
-#include "arscout/ingest/client.h"
 #include "arscout/util/clock.h"
 #include "arscout/util/error.h"
 #include "serve_process.h"
@@ -27,7 +27,7 @@ using util::seconds_since;
 // Seconds until `token` is answered 401 on /v1/sites by `server`.
 double until_refused(const std::string& server, const std::string& token) {
   const auto start = Clock::now();
-  ingest::Client client({server, token});
+  http::Client client({server, token});
   while (client.get("/v1/sites").status != 401) {
     if (seconds_since(start) > 10) return 99;
     std::this_thread::sleep_for(20ms);
@@ -36,11 +36,11 @@ double until_refused(const std::string& server, const std::string& token) {
 }
 
 // Seconds until the stream ends (NetworkError from next()).
-double until_closed(ingest::ChangeStream& stream) {
+double until_closed(http::ChangeStream& stream) {
   const auto start = Clock::now();
   try {
     while (seconds_since(start) < 10) stream.next(100ms);
-  } catch (const ingest::NetworkError&) {
+  } catch (const http::NetworkError&) {
     return seconds_since(start);
   }
   return 99;
@@ -58,10 +58,10 @@ TEST(TokenLifecycle, ARevokedTokenIsRefusedByEveryServerAndItsStreamsClose) {
   testing::ServeProcess a(ARSCOUT_CLI, url, dir + "/a.log");
   testing::ServeProcess b(ARSCOUT_CLI, url, dir + "/b.log");
   for (const auto* s : {&a, &b})
-    ASSERT_EQ(ingest::Client({s->url(), token}).get("/v1/sites").status, 200);
-  ingest::ChangeStream stream_a({a.url(), token}, 0);
-  ingest::ChangeStream stream_b({b.url(), token}, 0);
-  ingest::ChangeStream bystander({b.url(), other}, 0);
+    ASSERT_EQ(http::Client({s->url(), token}).get("/v1/sites").status, 200);
+  http::ChangeStream stream_a({a.url(), token}, 0);
+  http::ChangeStream stream_b({b.url(), token}, 0);
+  http::ChangeStream bystander({b.url(), other}, 0);
 
   const auto revoked = ingest::revoke_tokens(*store, "", "pat");
   ASSERT_EQ(revoked.size(), 1u);
@@ -81,7 +81,7 @@ TEST(TokenLifecycle, ARevokedTokenIsRefusedByEveryServerAndItsStreamsClose) {
   EXPECT_LT(closed_b, 1.5);
   // The other token's stream and requests go on.
   EXPECT_NO_THROW(bystander.next(1500ms));
-  EXPECT_EQ(ingest::Client({a.url(), other}).get("/v1/sites").status, 200);
+  EXPECT_EQ(http::Client({a.url(), other}).get("/v1/sites").status, 200);
   // The revoked token's document stays, marked.
   const auto tokens = ingest::list_tokens(*store);
   ASSERT_EQ(tokens.size(), 2u);
@@ -99,9 +99,9 @@ TEST(TokenLifecycle, AnExpiredTokenIsRefused) {
   // for the two requests even on a loaded machine.
   const std::string token = ingest::create_token(*store, ingest::Role::kScout,
                                                  "sam", std::time(nullptr) + 3);
-  ingest::Client client({server.url(), token});
+  http::Client client({server.url(), token});
   EXPECT_EQ(client.get("/v1/sites").status, 200);
-  ingest::ChangeStream stream({server.url(), token}, 0);
+  http::ChangeStream stream({server.url(), token}, 0);
   std::this_thread::sleep_for(4s);
   EXPECT_EQ(client.get("/v1/sites").status, 401);
   EXPECT_LT(until_closed(stream), 1.5);

@@ -16,7 +16,7 @@
 #include <gtest/gtest.h>
 
 #include "arscout/db/store.h"
-#include "arscout/ingest/client.h"
+#include "arscout/http/client.h"
 #include "arscout/ingest/session.h"
 #include "replay_support.h"
 #include "test_stores.h"
@@ -128,7 +128,7 @@ TEST(ReplayMetrics, TheEngineMetricsShowTheBacklogRisingAndFalling) {
                               log);
   const std::uint16_t port = endpoint_port(log);
   ASSERT_NE(port, 0) << testing::slurp(log);
-  ingest::Client scrape({"http://127.0.0.1:" + std::to_string(port), ""});
+  http::Client scrape({"http://127.0.0.1:" + std::to_string(port), ""});
   ASSERT_EQ(scrape.get("/v1/sites").status, 404);  // no API here
 
   std::vector<double> waiting;

@@ -17,7 +17,7 @@
 #include "arscout/db/store.h"
 #include "arscout/engine/camera.h"
 #include "arscout/engine/service.h"
-#include "arscout/ingest/gps.h"
+#include "arscout/metadata/gps.h"
 #include "camera_document.h"
 #include "test_stores.h"
 #include "tool_process.h"
@@ -38,7 +38,7 @@ std::string read_file(const fs::path& path) {
 
 struct Scene {
   std::vector<fs::path> photos;
-  std::map<std::string, ingest::GpsFix> fixes;
+  std::map<std::string, metadata::GpsFix> fixes;
   engine::CameraIntrinsics camera;
 };
 
@@ -50,10 +50,11 @@ void upload(db::Store& store, const Scene& scene, size_t i) {
   const fs::path& photo = scene.photos[i];
   db::WriteOp op = db::WriteOp::put(
       "/captures/" + photo.stem().string(), "capture",
-      Json{{"scout", "alice"},
-           {"camera", "fountain"},
-           {"gps", ingest::to_json(scene.fixes.at(photo.filename().string()))},
-           {"status", "stored"}},
+      Json{
+          {"scout", "alice"},
+          {"camera", "fountain"},
+          {"gps", metadata::to_json(scene.fixes.at(photo.filename().string()))},
+          {"status", "stored"}},
       0);
   op.blobs = db::BlobRefs{{"image", store.put_blob(read_file(photo))}};
   store.batch({op});
@@ -79,7 +80,7 @@ TEST(EngineKill, ThreeKillsLoseNothingAndChangeNothing) {
   for (const auto& e : fs::directory_iterator(dir + "/images"))
     if (e.path().extension() == ".jpg") scene.photos.push_back(e.path());
   std::sort(scene.photos.begin(), scene.photos.end());
-  scene.fixes = ingest::read_gps_csv(dir + "/gps.csv");
+  scene.fixes = metadata::read_gps_csv(dir + "/gps.csv");
   scene.camera = engine::read_k_matrix(dir + "/images/K.txt", 3072, 2048);
 
   // The uninterrupted run, in process.

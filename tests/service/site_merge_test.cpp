@@ -20,7 +20,7 @@
 
 #include "arscout/engine/camera.h"
 #include "arscout/engine/reconstruction.h"
-#include "arscout/ingest/gps.h"
+#include "arscout/metadata/gps.h"
 #include "model_eval.h"
 #include "test_stores.h"
 
@@ -36,7 +36,7 @@ std::string read_file(const fs::path& path) {
   return bytes.str();
 }
 
-engine::GeoFix engine_fix(const ingest::GpsFix& fix) {
+engine::GeoFix engine_fix(const metadata::GpsFix& fix) {
   engine::GeoFix out;
   out.lat = fix.lat;
   out.lon = fix.lon;
@@ -70,7 +70,7 @@ TEST(SiteMerge, TwoHalvesOfAWalkBecomeOneModel) {
   ASSERT_EQ(std::system(command.c_str()), 0) << command;
   const engine::CameraIntrinsics K =
       engine::read_k_matrix(dir + "/images/K.txt", 640, 480);
-  const auto fixes = ingest::read_gps_csv(dir + "/gps.csv");
+  const auto fixes = metadata::read_gps_csv(dir + "/gps.csv");
   std::vector<fs::path> photos;  // 0000.jpg ... in walking order
   for (const auto& e : fs::directory_iterator(dir + "/images"))
     if (e.path().extension() == ".jpg") photos.push_back(e.path());

@@ -14,7 +14,7 @@
 
 #include "arscout/db/store.h"
 #include "arscout/engine/camera.h"
-#include "arscout/ingest/gps.h"
+#include "arscout/metadata/gps.h"
 #include "camera_document.h"
 #include "test_stores.h"
 #include "tool_process.h"
@@ -42,9 +42,9 @@ std::vector<fs::path> photos(const std::string& dir) {
 }
 
 void upload(db::Store& store, const std::string& scout, const fs::path& photo,
-            const ingest::GpsFix& fix, const std::string& camera) {
+            const metadata::GpsFix& fix, const std::string& camera) {
   Json attrs = {
-      {"scout", scout}, {"gps", ingest::to_json(fix)}, {"status", "stored"}};
+      {"scout", scout}, {"gps", metadata::to_json(fix)}, {"status", "stored"}};
   if (!camera.empty()) attrs["camera"] = camera;
   db::WriteOp op = db::WriteOp::put(
       "/captures/" + scout + "-" + photo.stem().string(), "capture", attrs, 0);
@@ -115,7 +115,7 @@ TEST(EngineTakeover, TwoWorkersSplitTheSitesAndOneFinishesTheOthers) {
       << logs();
 
   // Two scouts walking: alice one photo a second, bob one every two.
-  const auto fixes = ingest::read_gps_csv(fountain + "/gps.csv");
+  const auto fixes = metadata::read_gps_csv(fountain + "/gps.csv");
   // jthreads: a store read that throws below fails the test, where a
   // joinable std::thread would abort the process without a word (it did,
   // once, under load).
@@ -127,7 +127,7 @@ TEST(EngineTakeover, TwoWorkersSplitTheSitesAndOneFinishesTheOthers) {
   });
   std::jthread bob([&] {
     for (const fs::path& p : photos(lund + "/images")) {
-      upload(*store, "bob", p, *ingest::read_exif_file(p.string()).gps, "");
+      upload(*store, "bob", p, *metadata::read_exif_file(p.string()).gps, "");
       std::this_thread::sleep_for(2s);
     }
   });

@@ -21,7 +21,7 @@
 #include "arscout/engine/camera.h"
 #include "arscout/engine/ply.h"
 #include "arscout/engine/service.h"
-#include "arscout/ingest/gps.h"
+#include "arscout/metadata/gps.h"
 
 #include "camera_document.h"
 #include "model_eval.h"
@@ -42,11 +42,11 @@ std::string read_file(const fs::path& path) {
 
 // Stores one photo as the API would: the image blob, then the capture.
 void upload(db::Store& store, const std::string& scout, const fs::path& photo,
-            const ingest::GpsFix& fix, const std::string& camera) {
+            const metadata::GpsFix& fix, const std::string& camera) {
   const std::string sha = store.put_blob(read_file(photo));
   Json attrs = {{"scout", scout},
                 {"filename", photo.filename().string()},
-                {"gps", ingest::to_json(fix)},
+                {"gps", metadata::to_json(fix)},
                 {"status", "stored"},
                 {"status_reason", ""}};
   if (!camera.empty()) attrs["camera"] = camera;
@@ -121,14 +121,14 @@ TEST_P(EngineWorkerOn, TwoScoutsTwoSitesModelsWrittenBack) {
   engine::EngineWorker worker(*store, options);
   worker.start();
 
-  const auto fixes = ingest::read_gps_csv(fountain + "/gps.csv");
+  const auto fixes = metadata::read_gps_csv(fountain + "/gps.csv");
   std::thread alice([&] {
     for (const fs::path& p : photos(fountain + "/images"))
       upload(*store, "alice", p, fixes.at(p.filename().string()), "fountain");
   });
   std::thread bob([&] {
     for (const fs::path& p : photos(lund + "/images")) {
-      const auto exif = ingest::read_exif_file(p.string());
+      const auto exif = metadata::read_exif_file(p.string());
       ASSERT_TRUE(exif.gps) << p;
       upload(*store, "bob", p, *exif.gps, "");
     }
@@ -218,7 +218,7 @@ std::string render_street(db::Store& store, int views) {
 
 // Uploads the street's photos as alice's; returns them.
 std::vector<fs::path> upload_street(db::Store& store, const std::string& dir) {
-  const auto fixes = ingest::read_gps_csv(dir + "/gps.csv");
+  const auto fixes = metadata::read_gps_csv(dir + "/gps.csv");
   const auto all = photos(dir + "/images");
   for (const fs::path& p : all)
     upload(store, "alice", p, fixes.at(p.filename().string()), "synthetic");
@@ -538,7 +538,7 @@ TEST(EngineWorker, TwoScoutsSplittingAWalkEndInOneComponent) {
 
   engine::EngineWorker worker(*store, options);
   worker.start();
-  const auto fixes = ingest::read_gps_csv(dir + "/gps.csv");
+  const auto fixes = metadata::read_gps_csv(dir + "/gps.csv");
   const auto all = photos(dir + "/images");
   ASSERT_EQ(all.size(), static_cast<size_t>(kViews));
   for (int i = 0; i < kViews / 2; ++i) {
@@ -623,7 +623,7 @@ TEST(EngineWorker, PhotosWithoutAFixFollowTheirScoutsPhotos) {
   options.dense = false;
   engine::EngineWorker worker(*store, options);
   worker.start();
-  const auto fixes = ingest::read_gps_csv(fountain + "/gps.csv");
+  const auto fixes = metadata::read_gps_csv(fountain + "/gps.csv");
   const std::vector<fs::path> all = photos(fountain + "/images");
   // As the API stores them: `taken` from the photo, no `gps` without a fix.
   const auto put = [&](const std::string& scout, const fs::path& p,
@@ -635,7 +635,7 @@ TEST(EngineWorker, PhotosWithoutAFixFollowTheirScoutsPhotos) {
                   {"status", with_fix ? "stored" : "needs-gps"},
                   {"status_reason", ""}};
     if (with_fix)
-      attrs["gps"] = ingest::to_json(fixes.at(p.filename().string()));
+      attrs["gps"] = metadata::to_json(fixes.at(p.filename().string()));
     db::WriteOp op = db::WriteOp::put(
         "/captures/" + scout + "-" + p.stem().string(), "capture", attrs, 0);
     op.blobs = db::BlobRefs{{"image", store->put_blob(read_file(p))}};

@@ -24,8 +24,8 @@
 #include "arscout/db/store.h"
 #include "arscout/engine/model_io.h"
 #include "arscout/engine/service.h"
+#include "arscout/http/client.h"
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/client.h"
 #include "arscout/ingest/server.h"
 #include "arscout/util/error.h"
 #include "arscout/viewer/exports.h"
@@ -84,9 +84,9 @@ class FountainSite : public ::testing::Test {
     return server;
   }
   // A client of `server` with a new planner token named `name`.
-  ingest::ClientOptions planner_client(const ingest::Server& server,
-                                       const std::string& name) {
-    ingest::ClientOptions options;
+  http::ClientOptions planner_client(const ingest::Server& server,
+                                     const std::string& name) {
+    http::ClientOptions options;
     options.server = "http://127.0.0.1:" + std::to_string(server.port());
     options.token = ingest::create_token(*store_, ingest::Role::kPlanner, name);
     return options;
@@ -262,8 +262,8 @@ TEST_F(FountainSite, PlyExportsHoldTheCloudsInTheirFrames) {
 
 TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
   const auto server = serve();
-  ingest::ClientOptions client_options = planner_client(*server, "pat");
-  ingest::Client client(client_options);
+  http::ClientOptions client_options = planner_client(*server, "pat");
+  http::Client client(client_options);
 
   const auto tar = client.get("/v1/sites/" + site_ + "/export?format=colmap");
   ASSERT_EQ(tar.status, 200) << tar.body;
@@ -321,7 +321,7 @@ TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
                 .status,
             405);
   client_options.token = "";
-  EXPECT_EQ(ingest::Client(client_options)
+  EXPECT_EQ(http::Client(client_options)
                 .get("/v1/sites/" + site_ + "/export?format=ply")
                 .status,
             401);
@@ -347,7 +347,7 @@ TEST_F(FountainSite, ExportCommandWritesTheSameFile) {
             0);
   store_ = db::Store::open("sqlite:" + (dir_ / "arscout.db").string());
   const auto server = serve();
-  ingest::Client client(planner_client(*server, "map"));
+  http::Client client(planner_client(*server, "map"));
   const auto served = client.get("/v1/sites/" + site_ + "/cameras.geojson");
   ASSERT_EQ(served.status, 200);
   EXPECT_EQ(read_file(geojson), served.body);
@@ -413,7 +413,7 @@ TEST_F(FountainSite, LasExportsAgreeAndCarryGeoidHeights) {
             << " m (cs2cs); LAS of " << count << " points" << std::endl;
 
   const auto server = serve();
-  ingest::Client client(planner_client(*server, "gis"));
+  http::Client client(planner_client(*server, "gis"));
   const auto got = client.get("/v1/sites/" + site_ +
                               "/export?format=las&crs=utm&heights=egm96");
   ASSERT_EQ(got.status, 200) << got.body;
@@ -445,7 +445,7 @@ TEST_F(FountainSite, LasExportsAgreeAndCarryGeoidHeights) {
 // a picked point's coordinates in the site's UTM zone.
 TEST_F(FountainSite, OctreeAndCoordinatesEndpoints) {
   const auto server = serve();
-  ingest::Client client(planner_client(*server, "viewer"));
+  http::Client client(planner_client(*server, "viewer"));
   const std::string base = "/v1/sites/" + site_;
   const auto hierarchy = client.get(base + "/octree");
   ASSERT_EQ(hierarchy.status, 200) << hierarchy.body;
@@ -502,7 +502,7 @@ TEST_F(FountainSite, OctreeAndCoordinatesEndpoints) {
 // its facade has cells and the suggestions ask for more of it.
 TEST_F(FountainSite, CoverageIsGeoJsonWithClearErrors) {
   const auto server = serve();
-  ingest::Client client(planner_client(*server, "coverage"));
+  http::Client client(planner_client(*server, "coverage"));
   const std::string base = "/v1/sites/" + site_ + "/coverage";
   const auto got = client.get(base);
   ASSERT_EQ(got.status, 200) << got.body;

@@ -14,6 +14,7 @@
 #include "arscout/documents/document_error.h"
 #include "arscout/documents/geojson.h"
 #include "arscout/ingest/image_budget.h"
+#include "arscout/ingest/store_errors.h"
 #include "arscout/viewer/exports.h"
 #include "arscout/viewer/overlay.h"
 #include "cloud_octree.h"
@@ -28,8 +29,8 @@ namespace {
 constexpr std::size_t kExportCacheBytes = 256u << 20;
 
 using db::StoreError;
-using ingest::HttpRequest;
-using ingest::HttpResponse;
+using http::HttpRequest;
+using http::HttpResponse;
 
 // "/v1/{collection}/{id}/{leaf}" -> id, or "" when the path is not that.
 std::string id_between(const std::string& path, const std::string& collection,
@@ -166,7 +167,7 @@ HttpResponse site_export(ExportCache& cache, db::Store& store,
       key, [&] { return export_site(store, site, *format, options); });
   HttpResponse r;
   r.content_type = file->content_type;
-  r.body_reader = ingest::shared_bytes_reader(
+  r.body_reader = http::shared_bytes_reader(
       std::shared_ptr<const std::string>(file, &file->bytes));
   r.headers.emplace_back("Content-Disposition",
                          "attachment; filename=\"" + file->filename + "\"");
@@ -425,7 +426,7 @@ std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
   };
 }
 
-std::vector<ingest::StaticMount> web_mounts(const std::string& web_root) {
+std::vector<http::StaticMount> web_mounts(const std::string& web_root) {
   return {{"/", web_root},
           {"/vendor/three/", web_root + "/node_modules/three"}};
 }

@@ -9,8 +9,8 @@ namespace arscout::viewer {
 namespace {
 
 using Json = nlohmann::json;
-using ingest::HttpRequest;
-using ingest::HttpResponse;
+using http::HttpRequest;
+using http::HttpResponse;
 
 // [lon, lat] of an ENU point at the ground's height, to 1e-7 degrees
 // (about a centimetre).

@@ -14,7 +14,7 @@
 #include "arscout/db/store.h"
 #include "arscout/engine/coverage.h"
 #include "arscout/engine/geo.h"
-#include "arscout/ingest/http_types.h"
+#include "arscout/http/http_types.h"
 
 namespace arscout::viewer {
 
@@ -50,8 +50,8 @@ class CoverageCache {
 // scout's position) and `max` (suggestions, 0-20, default 5): 400 for a bad
 // `near`, 422 before the model is geo-registered, the store's errors (404
 // for no site or no model yet) as the API states them.
-ingest::HttpResponse site_coverage(CoverageCache& cache, db::Store& store,
-                                   const ingest::HttpRequest& req,
-                                   const std::string& site, int max);
+http::HttpResponse site_coverage(CoverageCache& cache, db::Store& store,
+                                 const http::HttpRequest& req,
+                                 const std::string& site, int max);
 
 }  // namespace arscout::viewer

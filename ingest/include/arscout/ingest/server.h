@@ -12,10 +12,17 @@
 #include <vector>
 
 #include "arscout/db/store.h"
+#include "arscout/http/http_types.h"
+#include "arscout/http/static_files.h"
 #include "arscout/ingest/auth.h"
-#include "arscout/ingest/http_types.h"
+#include "arscout/ingest/store_errors.h"
 
 namespace arscout::ingest {
+
+// The HTTP values the routes speak (arscout/http/http_types.h).
+using http::HttpRequest;
+using http::HttpResponse;
+using http::Json;
 
 // A route of the v1 API: ingest's own (api.cpp) and those other libraries
 // add (the viewer's overlays, thumbnails and exports), so ingest need not
@@ -25,7 +32,7 @@ namespace arscout::ingest {
 // to write); a method none of them takes is 405 with Allow. A request
 // without a valid token is 401, a role below the route's 403; the handler
 // runs on the handler pool, and a db::StoreError or util::Error it throws
-// is answered with error_response (http_types.h).
+// is answered with error_response (store_errors.h).
 struct ApiRoute {
   ApiRoute() = default;
   // A route found by `matches` alone, for any method and any valid token.
@@ -57,15 +64,6 @@ struct ApiRoute {
   // pool for long requests, so that many of them wait for each other and
   // not every other request for them.
   bool runs_long = false;
-};
-
-// Files under `directory` served without a token at `url_prefix` (ends in
-// '/'), GET and HEAD only: the web viewer. A path ending in '/' serves its
-// index.html; ".." segments, links out of the directory and anything but a
-// regular file are 404.
-struct StaticMount {
-  std::string url_prefix;
-  std::string directory;
 };
 
 struct ServerOptions {
@@ -130,7 +128,7 @@ struct ServerOptions {
   std::vector<ApiRoute> routes;
   // The longest matching prefix wins; /v1/, /healthz and /metrics never
   // reach them.
-  std::vector<StaticMount> static_mounts;
+  std::vector<http::StaticMount> static_mounts;
   // false: /healthz and /metrics only (every other path 404), as
   // `arscout engine --listen` serves them.
   bool serve_api = true;

@@ -31,7 +31,7 @@ namespace arscout::viewer {
 std::vector<ingest::ApiRoute> viewer_routes(db::Store& store);
 
 // `/` -> web_root, `/vendor/three/` -> web_root/node_modules/three/.
-std::vector<ingest::StaticMount> web_mounts(const std::string& web_root);
+std::vector<http::StaticMount> web_mounts(const std::string& web_root);
 
 // The web viewer's folder in the source tree this binary was built from.
 std::string default_web_root();
