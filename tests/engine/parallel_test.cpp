@@ -1,7 +1,7 @@
 // The core's coarse parallel work (parallel.h): every task runs once, on
 // no more workers than asked, and a failure reaches the caller only after
 // every worker has stopped.
-#include "parallel.h"
+#include "runtime/parallel.h"
 
 #include <atomic>
 #include <chrono>

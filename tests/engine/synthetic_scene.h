@@ -17,7 +17,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "sfm/scene.h"
+#include "scene/scene.h"
 
 namespace arscout::engine::synthetic {
 

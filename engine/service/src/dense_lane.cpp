@@ -3,6 +3,7 @@
 #include <chrono>
 #include <optional>
 
+#include "phase.h"
 #include "thread_priority.h"
 
 namespace arscout::engine::service {
@@ -25,8 +26,8 @@ void DenseLane::run_inline(const std::string& site, SiteJob& job,
   lock.unlock();
   try {
     std::lock_guard publication(job.publication());
-    Increment dense = timed([&] { return job.run_dense(); });
-    board_.phases.dense.observe(dense.seconds);
+    DensePhase phase;
+    Increment dense = run_phase(phase, job, &board_.phases.dense);
     if (!dense.ops.empty()) committer_.commit(site, job, dense, std::nullopt);
     lock.lock();
     board_.stats.increments += dense.model_written ? 1 : 0;
@@ -67,7 +68,7 @@ void DenseLane::run() {
     q.schedule.on(SiteEvent::kDenseTaken);
     lock.unlock();
     try {
-      const End end = run_phase(site, q, *job);
+      const End end = sweep_and_publish(site, q, *job);
       lock.lock();
       finish(site, q, *job, end, lock);
     } catch (const std::exception& e) {
@@ -92,8 +93,8 @@ void DenseLane::finish(const std::string& site, SiteQueue& q, SiteJob& job,
   if (q.schedule.sparse_due()) board_.make_ready(site, q);
 }
 
-DenseLane::End DenseLane::run_phase(const std::string& site, SiteQueue& q,
-                                    SiteJob& job) {
+DenseLane::End DenseLane::sweep_and_publish(const std::string& site,
+                                            SiteQueue& q, SiteJob& job) {
   const auto start = std::chrono::steady_clock::now();
   std::optional<DenseTask> task;
   {
@@ -117,7 +118,9 @@ DenseLane::End DenseLane::run_phase(const std::string& site, SiteQueue& q,
                        [&] { job.compute_dense(*task); });
   on(q, SiteEvent::kDenseSwept);  // a refinement gives way too
   std::lock_guard publication(job.publication());
-  Increment dense = job.finish_dense(*task);
+  // Timed from the lane's start: the sweep is the phase's longest part.
+  DensePublication publication_phase(*task);
+  Increment dense = publication_phase.run(job);
   append_ready_time(dense, start);
   board_.phases.dense.observe(dense.seconds);
   if (!dense.ops.empty()) committer_.commit(site, job, dense, std::nullopt);

@@ -44,7 +44,7 @@ class DenseLane {
                   std::unique_lock<std::mutex>& lock);
   // One phase of the site, its sweeping beside the sparse lane. Called
   // without the lock.
-  End run_phase(const std::string& site, SiteQueue& q, SiteJob& job);
+  End sweep_and_publish(const std::string& site, SiteQueue& q, SiteJob& job);
   void finish(const std::string& site, SiteQueue& q, SiteJob& job,
               const End& end, std::unique_lock<std::mutex>& lock);
   void on(SiteQueue& q, SiteEvent event);  // takes the lock

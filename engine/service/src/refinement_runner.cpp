@@ -3,6 +3,8 @@
 #include <chrono>
 #include <optional>
 
+#include "phase.h"
+
 namespace arscout::engine::service {
 
 void RefinementRunner::run(const std::string& site, SiteJob& job, SiteQueue& q,
@@ -66,15 +68,13 @@ RefinementRunner::Rounds RefinementRunner::run_rounds(const std::string& site,
   Rounds rounds;
   Increment refined;
   do {
-    refined = timed([&] {
-      return job.run_refine([&] {
-        std::lock_guard guard(board_.mutex);
-        return board_.stopping ||
-               (give_way &&
-                (!q.pending.empty() || (!urgent && q.schedule.dense_busy())));
-      });
+    RefinePhase round([&] {
+      std::lock_guard guard(board_.mutex);
+      return board_.stopping ||
+             (give_way &&
+              (!q.pending.empty() || (!urgent && q.schedule.dense_busy())));
     });
-    board_.phases.refine.observe(refined.seconds);
+    refined = run_phase(round, job, &board_.phases.refine);
     if (!refined.ops.empty())
       committer_.commit(site, job, refined, std::nullopt);
     rounds.written += refined.model_written ? 1 : 0;

@@ -46,13 +46,4 @@ class SiteCommitter {
 void append_ready_time(Increment& increment,
                        std::chrono::steady_clock::time_point start);
 
-// Calls make() and times the increment it returns.
-template <typename Make>
-Increment timed(Make make) {
-  const auto start = std::chrono::steady_clock::now();
-  Increment increment = make();
-  append_ready_time(increment, start);
-  return increment;
-}
-
 }  // namespace arscout::engine::service

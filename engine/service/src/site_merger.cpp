@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "arscout/db/store.h"
+#include "phase.h"
 
 namespace arscout::engine::service {
 
@@ -91,7 +92,8 @@ void SiteMerger::run_merge(const std::string& site, SiteJob& job, const Work& w,
 void SiteMerger::commit_merge(const std::string& site, const std::string& other,
                               SiteJob& job, SiteJob& other_job) {
   std::scoped_lock both(job.publication(), other_job.publication());
-  Increment increment = timed([&] { return job.absorb(other_job); });
+  MergePhase merge(other_job);
+  Increment increment = run_phase(merge, job, nullptr);
   board_.directory.merge(other, site);
   documents::Site gone = SiteDirectory::to_document(
       *board_.directory.site(other), board_.directory.radius_m());

@@ -8,6 +8,7 @@
 #include "arscout/db/store.h"
 #include "arscout/documents/capture.h"
 #include "fair_turns.h"
+#include "phase.h"
 
 namespace arscout::engine::service {
 namespace {
@@ -109,9 +110,8 @@ bool SparseLane::run_increment(const std::string& site, SiteJob& job,
   try {
     std::unique_lock publication(job.publication());
     const bool save_state = saver_.state_save_due(job);
-    Increment increment =
-        timed([&] { return job.run(work, through, save_state); });
-    board_.phases.sparse.observe(increment.seconds);
+    SparsePhase sparse(work, through, save_state);
+    Increment increment = run_phase(sparse, job, &board_.phases.sparse);
     lock.lock();
     std::vector<Work> done;
     if (increment.state_written) {

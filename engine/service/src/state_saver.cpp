@@ -1,6 +1,7 @@
 #include "state_saver.h"
 
 #include "arscout/db/store.h"
+#include "phase.h"
 
 namespace arscout::engine::service {
 
@@ -32,7 +33,8 @@ void StateSaver::save_state(const std::string& site, SiteQueue& q,
   bool saved = false;
   try {
     std::lock_guard publication(job->publication());
-    Increment increment = timed([&] { return job->save_state(); });
+    SaveStatePhase save;
+    Increment increment = run_phase(save, *job, nullptr);
     if (!increment.ops.empty()) {
       lock.lock();
       const std::int64_t checkpoint = board_.checkpoint_without(q.unsaved);

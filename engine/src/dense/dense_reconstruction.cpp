@@ -15,7 +15,7 @@
 #include "dense/map_fusion.h"
 #include "dense/view_coverage.h"
 #include "features/image_loader.h"
-#include "stopwatch.h"
+#include "runtime/stopwatch.h"
 
 namespace arscout::engine {
 namespace {

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "estimators/estimators.h"
-#include "sfm/scene.h"
+#include "scene/scene.h"
 
 namespace arscout::engine {
 

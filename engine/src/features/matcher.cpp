@@ -13,7 +13,7 @@
 #include <immintrin.h>
 #endif
 
-#include "parallel.h"
+#include "runtime/parallel.h"
 
 namespace arscout::engine {
 namespace {

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "arscout/engine/coverage.h"
-#include "arscout/engine/reconstruction.h"
+#include "arscout/engine/model.h"
 
 namespace arscout::engine::guidance {
 

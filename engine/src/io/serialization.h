@@ -6,7 +6,7 @@
 #include <functional>
 #include <string>
 
-#include "sfm/scene.h"
+#include "scene/scene.h"
 
 namespace arscout::engine {
 

@@ -11,9 +11,9 @@
 
 #include "estimators/bundle_adjuster.h"
 #include "estimators/estimators.h"
+#include "runtime/stopwatch.h"
 #include "sfm/fixes.h"
 #include "sfm/mapper.h"
-#include "stopwatch.h"
 
 namespace arscout::engine {
 namespace {

@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "features/keypoint_refinement.h"
+#include "runtime/stopwatch.h"
 #include "sfm/guided_matching.h"
 #include "sfm/mapper.h"
-#include "stopwatch.h"
 
 namespace arscout::engine {
 namespace {

@@ -10,7 +10,7 @@
 #include <Eigen/Core>
 
 #include "estimators/estimators.h"
-#include "sfm/scene.h"
+#include "scene/scene.h"
 
 namespace arscout::engine {
 

@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-#include "sfm/scene.h"
+#include "scene/scene.h"
 
 namespace arscout::engine {
 

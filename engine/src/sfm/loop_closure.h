@@ -14,8 +14,9 @@
 
 #include <vector>
 
-#include "arscout/engine/reconstruction.h"
-#include "sfm/scene.h"
+#include "arscout/engine/model.h"
+#include "arscout/engine/options.h"
+#include "scene/scene.h"
 
 namespace arscout::engine {
 

@@ -14,8 +14,8 @@
 // shut.
 #include <vector>
 
+#include "runtime/stopwatch.h"
 #include "sfm/mapper.h"
-#include "stopwatch.h"
 
 namespace arscout::engine {
 namespace {

@@ -8,9 +8,9 @@
 #include "estimators/bundle_adjuster.h"
 #include "estimators/estimators.h"
 #include "features/keypoint_refinement.h"
+#include "runtime/stopwatch.h"
 #include "sfm/fixes.h"
 #include "sfm/loop_closure.h"
-#include "stopwatch.h"
 
 #include <Eigen/Eigenvalues>
 

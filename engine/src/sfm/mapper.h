@@ -18,10 +18,11 @@
 #include <set>
 #include <vector>
 
-#include "arscout/engine/reconstruction.h"
+#include "arscout/engine/model.h"
+#include "arscout/engine/options.h"
 #include "estimators/bundle_adjuster.h"
 #include "estimators/estimators.h"
-#include "sfm/scene.h"
+#include "scene/scene.h"
 
 namespace arscout::engine {
 

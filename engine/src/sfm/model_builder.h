@@ -2,8 +2,8 @@
 // photo pixels, refined intrinsics, geodetic positions).
 #pragma once
 
-#include "arscout/engine/reconstruction.h"
-#include "sfm/scene.h"
+#include "arscout/engine/model.h"
+#include "scene/scene.h"
 
 namespace arscout::engine {
 

@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "arscout/engine/reconstruction.h"
+#include "arscout/engine/model.h"
 
 namespace arscout::engine {
 

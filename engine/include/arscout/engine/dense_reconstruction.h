@@ -20,8 +20,8 @@
 #include <vector>
 
 #include "arscout/engine/dense.h"
+#include "arscout/engine/model.h"
 #include "arscout/engine/ply.h"
-#include "arscout/engine/reconstruction.h"
 
 namespace arscout::engine {
 

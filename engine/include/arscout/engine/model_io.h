@@ -5,7 +5,7 @@
 #include <ostream>
 #include <string>
 
-#include "arscout/engine/reconstruction.h"
+#include "arscout/engine/model.h"
 
 namespace arscout::engine {
 

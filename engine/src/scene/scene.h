@@ -19,7 +19,8 @@
 
 #include "arscout/engine/camera.h"
 #include "arscout/engine/geo.h"
-#include "arscout/engine/reconstruction.h"
+#include "arscout/engine/model.h"
+#include "arscout/engine/options.h"
 
 namespace arscout::engine {
 

@@ -1,4 +1,4 @@
-#include "sfm/scene.h"
+#include "scene/scene.h"
 
 #include <algorithm>
 

@@ -5,7 +5,7 @@
 // hundreds of metres apart).
 #include <Eigen/SVD>
 
-#include "sfm/scene.h"
+#include "scene/scene.h"
 
 namespace arscout::engine {
 namespace {

@@ -1,10 +1,10 @@
-#include "prepared_capture.h"
+#include "pipeline/prepared_capture.h"
 
 #include <chrono>
 #include <memory>
 #include <stdexcept>
 
-#include "stopwatch.h"
+#include "runtime/stopwatch.h"
 
 namespace arscout::engine {
 
