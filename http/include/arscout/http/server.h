@@ -114,8 +114,9 @@ class EventFeed {
   virtual std::string stream_key() const = 0;
 };
 
-// What the server serves. Every call but notify_after's wake-up runs on a
-// worker thread, never on a network thread, and may block.
+// What the server serves. handle, refuse_before_body and subscribe run on
+// worker threads and may block (a store); runs_long, notify_after, cancel
+// and metrics are called from the network threads and must not.
 class Service {
  public:
   virtual ~Service() = default;
@@ -132,7 +133,7 @@ class Service {
   virtual std::optional<HttpResponse> refuse_before_body(
       const HttpRequest& head) = 0;
   // Whether the request takes seconds: it then runs on the small pool for
-  // long requests, at low priority.
+  // long requests, at low priority. A lookup, not a store read.
   virtual bool runs_long(const HttpRequest& request) const = 0;
   // A WebSocket upgrade (path and query set when the target parses): its
   // feed, or the response to send instead of upgrading. Never throws.
