@@ -1,5 +1,5 @@
 // The v1 API (docs/api.md) as a function from request to response. Knows
-// nothing of sockets; beast_session.cpp feeds it.
+// nothing of sockets; http::Server feeds it (server.cpp).
 #pragma once
 
 #include <cstdint>

@@ -1,9 +1,9 @@
 // An HTTP request as the server reads and answers it, from a connection
 // that delivers the input and then closes: Beast's request parser with the
-// server's limits (beast_request.h), header first and then body as
-// beast_session.cpp reads them, the conversion to HttpRequest, the target's
-// path and query (parse_target), and then the API itself (Api::handle and
-// Api::check_subscribe) on a SQLite store. The parser refuses with error
+// server's limits (http/src/beast_request.h), header first and then body as
+// http/src/beast_session.cpp reads them, the conversion to HttpRequest, the
+// target's path and query (parse_target), and then the API itself (Api::handle
+// and Api::check_subscribe) on a SQLite store. The parser refuses with error
 // codes and parse_target with nullopt; Api promises never to throw, and a
 // 5xx answer means a handler failed unexpectedly. Anything else, a crash
 // or a sanitizer report is a finding.
@@ -39,12 +39,15 @@ namespace beast = boost::beast;
 namespace http = beast::http;
 namespace net = boost::asio;
 namespace ingest = arscout::ingest;
+// The server's request reading (http/src/beast_request.h); `http` is
+// Beast's here.
+namespace server = arscout::http;
 using arscout::fuzz::check;
 
 // http::read_header and http::read over such a connection: put what is
 // there; when the parser needs more, the connection has closed.
 template <typename Done>
-void read_until(ingest::BeastRequestParser& parser, net::const_buffer& rest,
+void read_until(server::BeastRequestParser& parser, net::const_buffer& rest,
                 Done done, beast::error_code& ec) {
   while (!done()) {
     if (rest.size() > 0) {
@@ -168,8 +171,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data,
                                       std::size_t size) {
   static const ingest::ServerOptions options;
   static ApiUnderTest api_under_test;
-  ingest::BeastRequestParser parser;
-  ingest::limit_request_parser(parser, options);
+  server::BeastRequestParser parser;
+  server::limit_request_parser(parser, options);
   net::const_buffer rest(data, size);
   beast::error_code ec;
 
@@ -183,7 +186,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data,
   if (beast::websocket::is_upgrade(parser.get())) {
     // HttpSession::upgrade reads the target of the header alone.
     arscout::http::HttpRequest req =
-        ingest::to_request(ingest::BeastRequest(parser.release()));
+        server::to_request(server::BeastRequest(parser.release()));
     auto parsed = arscout::http::parse_target(req.target);
     if (!parsed) return 0;
     check_target_round_trip(*parsed);
@@ -203,7 +206,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data,
   read_until(
       parser, rest, [&] { return parser.is_done(); }, ec);
   if (ec) return 0;
-  arscout::http::HttpRequest req = ingest::to_request(parser.release());
+  arscout::http::HttpRequest req = server::to_request(parser.release());
   check(req.body.size() <= options.max_body_bytes, "the body limit holds");
   check(!req.method.empty(), "a parsed request has a method");
   auto parsed = arscout::http::parse_target(req.target);

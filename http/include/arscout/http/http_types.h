@@ -1,5 +1,5 @@
 // Plain HTTP request and response values. The API handlers see only these,
-// so only the server's session (ingest/src/beast_session.cpp) compiles
+// so only the server's session (http/src/beast_session.cpp) compiles
 // Boost.Beast; routes added by other libraries (ServerOptions::routes) see
 // them too. Knows nothing of the store: ingest/store_errors.h maps its
 // errors to responses.

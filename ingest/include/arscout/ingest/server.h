@@ -1,4 +1,6 @@
-// The arscout HTTP(S) server: the v1 API of docs/api.md over one store.
+// The arscout HTTP(S) server: the v1 API of docs/api.md over one store,
+// served by http::Server (arscout/http/server.h) with the API as its
+// Service.
 #pragma once
 
 #include <chrono>
@@ -13,6 +15,7 @@
 
 #include "arscout/db/store.h"
 #include "arscout/http/http_types.h"
+#include "arscout/http/server.h"
 #include "arscout/http/static_files.h"
 #include "arscout/ingest/auth.h"
 #include "arscout/ingest/store_errors.h"
@@ -31,8 +34,8 @@ using http::Json;
 // that have the same pattern (ingest's documents: one route to read, one
 // to write); a method none of them takes is 405 with Allow. A request
 // without a valid token is 401, a role below the route's 403; the handler
-// runs on the handler pool, and a db::StoreError or util::Error it throws
-// is answered with error_response (store_errors.h).
+// runs on the server's worker pool, and a db::StoreError or util::Error it
+// throws is answered with error_response (store_errors.h).
 struct ApiRoute {
   ApiRoute() = default;
   // A route found by `matches` alone, for any method and any valid token.
@@ -66,46 +69,9 @@ struct ApiRoute {
   bool runs_long = false;
 };
 
-struct ServerOptions {
-  std::string host = "127.0.0.1";
-  std::uint16_t port = 8080;  // 0: any free port (see Server::port)
-  std::string tls_cert;       // PEM files; both set: HTTPS only
-  std::string tls_key;
-  std::size_t max_body_bytes = 64u << 20;
-  std::size_t max_header_bytes = 16u << 10;
-  // A client must send a whole request header within this time (defeats
-  // slow-header attacks); the body gets 30 s + 1 s per 64 KiB in all, and
-  // min_body_rate below.
-  std::chrono::seconds header_timeout{15};
-  std::chrono::seconds idle_timeout{60};  // between keep-alive requests
-  int io_threads = 2;
-  // Handlers (store access, image decoding) run here, off the network
-  // threads. Long-polls and WebSocket streams hold none while they wait.
-  int worker_threads = 32;
-  // Request bodies being read at once: at most this many per token (429
-  // beyond), and at most this many bytes (by Content-Length) over all
-  // connections (503 beyond), each refused from its header, before its body
-  // is read: a body is held in memory until its request is answered, and
-  // 32 uploads of 60 MB at once took 1.9 GB.
-  std::size_t max_bodies_per_token = 2;
-  std::size_t max_body_buffer_bytes = 256u << 20;
-  // The routes that run long (ApiRoute::runs_long) run on this many others.
-  int long_worker_threads = 2;
-  // Bodies sent in pieces (blobs, exports): the bytes read and not yet
-  // written, over all connections; one piece is at most 1 MiB.
-  std::size_t max_send_buffer_bytes = 32u << 20;
-  // Open long-polls and WebSocket streams, in all and per token (429
-  // beyond either); 0: no cap.
-  std::size_t max_streams = 1000;
-  std::size_t max_streams_per_token = 100;
-  // Open connections, in all and per client address: one past either cap
-  // is answered 503 and closed at once. The total is also kept under the
-  // process's open-file limit. 0: no cap.
-  std::size_t max_connections = 4000;
-  std::size_t max_connections_per_address = 200;
-  // A request body must arrive at this many bytes per second or more,
-  // over every 10 s (408 and closed otherwise); 0: no minimum.
-  std::size_t min_body_rate = 1024;
+// The transport's limits (http::ServerLimits: address, TLS, sizes, times,
+// threads and caps), and the API's own options below.
+struct ServerOptions : http::ServerLimits {
   // Per token: uploads (POST /v1/captures), at most upload_burst at once
   // and uploads_per_hour on average; and captures in new places (a fix
   // farther than new_place_m from every site and from the token's other
@@ -148,7 +114,9 @@ class Server {
   // Binds, listens and starts serving on background threads. Throws
   // std::runtime_error when the address cannot be bound or TLS files load.
   void start();
-  // Stops accepting, closes connections and joins the threads.
+  // Stops accepting and joins the threads (the server's, the change
+  // watch's and the store probe's); open connections close with the
+  // server.
   void stop();
   std::uint16_t port() const;
   bool tls() const;

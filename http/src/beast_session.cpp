@@ -2,7 +2,8 @@
 // and timeouts, parked long-polls and WebSocket subscriptions: the part of
 // the server that instantiates Beast's templates (twice, once per stream
 // kind), in its own unit so that it and the listener (beast_server.cpp)
-// compile side by side. Requests are answered by Api on a worker pool.
+// compile side by side. Requests are answered by the Service on a worker
+// pool.
 #include "beast_session.h"
 
 #include <spdlog/spdlog.h>
@@ -14,23 +15,21 @@
 #include <boost/beast/websocket.hpp>
 #include <boost/beast/websocket/ssl.hpp>
 #include <deque>
+#include <memory>
 #include <optional>
+#include <variant>
 
-#include "api_handlers.h"
 #include "arscout/http/body_rate.h"
 #include "arscout/util/process.h"
 #include "beast_request.h"
 
-namespace arscout::ingest {
-
-// http/'s pieces by their short names: inside this file `http` is Beast's.
-using http::BodyRate;
-using http::parse_target;
-
+namespace arscout::http {
 namespace {
 
 namespace asio = boost::asio;
 namespace beast = boost::beast;
+// Inside this file `http` is Beast's; arscout::http's own names (HttpRequest,
+// parse_target, KeyedLimit, ...) are found unqualified.
 namespace http = beast::http;
 namespace websocket = beast::websocket;
 namespace ssl = asio::ssl;
@@ -70,20 +69,6 @@ http::response<http::string_body> to_beast(HttpResponse&& r, unsigned version,
   return out;
 }
 
-// Api::check_subscribe, with a store that cannot answer (PostgreSQL
-// restarting) turned into its 503 like any other request's.
-std::variant<Api::Subscribe, HttpResponse> check_subscribe_safely(
-    Api& api, const HttpRequest& req) {
-  try {
-    return api.check_subscribe(req);
-  } catch (const db::StoreError& e) {
-    api.metrics().store_error();
-    return error_response(e);
-  } catch (const std::exception& e) {
-    return HttpResponse::error(500, "internal", e.what());
-  }
-}
-
 // The threads of the long routes' pool and of the pieces of streamed
 // bodies run at nice 10, set once each.
 void lower_priority_once() {
@@ -93,11 +78,21 @@ void lower_priority_once() {
   util::set_thread_nice(10);
 }
 
-// /healthz or /metrics, with or without a query: what a connection past
-// its address's cap may still ask.
-bool is_operations(std::string_view target) {
+// One of the operations paths (/healthz, /metrics), with or without a
+// query: what a connection past its address's cap may still ask.
+bool is_operations(const ServerLimits& limits, std::string_view target) {
   const std::string_view path = target.substr(0, target.find('?'));
-  return path == "/healthz" || path == "/metrics";
+  for (const std::string& p : limits.operations_paths)
+    if (path == p) return true;
+  return false;
+}
+
+// "/healthz and /metrics", for the refusal that says what is still served.
+std::string operations_list(const ServerLimits& limits) {
+  std::string out;
+  for (const std::string& p : limits.operations_paths)
+    out += (out.empty() ? "" : " and ") + p;
+  return out;
 }
 
 // Socket access for both stream kinds.
@@ -122,16 +117,17 @@ class SubscribeSession
         shared_(shared),
         connection_(std::move(connection)),
         stream_slot_(std::move(stream_slot)) {
-    shared_.api.metrics().connection_opened();
-    shared_.api.metrics().stream_opened();
+    shared_.service.metrics().connection_opened();
+    shared_.service.metrics().stream_opened();
   }
   ~SubscribeSession() {
-    shared_.watch.cancel(watch_id_);
-    shared_.api.metrics().stream_closed();
-    shared_.api.metrics().connection_closed();
+    shared_.service.cancel(watch_id_);
+    shared_.service.metrics().stream_closed();
+    shared_.service.metrics().connection_closed();
   }
 
-  void run(http::request<http::string_body> upgrade, Api::Subscribe where) {
+  void run(http::request<http::string_body> upgrade,
+           std::unique_ptr<EventFeed> feed) {
     tcp_of(beast::get_lowest_layer(ws_)).expires_never();
     ws_.set_option(
         websocket::stream_base::timeout::suggested(beast::role_type::server));
@@ -139,8 +135,7 @@ class SubscribeSession
     // refused from its header (Beast's default let each stream buffer
     // 16 MiB, kept while it stayed open).
     ws_.read_message_max(kMaxIncoming);
-    where_ = std::move(where);
-    last_ = where_.since;
+    feed_ = std::move(feed);
     auto self = this->shared_from_this();
     ws_.async_accept(upgrade, [self](beast::error_code ec) {
       if (ec) return;
@@ -152,21 +147,14 @@ class SubscribeSession
 
  private:
   static constexpr std::size_t kMaxIncoming = 4096;
-  static constexpr std::size_t kBatch = 500;
-  // More is read from the log only while fewer changes wait to be sent: a
+  // More is read from the feed only while fewer messages wait to be sent: a
   // slow client gets its changes later, and holds no more memory.
   static constexpr std::size_t kRefill = 1000;
 
-  struct Batch {
-    std::vector<std::string> texts;  // readable by the subscriber
-    std::int64_t head = 0;           // the log's last seq before reading
-    std::int64_t last = 0;           // the last seq read
-    bool full = false;               // more may follow at once
-    bool failed = false;
-  };
+  using Batch = EventFeed::Batch;
 
   // Reads the next batch on a worker and hands it to the session's strand;
-  // between batches the session waits on the change watch, holding no
+  // between batches the session waits on Service::notify_after, holding no
   // thread.
   void fetch() {
     if (fetching_ || closed_) return;
@@ -176,8 +164,8 @@ class SubscribeSession
     }
     fetching_ = true;
     auto self = this->shared_from_this();
-    asio::post(shared_.workers, [self, since = last_] {
-      Batch batch = self->read_batch(since);
+    asio::post(shared_.workers, [self] {
+      Batch batch = self->feed_->next();
       asio::post(self->ws_.get_executor(),
                  [self, batch = std::move(batch)]() mutable {
                    self->on_batch(std::move(batch));
@@ -185,42 +173,20 @@ class SubscribeSession
     });
   }
 
-  Batch read_batch(std::int64_t since) const {
-    Batch b;
-    b.last = since;
-    try {
-      db::Store& store = shared_.api.store();
-      b.head = store.last_seq();
-      const auto changes = store.changes(since, where_.pattern, kBatch);
-      b.full = changes.size() == kBatch;
-      for (const db::Change& c : changes) {
-        b.last = c.seq;
-        if (can_read(where_.who, c.path))  // as the documents themselves
-          b.texts.push_back(to_json(c).dump());
-      }
-    } catch (const std::exception& e) {
-      spdlog::warn("event=stream_read_failed since={} error=\"{}\"", since,
-                   e.what());
-      b.failed = true;
-    }
-    return b;
-  }
-
   void on_batch(Batch batch) {
     fetching_ = false;
     if (closed_) return;
     if (batch.failed) return retry_later();
     for (std::string& text : batch.texts) enqueue(std::move(text));
-    last_ = batch.last;
     if (batch.full) return fetch();
     std::weak_ptr<SubscribeSession> weak = this->shared_from_this();
-    watch_id_ = shared_.watch.notify_after(std::max(batch.head, last_), [weak] {
+    watch_id_ = shared_.service.notify_after(batch.wait_after, [weak] {
       if (auto self = weak.lock())
         asio::post(self->ws_.get_executor(), [self] { self->fetch(); });
     });
   }
 
-  // The store failed: the log is the truth, so read again from last_.
+  // The feed could not read (its store failed): ask it again shortly.
   void retry_later() {
     retry_.expires_after(std::chrono::seconds(1));
     retry_.async_wait([self = this->shared_from_this()](beast::error_code ec) {
@@ -228,21 +194,15 @@ class SubscribeSession
     });
   }
 
-  // Every second the stream's token is looked up again (on a worker: it
-  // reads the store); once it is revoked or expired the stream closes.
+  // Every second the feed is asked whether its subscriber may still read
+  // (on a worker: it looks the token up); once not, the stream closes.
   void recheck_token() {
     recheck_.expires_after(std::chrono::seconds(1));
     recheck_.async_wait(
         [self = this->shared_from_this()](beast::error_code ec) {
           if (ec) return;  // cancelled: the stream ended
           asio::post(self->shared_.workers, [self] {
-            bool valid = true;  // a store that cannot answer revokes nothing
-            try {
-              valid = authenticate(self->shared_.api.store(),
-                                   self->where_.authorization)
-                          .has_value();
-            } catch (const std::exception&) {
-            }
+            const bool valid = self->feed_->still_allowed();
             asio::post(self->ws_.get_executor(), [self, valid] {
               if (valid) return self->recheck_token();
               self->ws_.async_close(
@@ -270,7 +230,7 @@ class SubscribeSession
     closed_ = true;
     recheck_.cancel();
     retry_.cancel();
-    shared_.watch.cancel(watch_id_);
+    shared_.service.cancel(watch_id_);
   }
 
   void enqueue(std::string text) {
@@ -297,8 +257,7 @@ class SubscribeSession
   SessionContext shared_;
   std::optional<Slot> connection_;
   Slot stream_slot_;
-  Api::Subscribe where_;
-  std::int64_t last_ = 0;
+  std::unique_ptr<EventFeed> feed_;
   bool fetching_ = false;
   bool fetch_when_drained_ = false;
   bool closed_ = false;
@@ -320,23 +279,23 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
         shared_(shared),
         connection_(std::move(connection)),
         operations_only_(operations_only),
-        body_rate_(shared.options.min_body_rate) {
-    shared_.api.metrics().connection_opened();
+        body_rate_(shared.limits.min_body_rate) {
+    shared_.service.metrics().connection_opened();
     // Beast reads at most the buffer's free capacity (512 bytes minimum),
     // and the body parser empties it after each read: without room here a
     // 3 MB upload takes ~6,000 reads.
     buffer_.reserve(kReadChunk);
   }
   ~HttpSession() {
-    shared_.watch.cancel(watch_id_);
+    shared_.service.cancel(watch_id_);
     release_stream();
-    shared_.api.metrics().connection_closed();
+    shared_.service.metrics().connection_closed();
   }
 
   void run() {
     const std::chrono::seconds first = operations_only_
                                            ? std::chrono::seconds(2)
-                                           : shared_.options.header_timeout;
+                                           : shared_.limits.header_timeout;
     if constexpr (std::is_same_v<Stream, beast::tcp_stream>) {
       read_header(first);
     } else {
@@ -357,7 +316,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
 
   void read_header(std::chrono::seconds timeout) {
     parser_.emplace();
-    limit_request_parser(*parser_, shared_.options);
+    limit_request_parser(*parser_, shared_.limits);
     tcp_of(stream_).expires_after(timeout);
     http::async_read_header(
         stream_, buffer_, *parser_,
@@ -370,25 +329,26 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     if (ec == http::error::header_limit)
       return reject(431, "header_too_large",
                     "the request header is larger than " +
-                        std::to_string(shared_.options.max_header_bytes) +
+                        std::to_string(shared_.limits.max_header_bytes) +
                         " bytes");
     if (ec == http::error::body_limit) return reject_too_large();
     if (ec) return;  // closed, timed out or garbage: drop the connection
     const auto target = parser_->get().target();
     if (operations_only_ &&
-        !is_operations(std::string_view(target.data(), target.size()))) {
-      shared_.api.metrics().refused("connections");
+        !is_operations(shared_.limits,
+                       std::string_view(target.data(), target.size()))) {
+      shared_.service.metrics().refused("connections");
       return reject(
           503, "unavailable",
           "too many connections from this address (at most " +
-              std::to_string(shared_.options.max_connections_per_address) +
-              "); /healthz and /metrics are still answered");
+              std::to_string(shared_.limits.max_connections_per_address) +
+              "); " + operations_list(shared_.limits) + " are still answered");
     }
     if (std::string problem = transfer_encoding_problem(parser_->get());
         !problem.empty())
       return reject(400, "bad_request", problem);
     auto length = parser_->content_length();
-    if (length && *length > shared_.options.max_body_bytes)
+    if (length && *length > shared_.limits.max_body_bytes)
       return reject_too_large();
     if (websocket::is_upgrade(parser_->get())) return upgrade();
     if (parser_->is_done()) return read_body();  // no body to protect
@@ -409,7 +369,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     head.path = std::move(parsed->path);
     auto self = this->shared_from_this();
     asio::post(shared_.workers, [self, head = std::move(head)] {
-      auto refusal = self->shared_.api.refuse_before_body(head);
+      auto refusal = self->shared_.service.refuse_before_body(head);
       asio::post(self->stream_.get_executor(),
                  [self, refusal = std::move(refusal)]() mutable {
                    if (refusal) return self->refuse(std::move(*refusal));
@@ -428,7 +388,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     auto slot =
         shared_.bodies.acquire(std::string(header[http::field::authorization]));
     if (!slot) {
-      shared_.api.metrics().refused("bodies");
+      shared_.service.metrics().refused("bodies");
       HttpResponse r = HttpResponse::error(
           429, "too_many_bodies",
           "this token is sending " +
@@ -438,10 +398,10 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
       return r;
     }
     const auto length =
-        parser_->content_length().value_or(shared_.options.max_body_bytes);
+        parser_->content_length().value_or(shared_.limits.max_body_bytes);
     auto hold = shared_.body_budget.take(static_cast<std::size_t>(length));
     if (!hold) {
-      shared_.api.metrics().refused("bodies");
+      shared_.service.metrics().refused("bodies");
       HttpResponse r = HttpResponse::error(
           503, "unavailable",
           "the server is receiving as many request bodies as it holds; "
@@ -508,7 +468,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
   void on_body_some(beast::error_code ec, std::size_t bytes) {
     if (ec || parser_->is_done()) return on_body(ec);
     if (!body_rate_.add(bytes, std::chrono::steady_clock::now())) {
-      shared_.api.metrics().refused("slow_body");
+      shared_.service.metrics().refused("slow_body");
       return reject(408, "request_timeout",
                     "the request body arrived slower than " +
                         std::to_string(body_rate_.min_rate()) +
@@ -538,20 +498,21 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     answer(std::move(req), version, keep_alive && !operations_only_);
   }
 
-  // The API answers on a worker; a long-poll with nothing to show yet is
+  // The Service answers on a worker; a long-poll with nothing to show yet is
   // parked instead (park), and asked again when woken.
   void answer(HttpRequest req, unsigned version, bool keep_alive) {
     auto self = this->shared_from_this();
-    const bool long_route = shared_.api.runs_long(req);
-    auto& pool = long_route                ? shared_.long_workers
-                 : is_operations(req.path) ? shared_.operations_workers
-                                           : shared_.workers;
+    const bool long_route = shared_.service.runs_long(req);
+    auto& pool = long_route ? shared_.long_workers
+                 : is_operations(shared_.limits, req.path)
+                     ? shared_.operations_workers
+                     : shared_.workers;
     asio::post(pool, [self, req = std::move(req), version, keep_alive,
                       long_route]() mutable {
       // An export's build takes the cores only when the rest of the server
       // leaves them: /healthz and the uploads go first.
       if (long_route) lower_priority_once();
-      HttpResponse response = self->shared_.api.handle(req);
+      HttpResponse response = self->shared_.service.handle(req);
       asio::post(self->stream_.get_executor(),
                  [self, req = std::move(req), response = std::move(response),
                   version, keep_alive]() mutable {
@@ -567,23 +528,23 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     });
   }
 
-  // A long-poll waits on the change watch and a timer for its `wait`,
+  // A long-poll waits on Service::notify_after and a timer for its `wait`,
   // holding a stream slot but no thread; whichever comes first unparks it.
   void park(HttpRequest req, std::int64_t after, unsigned version,
             bool keep_alive) {
     if (!stream_slot_) {
       stream_slot_ = shared_.streams.acquire(req.header("authorization"));
       if (!stream_slot_) {
-        shared_.api.metrics().refused("streams");
+        shared_.service.metrics().refused("streams");
         return send(too_many_streams(shared_.streams), version, keep_alive);
       }
-      shared_.api.metrics().stream_opened();
+      shared_.service.metrics().stream_opened();
       park_deadline_ = std::chrono::steady_clock::now() +
                        std::chrono::seconds(std::stoi(req.query["wait"]));
     }
     parked_.emplace(Parked{std::move(req), version, keep_alive});
     std::weak_ptr<HttpSession> weak = this->shared_from_this();
-    watch_id_ = shared_.watch.notify_after(after, [weak] {
+    watch_id_ = shared_.service.notify_after(after, [weak] {
       if (auto self = weak.lock())
         asio::post(self->stream_.get_executor(), [self] { self->unpark(); });
     });
@@ -598,7 +559,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     if (!parked_) return;  // the other wake-up came first
     Parked p = std::move(*parked_);
     parked_.reset();
-    shared_.watch.cancel(watch_id_);
+    shared_.service.cancel(watch_id_);
     park_timer_.cancel();
     const auto left = park_deadline_ - std::chrono::steady_clock::now();
     const auto seconds = std::chrono::ceil<std::chrono::seconds>(left).count();
@@ -609,29 +570,25 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
   void release_stream() {
     if (!stream_slot_) return;
     stream_slot_.reset();
-    shared_.api.metrics().stream_closed();
+    shared_.service.metrics().stream_closed();
   }
 
-  // The token is looked up on a worker (it reads the store, which may be
-  // down: a 503 then, not an exception on the network thread), then the
-  // session goes on on its own strand.
+  // The Service decides on a worker (it may read a store, which may be
+  // down: its answer then, not an exception on the network thread), then
+  // the session goes on on its own strand. A target that does not parse
+  // reaches it with no path.
   void upgrade() {
     auto request =
         std::make_shared<http::request<http::string_body>>(parser_->release());
     HttpRequest req = to_request(http::request<http::string_body>(*request));
-    auto parsed = parse_target(req.target);
-    if (parsed) {
+    if (auto parsed = parse_target(req.target)) {
       req.path = parsed->path;
       req.query = parsed->query;
     }
-    if (!parsed || req.path != "/v1/subscribe")
-      return send(HttpResponse::error(404, "not_found",
-                                      "WebSocket only at /v1/subscribe"),
-                  request->version(), false);
     req.remote = remote_address();
     auto self = this->shared_from_this();
     asio::post(shared_.workers, [self, req = std::move(req), request] {
-      auto checked = check_subscribe_safely(self->shared_.api, req);
+      auto checked = self->shared_.service.subscribe(req);
       asio::post(self->stream_.get_executor(),
                  [self, request, checked = std::move(checked)]() mutable {
                    self->accept_upgrade(std::move(*request),
@@ -640,30 +597,31 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
     });
   }
 
-  void accept_upgrade(http::request<http::string_body> request,
-                      std::variant<Api::Subscribe, HttpResponse> checked) {
+  void accept_upgrade(
+      http::request<http::string_body> request,
+      std::variant<std::unique_ptr<EventFeed>, HttpResponse> checked) {
     if (auto* error = std::get_if<HttpResponse>(&checked))
       return send(std::move(*error), request.version(), false);
-    auto& where = std::get<Api::Subscribe>(checked);
-    auto slot = shared_.streams.acquire(where.authorization);
+    auto& feed = std::get<std::unique_ptr<EventFeed>>(checked);
+    auto slot = shared_.streams.acquire(feed->stream_key());
     if (!slot) {
-      shared_.api.metrics().refused("streams");
+      shared_.service.metrics().refused("streams");
       return send(too_many_streams(shared_.streams), request.version(), false);
     }
     auto ws = std::make_shared<SubscribeSession<Stream>>(
         std::move(stream_), shared_, std::move(connection_), std::move(*slot));
-    ws->run(std::move(request), std::move(where));
+    ws->run(std::move(request), std::move(feed));
   }
 
   void reject_too_large() {
     reject(413, "payload_too_large",
            "the request body is larger than the limit of " +
-               std::to_string(shared_.options.max_body_bytes) + " bytes");
+               std::to_string(shared_.limits.max_body_bytes) + " bytes");
   }
 
   // Answers without reading the rest of the request, then closes.
   void reject(int status, const std::string& kind, const std::string& message) {
-    shared_.api.metrics().record_request("rejected", status, 0);
+    shared_.service.metrics().rejected(status);
     send(HttpResponse::error(status, kind, message), 11, false);
   }
 
@@ -692,7 +650,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
                           beast::error_code ec, std::size_t) {
                         if (ec) return;
                         if (!message->keep_alive()) return self->close();
-                        self->read_header(self->shared_.options.idle_timeout);
+                        self->read_header(self->shared_.limits.idle_timeout);
                       });
   }
 
@@ -778,7 +736,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession<Stream>> {
   // The answer is written: the next request, or the close.
   void after_answer(bool keep_alive) {
     if (!keep_alive) return close();
-    read_header(shared_.options.idle_timeout);
+    read_header(shared_.limits.idle_timeout);
   }
 
   void abort() {
@@ -846,4 +804,4 @@ void serve_connection(tcp::socket socket, ssl::context* tls,
   }
 }
 
-}  // namespace arscout::ingest
+}  // namespace arscout::http

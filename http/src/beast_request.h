@@ -1,8 +1,8 @@
 // How the server reads an HTTP request with Boost.Beast: the parser's limits
-// and the conversion to the API's HttpRequest. Header-only, so that Beast
-// stays in the translation units that compile it already (beast_session.cpp)
-// and the HTTP fuzz target (tests/fuzz), which must parse exactly as the
-// server does.
+// and the conversion to HttpRequest. Header-only, so that Beast stays in the
+// translation units that compile it already (beast_session.cpp) and the
+// HTTP fuzz target (tests/fuzz), which must parse exactly as the server
+// does.
 #pragma once
 
 #include <utility>  // before Asio, for C++20
@@ -13,9 +13,9 @@
 #include <string>
 
 #include "arscout/http/http_types.h"
-#include "arscout/ingest/server.h"
+#include "arscout/http/server.h"
 
-namespace arscout::ingest {
+namespace arscout::http {
 
 using BeastRequest =
     boost::beast::http::request<boost::beast::http::string_body>;
@@ -24,9 +24,9 @@ using BeastRequestParser =
 
 // A fresh parser for each request: Beast's parsers read one message only.
 inline void limit_request_parser(BeastRequestParser& parser,
-                                 const ServerOptions& options) {
-  parser.header_limit(static_cast<std::uint32_t>(options.max_header_bytes));
-  parser.body_limit(options.max_body_bytes);
+                                 const ServerLimits& limits) {
+  parser.header_limit(static_cast<std::uint32_t>(limits.max_header_bytes));
+  parser.body_limit(limits.max_body_bytes);
 }
 
 // Method, target and headers (names lower-cased), without the body: what
@@ -72,4 +72,4 @@ inline std::string transfer_encoding_problem(const BeastRequest& in) {
          "' is not supported: only a single 'chunked'";
 }
 
-}  // namespace arscout::ingest
+}  // namespace arscout::http

@@ -10,28 +10,23 @@
 #include <boost/asio/thread_pool.hpp>
 #include <optional>
 
-#include "api.h"
 #include "arscout/http/byte_budget.h"
 #include "arscout/http/keyed_limit.h"
-#include "arscout/ingest/server.h"
-#include "change_watch.h"
+#include "arscout/http/server.h"
 
-namespace arscout::ingest {
-
-// The server's caps and budgets (arscout/http/), by their short names here.
-using http::ByteBudget;
-using http::KeyedLimit;
+namespace arscout::http {
 
 // What every session of one server shares.
 struct SessionContext {
-  Api& api;
-  const ServerOptions& options;
+  Service& service;
+  const ServerLimits& limits;
   boost::asio::thread_pool& workers;
-  // The routes Api::runs_long names (exports) run here, so that a crowd of
-  // them queues among themselves and leaves `workers` to everything else.
+  // The requests Service::runs_long names (exports) run here, so that a
+  // crowd of them queues among themselves and leaves `workers` to
+  // everything else.
   boost::asio::thread_pool& long_workers;
-  // /healthz and /metrics are answered here, so that a monitor never waits
-  // behind a crowd of requests queued for `workers`.
+  // The operations paths (/healthz, /metrics) are answered here, so that a
+  // monitor never waits behind a crowd of requests queued for `workers`.
   boost::asio::thread_pool& operations_workers;
   // The pieces of streamed bodies are read here, at low priority: bulk
   // transfers take the cores only when the rest of the server leaves them.
@@ -39,14 +34,13 @@ struct SessionContext {
   ByteBudget& send_budget;  // pieces of streamed bodies in flight
   KeyedLimit& bodies;       // request bodies being read, per token
   ByteBudget& body_budget;  // their bytes, by Content-Length
-  ChangeWatch& watch;       // long-polls and streams wait here, threadless
   KeyedLimit& streams;      // open long-polls and streams, per token
 };
 
 // Serves `socket` (over TLS with `tls`, plain HTTP when it is null) until
 // the connection closes, holding its `connection` slot until then. An
 // `operations_only` connection (one past its address's cap) is answered
-// once, and only for /healthz and /metrics (503 otherwise), so that a
+// once, and only for the operations paths (503 otherwise), so that a
 // monitor sharing an address with a crowd of clients still sees the server;
 // it must send its header within 2 s.
 void serve_connection(boost::asio::ip::tcp::socket socket,
@@ -55,4 +49,4 @@ void serve_connection(boost::asio::ip::tcp::socket socket,
                       std::optional<KeyedLimit::Slot> connection,
                       bool operations_only = false);
 
-}  // namespace arscout::ingest
+}  // namespace arscout::http

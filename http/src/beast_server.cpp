@@ -17,13 +17,11 @@
 #include <boost/asio/thread_pool.hpp>
 #include <thread>
 
-#include "api.h"
 #include "arscout/http/keyed_limit.h"
-#include "arscout/ingest/server.h"
+#include "arscout/http/server.h"
 #include "beast_session.h"
-#include "change_watch.h"
 
-namespace arscout::ingest {
+namespace arscout::http {
 
 namespace asio = boost::asio;
 namespace ssl = asio::ssl;
@@ -32,8 +30,8 @@ using tcp = asio::ip::tcp;
 namespace {
 
 // The connection cap, kept under the process's open-file limit (with room
-// for the store's files and the threads' pipes): past it accept() would
-// fail for every client, the well-behaved ones too.
+// for the process's other files, a store's, and the threads' pipes): past
+// it accept() would fail for every client, the well-behaved ones too.
 std::size_t connection_cap(std::size_t wanted) {
   constexpr rlim_t kReserved = 64;
   rlimit files{};
@@ -64,56 +62,55 @@ void turn_away(tcp::socket& socket, const std::string& why) {
 }  // namespace
 
 struct Server::Impl {
-  Impl(db::Store& store, ServerOptions opts)
-      : options(std::move(opts)),
-        api(store, metrics, options),
-        workers(static_cast<std::size_t>(std::max(1, options.worker_threads))),
+  Impl(ServerLimits given, Service& service)
+      : limits(std::move(given)),
+        service(service),
+        workers(static_cast<std::size_t>(std::max(1, limits.worker_threads))),
         long_workers(
-            static_cast<std::size_t>(std::max(1, options.long_worker_threads))),
+            static_cast<std::size_t>(std::max(1, limits.long_worker_threads))),
         piece_workers(2),
         operations_workers(2),
-        send_budget(options.max_send_buffer_bytes),
-        bodies(0, options.max_bodies_per_token),
-        body_budget(options.max_body_buffer_bytes),
-        watch(store, std::chrono::milliseconds(100)),
-        streams(options.max_streams, options.max_streams_per_token),
-        connections(connection_cap(options.max_connections),
-                    options.max_connections_per_address),
+        send_budget(limits.max_send_buffer_bytes),
+        bodies(0, limits.max_bodies_per_token),
+        body_budget(limits.max_body_buffer_bytes),
+        streams(limits.max_streams, limits.max_streams_per_token),
+        connections(connection_cap(limits.max_connections),
+                    limits.max_connections_per_address),
         operations_connections(kOperationsConnections, 0),
         acceptor(ioc),
         tls_context(ssl::context::tls_server) {}
 
   void load_tls() {
-    if (options.tls_cert.empty() != options.tls_key.empty())
+    if (limits.tls_cert.empty() != limits.tls_key.empty())
       throw std::runtime_error("--tls-cert and --tls-key go together");
-    if (options.tls_cert.empty()) return;
+    if (limits.tls_cert.empty()) return;
     use_tls = true;
     tls_context.set_options(ssl::context::default_workarounds |
                             ssl::context::no_sslv2 | ssl::context::no_sslv3 |
                             ssl::context::no_tlsv1 | ssl::context::no_tlsv1_1);
     boost::system::error_code ec;
-    tls_context.use_certificate_chain_file(options.tls_cert, ec);
+    tls_context.use_certificate_chain_file(limits.tls_cert, ec);
     if (ec)
       throw std::runtime_error("cannot load TLS certificate " +
-                               options.tls_cert + ": " + ec.message());
-    tls_context.use_private_key_file(options.tls_key, ssl::context::pem, ec);
+                               limits.tls_cert + ": " + ec.message());
+    tls_context.use_private_key_file(limits.tls_key, ssl::context::pem, ec);
     if (ec)
-      throw std::runtime_error("cannot load TLS key " + options.tls_key + ": " +
+      throw std::runtime_error("cannot load TLS key " + limits.tls_key + ": " +
                                ec.message());
   }
 
   void listen() {
     boost::system::error_code ec;
-    auto address = asio::ip::make_address(options.host, ec);
-    if (ec) throw std::runtime_error("invalid listen address " + options.host);
-    tcp::endpoint endpoint(address, options.port);
+    auto address = asio::ip::make_address(limits.host, ec);
+    if (ec) throw std::runtime_error("invalid listen address " + limits.host);
+    tcp::endpoint endpoint(address, limits.port);
     acceptor.open(endpoint.protocol(), ec);
     if (!ec) acceptor.set_option(asio::socket_base::reuse_address(true), ec);
     if (!ec) acceptor.bind(endpoint, ec);
     if (!ec) acceptor.listen(asio::socket_base::max_listen_connections, ec);
     if (ec)
-      throw std::runtime_error("cannot listen on " + options.host + ":" +
-                               std::to_string(options.port) + ": " +
+      throw std::runtime_error("cannot listen on " + limits.host + ":" +
+                               std::to_string(limits.port) + ": " +
                                ec.message());
     bound_port = acceptor.local_endpoint().port();
   }
@@ -154,27 +151,25 @@ struct Server::Impl {
                   connections.in_use() < connections.total_cap());
     if (over_address_cap) slot = operations_connections.acquire(address);
     if (!slot) {
-      metrics.refused("connections");
+      service.metrics().refused("connections");
       return turn_away(socket, "too many connections (at most " +
                                    std::to_string(connections.per_key_cap()) +
                                    " per address, " +
                                    std::to_string(connections.total_cap()) +
                                    " in all)");
     }
-    serve_connection(
-        std::move(socket), use_tls ? &tls_context : nullptr,
-        SessionContext{api, options, workers, long_workers, operations_workers,
-                       piece_workers, send_budget, bodies, body_budget, watch,
-                       streams},
-        std::move(slot), over_address_cap);
+    serve_connection(std::move(socket), use_tls ? &tls_context : nullptr,
+                     SessionContext{service, limits, workers, long_workers,
+                                    operations_workers, piece_workers,
+                                    send_budget, bodies, body_budget, streams},
+                     std::move(slot), over_address_cap);
   }
 
-  ServerOptions options;
-  Metrics metrics;
-  Api api;
+  ServerLimits limits;
+  Service& service;
   // Before the io_context, so they are destroyed after it: sessions still
-  // queued there when the server stops cancel their wake-ups and release
-  // their slots as they go.
+  // queued there when the server stops release their slots as they go (and
+  // cancel their wake-ups with the Service, which outlives the server).
   asio::thread_pool workers;
   asio::thread_pool long_workers;
   asio::thread_pool piece_workers;
@@ -182,7 +177,6 @@ struct Server::Impl {
   ByteBudget send_budget;
   KeyedLimit bodies;
   ByteBudget body_budget;
-  ChangeWatch watch;
   KeyedLimit streams;
   KeyedLimit connections;
   // Connections past their address's cap that may ask /healthz only.
@@ -196,22 +190,21 @@ struct Server::Impl {
   std::vector<std::thread> threads;
 };
 
-Server::Server(db::Store& store, ServerOptions options)
-    : impl_(std::make_unique<Impl>(store, std::move(options))) {}
+Server::Server(ServerLimits limits, Service& service)
+    : impl_(std::make_unique<Impl>(std::move(limits), service)) {}
 
 Server::~Server() { stop(); }
 
 void Server::start() {
   impl_->load_tls();
   impl_->listen();
-  impl_->api.store_health().start(std::chrono::milliseconds(250));
   impl_->accept();
-  for (int i = 0; i < std::max(1, impl_->options.io_threads); ++i)
+  for (int i = 0; i < std::max(1, impl_->limits.io_threads); ++i)
     impl_->threads.emplace_back([this] { impl_->ioc.run(); });
   spdlog::info(
       "event=listening host={} port={} tls={} max_connections={} "
       "max_connections_per_address={} max_streams={}",
-      impl_->options.host, impl_->bound_port, impl_->use_tls,
+      impl_->limits.host, impl_->bound_port, impl_->use_tls,
       impl_->connections.total_cap(), impl_->connections.per_key_cap(),
       impl_->streams.total_cap());
 }
@@ -229,11 +222,9 @@ void Server::stop() {
   impl_->long_workers.join();
   impl_->piece_workers.join();
   impl_->operations_workers.join();
-  impl_->watch.stop();  // no wake-up is posted to the context after this
-  impl_->api.store_health().stop();
 }
 
 std::uint16_t Server::port() const { return impl_->bound_port; }
 bool Server::tls() const { return impl_->use_tls; }
 
-}  // namespace arscout::ingest
+}  // namespace arscout::http
