@@ -174,14 +174,14 @@ TEST(SiteSchedule, EveryReachableStateLeadsBackToQuiet) {
   EXPECT_GT(states.size(), 60u);
   for (std::size_t start = 0; start < states.size(); ++start) {
     std::set<std::size_t> reached{start};
-    std::deque<std::size_t> todo{start};
+    std::deque<std::size_t> frontier{start};
     bool quiet = false;
-    while (!todo.empty() && !quiet) {
-      const std::size_t at = todo.front();
-      todo.pop_front();
+    while (!frontier.empty() && !quiet) {
+      const std::size_t at = frontier.front();
+      frontier.pop_front();
       quiet = states[at].quiet();
       for (std::size_t to : edges[at])
-        if (reached.insert(to).second) todo.push_back(to);
+        if (reached.insert(to).second) frontier.push_back(to);
     }
     EXPECT_TRUE(quiet) << "stuck: sparse " << to_string(states[start].sparse())
                        << ", dense " << to_string(states[start].dense());
