@@ -401,11 +401,12 @@ TEST(EngineWorker, DenseTilesWaitWhileTheLaneHasWorkLeftOver) {
 
 // While photos keep coming, increments leave the engine state unsaved
 // (WorkerOptions::state_interval) and their captures in flight: the
-// checkpoint stays below them. A worker stopped then (here as soon as the
-// last photo shows registered, before a quiet second could save the
-// state) loses nothing: the next one redoes the unsaved work from the last
-// saved state, saves it once the site is quiet, and the checkpoint passes
-// every capture.
+// checkpoint stays below them. A worker stopped then (here once the last
+// photo shows registered; its quiet_save_after is an hour, so no quiet
+// save can slip in before the stop however slow the machine) loses
+// nothing: the next one redoes the unsaved work from the last saved
+// state, saves it once the site is quiet, and the checkpoint passes every
+// capture.
 TEST(EngineWorker, UnsavedStateKeepsTheCheckpointBackAndARestartRedoesIt) {
   auto store = db::Store::open(testing::fresh_sqlite_url());
   const std::string dir = render_street(*store, 8);
@@ -425,7 +426,9 @@ TEST(EngineWorker, UnsavedStateKeepsTheCheckpointBackAndARestartRedoesIt) {
     return 0;
   };
   {
-    engine::EngineWorker worker(*store, options);
+    engine::WorkerOptions busy = options;
+    busy.quiet_save_after = std::chrono::hours(1);
+    engine::EngineWorker worker(*store, busy);
     worker.start();
     upload_street(*store, dir);
     const auto deadline =

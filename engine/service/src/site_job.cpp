@@ -56,6 +56,10 @@ double SiteJob::seconds_state_unsaved() const {
   return state_unsaved() ? seconds_since(unsaved_since_) : 0;
 }
 
+double SiteJob::seconds_since_commit() const {
+  return seconds_since(last_commit_);
+}
+
 void SiteJob::reset() {
   loaded_ = false;
   state_unsaved_ = false;
@@ -703,6 +707,7 @@ db::WriteOp SiteJob::model_op(const Model& model,
 }
 
 void SiteJob::committed() {
+  last_commit_ = Clock::now();
   if (dense_finishing_) {
     dense_finishing_ = false;
     dense_in_flight_ = false;

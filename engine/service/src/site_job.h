@@ -133,6 +133,9 @@ class SiteJob {
   // Work was committed since the state was last written, and for how long.
   bool state_unsaved() const { return loaded_ && state_unsaved_; }
   double seconds_state_unsaved() const;
+  // Seconds since the last increment of this site was committed (since
+  // the job was made, before any).
+  double seconds_since_commit() const;
   // True when the last run() changed the model and the dense cloud has yet
   // to follow (also after a restart that found it behind).
   bool dense_due() const { return dense_due_; }
@@ -260,6 +263,8 @@ class SiteJob {
   bool pending_unsaved_ = false;  // a run() that left the state out
   bool state_unsaved_ = false;
   std::chrono::steady_clock::time_point unsaved_since_;
+  std::chrono::steady_clock::time_point last_commit_ =
+      std::chrono::steady_clock::now();
   // The highest change seq folded into the state (attrs.through_seq).
   std::int64_t through_seq_ = 0;
   std::int64_t pending_through_seq_ = 0;

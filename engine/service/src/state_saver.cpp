@@ -18,7 +18,9 @@ void StateSaver::save_idle_states(std::unique_lock<std::mutex>& lock) {
   for (auto& [site, q] : board_.sites) {
     if (q.unsaved.empty() || q.schedule.sparse_busy() ||
         board_.ready.contains(site) || !q.pending.empty() ||
-        q.schedule.dense_turn() || !q.job || !board_.holds(site))
+        q.schedule.dense_turn() || !q.job || !board_.holds(site) ||
+        q.job->seconds_since_commit() * 1000 <
+            static_cast<double>(board_.options.quiet_save_after.count()))
       continue;
     save_state(site, q, lock);
     return;  // the lock was let go: the next quiet second does the rest

@@ -22,8 +22,9 @@ class StateSaver {
   // old (and when the site goes quiet, save_idle_states). No lock needed.
   bool state_save_due(const SiteJob& job) const;
   // Saves the engine state of one quiet site with unsaved work (no phase
-  // running, queued or waiting for its turn); the next quiet second does
-  // the next. Called and returns with `lock` (the board's) held.
+  // running, queued or waiting for its turn, nothing committed for
+  // WorkerOptions::quiet_save_after); the next quiet second does the
+  // next. Called and returns with `lock` (the board's) held.
   void save_idle_states(std::unique_lock<std::mutex>& lock);
   // With nothing in flight the feed position moves past changes that
   // needed no work. Called and returns with `lock` held.

@@ -93,6 +93,12 @@ struct WorkerOptions {
   // redoes what was unsaved. 0: at every increment (and always in
   // deterministic runs).
   std::chrono::milliseconds state_interval{30000};
+  // How long a site with unsaved work must have committed nothing before
+  // its state is written as a quiet site's (the "quiet second" above; the
+  // worker looks at least every second, so the write comes within a
+  // second after). Work stays in flight until then, so wait_idle() waits
+  // for it too.
+  std::chrono::milliseconds quiet_save_after{1000};
   // A site publishes a version from its global refinement (one that adds
   // no capture) at most this often: each round is a model version, and a
   // refinement that resumes after every photo published one every second
