@@ -12,7 +12,7 @@ packages=(
   # clang and its libFuzzer runtime, for the fuzz build (tests/fuzz)
   clang libclang-rt-14-dev
   # libraries
-  libopencv-dev libeigen3-dev libceres-dev
+  libopencv-dev libeigen3-dev libceres-dev libmeshoptimizer-dev
   libsqlite3-dev sqlite3 libpqxx-dev libpq-dev
   libgeographiclib-dev libboost-dev nlohmann-json3-dev libexiv2-dev
   libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libspdlog-dev

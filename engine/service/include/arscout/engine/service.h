@@ -49,6 +49,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "arscout/engine/dense_reconstruction.h"
 #include "arscout/engine/ply.h"
 #include "arscout/engine/reconstruction.h"
@@ -194,5 +196,23 @@ std::vector<std::string> dense_cloud_blobs(const db::Document& model);
 // std::runtime_error when one is not a PLY.
 std::vector<ColoredPoint> load_dense_cloud(
     db::Store& store, const std::vector<std::string>& blobs);
+
+// The surface a model document publishes (docs/mesh.md): per dense tile,
+// its levels of detail as GLB blobs (engine/mesh.h encode_glb), finest
+// first. The attribute "mesh_tiles" is an array of {tile, hash (decimal
+// string: of the points it was made from), levels: [{blob, triangles,
+// error}]}, by tile name; empty before the first mesh phase.
+struct MeshTileLevel {
+  std::string blob;  // SHA-256 of its GLB
+  std::size_t triangles = 0;
+  double geometric_error = 0;  // site units (metres once geo-registered)
+};
+struct MeshTileEntry {
+  std::string tile;  // the dense tile's name, "ix_iy"
+  std::uint64_t hash = 0;
+  std::vector<MeshTileLevel> levels;
+};
+std::vector<MeshTileEntry> mesh_tiles_of(const db::Document& model);
+nlohmann::json mesh_tiles_json(const std::vector<MeshTileEntry>& tiles);
 
 }  // namespace arscout::engine

@@ -1,0 +1,115 @@
+// Surfaces (docs/mesh.md): a textured triangle mesh per dense tile, made
+// from the filtered dense cloud (points with normals and support), textured
+// from the registered photos, and simplified into levels of detail.
+//
+// The surface is the zero set of an implicit function of the oriented
+// points (each point's tangent plane, blended over its neighbours: Kolluri's
+// IMLS), sampled on one grid for the whole site and polygonised by marching
+// cubes only in cells near points. A tile polygonises the cells whose lowest
+// corner lies in it, from the points of its own and its neighbours' columns
+// within the blending radius: two tiles compute the same values at the grid
+// corners they share, so their meshes meet edge to edge (no seam to close).
+//
+// Frames: the site frame of the dense cloud (the model's frame; ENU once
+// geo-registered). Triangles wind counter-clockwise seen from the side the
+// normals point to (the cameras' side).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "arscout/engine/ply.h"
+
+namespace arscout::engine {
+
+// A triangle mesh with at most one texture atlas.
+struct TexturedMesh {
+  std::vector<Eigen::Vector3f> positions;
+  // Per vertex: a unit normal (empty: none) and a colour (empty: none;
+  // the untextured look, and what a renderer without the atlas shows).
+  std::vector<Eigen::Vector3f> normals;
+  std::vector<std::array<std::uint8_t, 3>> colors;  // RGB
+  // Per vertex texture coordinates in [0, 1], origin at the atlas's top
+  // left (glTF's convention); empty when there is no atlas.
+  std::vector<Eigen::Vector2f> uvs;
+  std::vector<std::uint32_t> indices;  // three per triangle
+  cv::Mat atlas;                       // CV_8UC3 (BGR); empty: none
+
+  std::size_t triangles() const { return indices.size() / 3; }
+  bool empty() const { return indices.empty(); }
+};
+
+// One level of detail of a tile: the mesh and its geometric error (metres
+// in the site frame: how far its surface may lie from the finest level's;
+// 0 for the finest).
+struct MeshLevel {
+  TexturedMesh mesh;
+  double geometric_error = 0;
+};
+
+// ---------------------------------------------------------------------------
+// Surface from oriented points.
+
+struct SurfaceOptions {
+  // Grid step (site units); 0: twice the dense cloud's voxel edge as given
+  // to mesh_surface.
+  double cell = 0;
+  // The implicit function blends the points within this many cells of a
+  // grid corner; corners with fewer than min_points there are unknown, and
+  // cells with an unknown corner make no triangles (no surface is invented
+  // far from the data).
+  double radius_cells = 2.0;
+  int min_points = 3;
+  // Points measured by fewer depth maps are left out (ColoredPoint::
+  // support; 0-support points, which are not fused, are kept).
+  int min_support = kConfidentSupport;
+  // Connected pieces with fewer triangles are dropped (floaters).
+  int min_component_triangles = 24;
+};
+
+// The surface of the cells whose lowest corner lies in the column
+// [x0, x1) x [y0, y1) (any z), from `points`, which must hold every point
+// within the blending radius of that column (the tile's and its
+// neighbours'). The grid is anchored at the origin with step `cell` (the
+// options' cell, or 2 * voxel), so neighbouring columns meet edge to edge.
+// Vertex colours are the blended points' colours; no atlas. Deterministic.
+TexturedMesh mesh_surface(const std::vector<ColoredPoint>& points,
+                          const Eigen::Vector2d& column_min,
+                          const Eigen::Vector2d& column_max, double voxel,
+                          const SurfaceOptions& options = {});
+
+// ---------------------------------------------------------------------------
+// Levels of detail.
+
+// `mesh` (level 0, error 0) and coarser versions of it, each with about a
+// quarter of the previous level's triangles (quadric edge collapse through
+// meshoptimizer, borders locked so that tiles still meet), at most `levels`
+// in all, stopping early when a level would keep fewer than 64 triangles.
+// Each level's geometric error is meshoptimizer's reported error in site
+// units. Keeps colours, normals and texture coordinates of the kept
+// vertices (the atlas is shared by every level).
+std::vector<MeshLevel> mesh_levels(const TexturedMesh& mesh, int levels = 3);
+
+// ---------------------------------------------------------------------------
+// Bytes.
+
+// A binary glTF 2.0 (GLB) of `mesh`: one mesh, one primitive (triangles;
+// POSITION, NORMAL, COLOR_0, TEXCOORD_0 as present), the atlas as an
+// embedded JPEG of `jpeg_quality` with a metallic-roughness material that
+// is unlit (KHR_materials_unlit: the photos hold the light already).
+// Positions are written as given (the site frame, z up); a viewer turns
+// them. Throws std::invalid_argument for an empty mesh or inconsistent
+// attribute sizes.
+std::string encode_glb(const TexturedMesh& mesh, int jpeg_quality = 88);
+
+// Reads a GLB written by encode_glb (or any with one indexed triangle
+// primitive of float positions). Throws std::runtime_error, naming what is
+// wrong, for anything else.
+TexturedMesh decode_glb(const std::string& bytes);
+
+}  // namespace arscout::engine
