@@ -51,10 +51,10 @@ std::vector<MeshLevel> mesh_levels(const TexturedMesh& mesh, int levels) {
     float error = 0;
     // Any error the target count needs (1: the whole extent): the level's
     // error is reported, not bounded; the border stays so tiles still meet.
-    simpler.resize(meshopt_simplify(
-        simpler.data(), indices.data(), indices.size(), positions,
-        mesh.positions.size(), stride, target, 1.0f,
-        meshopt_SimplifyLockBorder, &error));
+    simpler.resize(meshopt_simplify(simpler.data(), indices.data(),
+                                    indices.size(), positions,
+                                    mesh.positions.size(), stride, target, 1.0f,
+                                    meshopt_SimplifyLockBorder, &error));
     if (simpler.size() / 3 < 64 || simpler.size() >= indices.size()) break;
     indices = simpler;
     const double previous = out.back().geometric_error;

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 namespace arscout::engine::mesh {
 
@@ -33,8 +34,9 @@ struct IsoSurface {
 // with a corner value beyond `max_abs_value`, makes no triangles (the
 // function is not a distance there). Triangles wind counter-clockwise seen
 // from the positive side.
-IsoSurface polygonise(const std::vector<GridIndex>& cubes, double cell,
-                      const std::function<std::optional<float>(const GridIndex&)>& value,
-                      double max_abs_value);
+IsoSurface polygonise(
+    const std::vector<GridIndex>& cubes, double cell,
+    const std::function<std::optional<float>(const GridIndex&)>& value,
+    double max_abs_value);
 
 }  // namespace arscout::engine::mesh

@@ -68,8 +68,11 @@ struct SurfaceOptions {
   // Points measured by fewer depth maps are left out (ColoredPoint::
   // support; 0-support points, which are not fused, are kept).
   int min_support = kConfidentSupport;
-  // Connected pieces with fewer triangles are dropped (floaters).
-  int min_component_triangles = 24;
+  // Connected pieces smaller than this area (in squared grid steps: 64 is
+  // a patch of 8 x 8 cells, 27 cm square at the block walk's 3.4 cm) are
+  // dropped, unless they reach the column's border: a tight cluster of
+  // stray points makes a closed blob about the blending radius across.
+  double min_piece_area_cells = 64;
 };
 
 // The surface of the cells whose lowest corner lies in the column
