@@ -87,6 +87,67 @@ TexturedMesh mesh_surface(const std::vector<ColoredPoint>& points,
                           const SurfaceOptions& options = {});
 
 // ---------------------------------------------------------------------------
+// Texture.
+
+// A registered photo as the texture's source.
+struct TextureView {
+  std::string id;
+  cv::Mat bgr;  // CV_8UC3, undistorted (a pinhole of K)
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  // Optional: the view's depth map (camera z, 0 where unknown), of any
+  // size (its intrinsics are K scaled by depth.cols / bgr.cols). It hides
+  // what lies behind surfaces the mesh being textured does not hold (the
+  // neighbouring tiles', the unmeshed).
+  cv::Mat depth;
+};
+
+struct TextureOptions {
+  // A view textures a face only when it sees it at least this squarely
+  // (cosine of the angle between the face's normal and the ray): a scout
+  // sees the street's ground at 80 degrees and more, and a grazing view is
+  // better than none (the largest footprint wins where there is a choice).
+  double min_cos = 0.1;
+  // A face is hidden when something is nearer than its depth by more than
+  // this share of it (in the mesh's own z-buffer or the view's depth map).
+  double occlusion_tolerance = 0.03;
+  // The occlusion z-buffer's long side, pixels.
+  int raster_long_side = 960;
+  // Rounds that give a face its neighbours' view when that view sees it
+  // nearly as well (fewer, larger patches: fewer seams).
+  int smoothing_rounds = 3;
+  // The atlas's longest side; the patches are scaled down together to fit
+  // (at most the photos' resolution).
+  int max_atlas_side = 4096;
+};
+
+// `surface` with texture coordinates and one atlas: each face takes the
+// view that sees it largest in pixels (facing it within min_cos, not
+// hidden), neighbours' choices are smoothed, faces of one view that touch
+// form a patch copied from that photo into the atlas, and each patch's
+// colour is levelled by one gain per channel toward the mean of the views
+// at its seams. Faces no view sees keep their vertices' colour (a flat
+// texel each). Vertices on patch borders are duplicated. When the patches
+// cannot fit max_atlas_side at any scale (each keeps a few texels of
+// padding), the surface comes back as it was (vertex colours, no atlas).
+// Deterministic.
+TexturedMesh texture_mesh(const TexturedMesh& surface,
+                          const std::vector<TextureView>& views,
+                          const TextureOptions& options = {});
+
+// The mesh drawn into a pinhole view: the atlas sampled bilinearly where
+// there is one, else the vertices' colours (black where nothing is seen),
+// and the depth of the nearest surface (0 where none).
+struct MeshRendering {
+  cv::Mat bgr;    // CV_8UC3
+  cv::Mat depth;  // CV_32F
+};
+MeshRendering render_mesh(const TexturedMesh& mesh, const Eigen::Matrix3d& K,
+                          const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                          cv::Size size);
+
+// ---------------------------------------------------------------------------
 // Levels of detail.
 
 // `mesh` (level 0, error 0) and coarser versions of it, each with about a
