@@ -155,6 +155,7 @@ Json to_json(const ModelDocument& m) {
     j["timings"][name] = m.timings.*member;
   if (!m.dense_state.empty()) j["dense_state"] = m.dense_state;
   if (!m.dense_tiles.is_null()) j["dense_tiles"] = m.dense_tiles;
+  if (!m.mesh_tiles.is_null()) j["mesh_tiles"] = m.mesh_tiles;
   return j;
 }
 
@@ -194,6 +195,8 @@ ModelDocument model_from_json(const Json& attrs) {
   m.dense_state = fields::string_or(attrs, "dense_state");
   if (const Json* tiles = fields::find(attrs, "dense_tiles"))
     m.dense_tiles = *tiles;
+  if (const Json* tiles = fields::find(attrs, "mesh_tiles"))
+    m.mesh_tiles = *tiles;
   return m;
 }
 

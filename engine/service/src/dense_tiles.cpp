@@ -32,7 +32,7 @@ TileKey tile_key(const ColoredPoint& p, double size) {
 }
 
 std::string tile_name(const TileKey& key) {
-  return std::to_string(key.first) + "_" + std::to_string(key.second);
+  return dense_tile_name(key.first, key.second);
 }
 
 struct TileKeyHash {
@@ -128,17 +128,27 @@ int halvings_for(const std::vector<TileKey>& keys) {
 
 double dense_tile_size(double voxel) { return 512 * voxel; }
 
+std::string dense_tile_name(long long ix, long long iy) {
+  return std::to_string(ix) + "_" + std::to_string(iy);
+}
+
+std::uint64_t dense_point_hash(const ColoredPoint& p) { return point_hash(p); }
+
 DenseTiles store_dense_tiles(
     const std::vector<ColoredPoint>& points, double size,
     const DenseTiles& published,
     const std::function<std::string(const std::string& bytes)>& put_blob,
-    double isolated_radius, int isolated_min_neighbours) {
+    double isolated_radius, int isolated_min_neighbours, double* edge_used) {
   // One pass for each point's tile, coarser while there are too many; then
   // the tiles' hashes; the points are gathered only for the tiles that
   // changed.
   TileAssignment assignment = assign_tiles(points, size);
-  if (assignment.keys.size() > kMaxDenseTiles)
-    assignment = coarsen(assignment, halvings_for(assignment.keys));
+  int halvings = 0;
+  if (assignment.keys.size() > kMaxDenseTiles) {
+    halvings = halvings_for(assignment.keys);
+    assignment = coarsen(assignment, halvings);
+  }
+  if (edge_used) *edge_used = std::ldexp(size, halvings);
   const std::vector<std::uint32_t>& tile_of = assignment.tile_of;
   std::vector<DenseTile> found(assignment.keys.size());
   std::vector<std::string> names;

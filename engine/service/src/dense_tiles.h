@@ -42,12 +42,21 @@ constexpr std::size_t kMaxDenseTiles = 1024;
 // points differ from its entry in `published`, without its isolated points
 // (without_isolated_points with `isolated_radius` and
 // `isolated_min_neighbours`, within the tile; 0 neighbours keeps them);
-// the others keep their blob. Returns every non-empty tile.
+// the others keep their blob. Returns every non-empty tile; `edge_used`,
+// when given, receives the tiles' edge (`size`, doubled as it was).
 DenseTiles store_dense_tiles(
     const std::vector<ColoredPoint>& points, double size,
     const DenseTiles& published,
     const std::function<std::string(const std::string& bytes)>& put_blob,
-    double isolated_radius = 0, int isolated_min_neighbours = 0);
+    double isolated_radius = 0, int isolated_min_neighbours = 0,
+    double* edge_used = nullptr);
+
+// A tile's name: its column's integer coordinates, "ix_iy".
+std::string dense_tile_name(long long ix, long long iy);
+
+// A fused point's position, colour and support mixed into 64 bits: summed
+// over a set of points it identifies the set in any order.
+std::uint64_t dense_point_hash(const ColoredPoint& p);
 
 // The model document's "dense_tiles" attribute (docs/service.md): an array
 // of {tile, blob, points, fused, hash (decimal string)}, by tile name.

@@ -30,8 +30,7 @@ std::vector<MeshTileEntry> mesh_tiles_of(const db::Document& model) {
       tile.levels.push_back({level.value("blob", std::string()),
                              level.value("triangles", std::size_t{0}),
                              level.value("error", 0.0)});
-    if (!tile.tile.empty() && !tile.levels.empty())
-      tiles.push_back(std::move(tile));
+    if (!tile.tile.empty()) tiles.push_back(std::move(tile));
   }
   return tiles;
 }

@@ -114,6 +114,7 @@ void SiteJob::restore() {
   if (options_.dense)
     dense_ = std::make_shared<DenseReconstruction>(lane_dense_options());
   dense_tiles_.clear();
+  mesh_tiles_.clear();
   dense_points_ = 0;
   dense_views_.clear();
   if (auto model = store_.get(site_path(id_, "model"))) {
@@ -122,11 +123,13 @@ void SiteJob::restore() {
         documents::model_from_json(model->attrs);
     dense_tiles_ = dense_tiles_from_json(
         doc.dense_tiles.is_null() ? Json::array() : doc.dense_tiles);
+    mesh_tiles_ = mesh_tiles_of(*model);
     dense_points_ = doc.statistics.dense_points;
     for (const documents::ModelImageEntry& image : doc.images)
       if (image.dense.value_or(false)) dense_views_.insert(image.id);
   }
   pending_dense_tiles_ = dense_tiles_;
+  pending_mesh_tiles_ = mesh_tiles_;
   auto state = store_.get(site_path(id_, "engine"));
   engine_version_ = state ? state->version : 0;
   const documents::EngineState header =
@@ -534,6 +537,7 @@ std::optional<DenseTask> SiteJob::begin_dense() {
   task.dense = dense_;
   task.generation = generation_;
   task.published = dense_tiles_;
+  task.published_mesh = mesh_tiles_;
   task.model = sparse_->model();
   task.added = std::move(dense_added_);
   task.withdrawn = std::move(dense_withdrawn_);
@@ -563,12 +567,20 @@ void SiteJob::compute_dense(DenseTask& task) {
   task.views.insert(covered.begin(), covered.end());
   task.tiles_held = tiles_wait(task.update);
   if (!task.tiles_held) {
+    const auto put = [this](const std::string& bytes) {
+      return store_.put_blob(bytes);
+    };
+    const std::vector<ColoredPoint> points = dense.points();
+    double edge = 0;
     task.tiles = store_dense_tiles(
-        dense.points(), dense_tile_size(dense.voxel_size()), task.published,
-        [this](const std::string& bytes) { return store_.put_blob(bytes); },
+        points, dense_tile_size(dense.voxel_size()), task.published, put,
         kIsolatedRadiusVoxels * dense.voxel_size(),
-        dense.voxel_size() > 0 ? kIsolatedMinNeighbours : 0);
+        dense.voxel_size() > 0 ? kIsolatedMinNeighbours : 0, &edge);
     tiles_stored_at_ = Clock::now();
+    if (options_.mesh && dense.voxel_size() > 0)
+      task.mesh =
+          update_mesh_tiles(points, edge, dense.voxel_size(),
+                            task.published_mesh, dense.key_views(), put);
   }
   task.voxel_size = dense.voxel_size();
   task.seconds = seconds_since(start);
@@ -621,7 +633,8 @@ Increment SiteJob::finish_dense(DenseTask& task) {
     pending_dense_points_ = report.dense_points;
     ops.push_back(model_op(model, sparse_->captures(), report,
                            task.tiles_held ? nullptr : &task.tiles,
-                           task.tiles_held ? nullptr : &task.views));
+                           task.tiles_held ? nullptr : &task.views,
+                           task.mesh ? &task.mesh->tiles : nullptr));
     increment.model_written = true;
   }
   // Fenced like the sparse phase: a patch on the version this job wrote.
@@ -678,6 +691,11 @@ std::string SiteJob::dense_summary(const DenseTask& task,
   if (!update.covered.empty())
     summary << ", " << update.covered.size() << " covered by the key views";
   summary << ")";
+  if (task.mesh)
+    summary << ", mesh " << task.mesh->triangles << " triangles ("
+            << task.mesh->remade << " of " << task.mesh->tiles.size()
+            << " tiles made, " << static_cast<int>(task.mesh->seconds * 1000)
+            << " ms)";
   if (model_published) summary << ", model v" << pending_model_version_;
   summary << " (" << static_cast<int>(task.seconds * 1000) << " ms)";
   return summary.str();
@@ -687,7 +705,8 @@ db::WriteOp SiteJob::model_op(const Model& model,
                               const std::vector<CaptureState>& captures,
                               const IncrementReport& report,
                               const DenseTiles* new_cloud,
-                              const std::set<std::string>* new_views) {
+                              const std::set<std::string>* new_views,
+                              const std::vector<MeshTileEntry>* new_mesh) {
   if (dense_) pending_dense_views_ = new_views ? *new_views : dense_views_;
   documents::ModelDocument doc = model_document(
       id_, model, captures, report, dense_ ? &pending_dense_views_ : nullptr);
@@ -699,6 +718,9 @@ db::WriteOp SiteJob::model_op(const Model& model,
     // replaces it.
     pending_dense_tiles_ = new_cloud ? *new_cloud : dense_tiles_;
     doc.dense_tiles = dense_tiles_json(pending_dense_tiles_);
+    if (new_mesh) pending_mesh_tiles_ = *new_mesh;
+    if (!pending_mesh_tiles_.empty())
+      doc.mesh_tiles = mesh_tiles_json(pending_mesh_tiles_);
   }
   db::WriteOp op = db::WriteOp::put(site_path(id_, "model"), "model",
                                     documents::to_json(doc));
@@ -715,6 +737,7 @@ void SiteJob::committed() {
     dense_views_ = pending_dense_views_;
   }
   dense_tiles_ = pending_dense_tiles_;
+  mesh_tiles_ = pending_mesh_tiles_;
   for (const auto& [c, s] : pending_statuses_) statuses_[c] = s;
   for (const std::string& m : pending_depth_maps_) depth_maps_.insert(m);
   for (const std::string& m : pending_removed_maps_) depth_maps_.erase(m);

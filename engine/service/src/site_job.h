@@ -28,6 +28,7 @@
 #include "blob_writer.h"
 #include "capture_preparer.h"
 #include "dense_tiles.h"
+#include "mesh_builder.h"
 #include "model_document.h"
 #include "site_directory.h"
 
@@ -74,6 +75,10 @@ struct DenseTask {
   // The tiles were not stored (WorkerOptions::dense_tile_interval): the
   // model keeps the published cloud, and a later phase stores the change.
   bool tiles_held = false;
+  // The surface (WorkerOptions::mesh) as published when it began, and as
+  // made after the tiles; empty when not made this time.
+  std::vector<MeshTileEntry> published_mesh;
+  std::optional<MeshBuild> mesh;
   double voxel_size = 0;
   double seconds = 0;
 };
@@ -202,13 +207,14 @@ class SiteJob {
   size_t add_state_ops(const Model& model,
                        const std::vector<std::string>& added,
                        std::vector<db::WriteOp>* ops);
-  // `new_cloud`: the tiles a dense phase publishes; otherwise the last
-  // published ones stay.
+  // `new_cloud` and `new_mesh`: the tiles a dense phase publishes;
+  // otherwise the last published ones stay.
   db::WriteOp model_op(const Model& model,
                        const std::vector<CaptureState>& captures,
                        const IncrementReport& report,
                        const DenseTiles* new_cloud = nullptr,
-                       const std::set<std::string>* new_views = nullptr);
+                       const std::set<std::string>* new_views = nullptr,
+                       const std::vector<MeshTileEntry>* new_mesh = nullptr);
   // `more_follow`: the increment adds more captures after this one
   // (CaptureInput::more_follow).
   void add(const std::string& capture, bool more_follow,
@@ -275,6 +281,7 @@ class SiteJob {
   bool dense_finishing_ = false;  // the writes of finish_dense await commit
   std::vector<std::string> dense_added_, dense_withdrawn_;
   DenseTiles dense_tiles_, pending_dense_tiles_;  // the published cloud
+  std::vector<MeshTileEntry> mesh_tiles_, pending_mesh_tiles_;  // surface
   std::size_t dense_points_ = 0, pending_dense_points_ = 0;
   // The views the published cloud covers.
   std::set<std::string> dense_views_, pending_dense_views_;

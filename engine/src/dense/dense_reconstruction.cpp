@@ -892,6 +892,16 @@ std::vector<DepthMap> DenseReconstruction::filtered_depth_maps() const {
   return maps;
 }
 
+std::vector<DenseReconstruction::KeyView> DenseReconstruction::key_views()
+    const {
+  std::vector<KeyView> views;
+  for (const std::string& id : impl_->order) {
+    const auto& entry = impl_->entries.at(id);
+    views.push_back({entry.colour, entry.map});
+  }
+  return views;
+}
+
 const DepthMap* DenseReconstruction::raw_depth_map(
     const std::string& id) const {
   auto it = impl_->entries.find(id);

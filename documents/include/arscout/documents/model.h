@@ -85,6 +85,9 @@ struct ModelDocument {
   // The dense cloud's tiles, in the engine service's own form
   // (engine/service dense_tiles.h); null when absent.
   nlohmann::json dense_tiles;
+  // The surface's tiles and their levels of detail (engine/service
+  // mesh_tiles_of, docs/mesh.md); null when absent.
+  nlohmann::json mesh_tiles;
 
   // The camera an image names; nullptr when none has its id.
   const ModelCameraEntry* camera_of(const ModelImageEntry& image) const;
@@ -92,7 +95,7 @@ struct ModelDocument {
 };
 
 // Every field above under its docs/service.md name ("frame" derived from
-// geo_registered; "dense_state" and "dense_tiles" only when set).
+// geo_registered; "dense_state", "dense_tiles" and "mesh_tiles" only when set).
 nlohmann::json to_json(const ModelDocument& model);
 
 // Reads a model document. Throws DocumentError naming the first bad field

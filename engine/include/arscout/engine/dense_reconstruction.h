@@ -179,6 +179,15 @@ class DenseReconstruction {
   std::vector<DepthMap> filtered_depth_maps() const;
   // As swept, before the consistency filter.
   const DepthMap* raw_depth_map(const std::string& id) const;
+  // The key views as they are now: each one's photo at the working
+  // resolution (undistorted, CV_8UC3, shared with the object: do not
+  // write to it) and its depth map as fused (id, K and the model's current
+  // R, t), in the order of sweeping. Texturing reads them (engine/mesh.h).
+  struct KeyView {
+    cv::Mat bgr;
+    DepthMap map;
+  };
+  std::vector<KeyView> key_views() const;
   double voxel_size() const;
 
   // Persistence. A depth map is the one costly part of the dense state

@@ -78,6 +78,10 @@ struct WorkerOptions {
   // their timing would follow the machine.
   int prepare_ahead = 16;
   bool dense = true;
+  // A textured surface per dense tile, remade in the dense lane after the
+  // tiles whose points changed and published with them (docs/mesh.md).
+  // Needs `dense`.
+  bool mesh = false;
   ReconstructionOptions reconstruction;
   DenseOptions dense_options;
   // Sites reconstructed at the same time; one site's work never waits for
@@ -201,7 +205,9 @@ std::vector<ColoredPoint> load_dense_cloud(
 // its levels of detail as GLB blobs (engine/mesh.h encode_glb), finest
 // first. The attribute "mesh_tiles" is an array of {tile, hash (decimal
 // string: of the points it was made from), levels: [{blob, triangles,
-// error}]}, by tile name; empty before the first mesh phase.
+// error}]}, by tile name; empty before the first mesh phase. A tile whose
+// points made no surface has no levels (it is kept so that it is not made
+// again until its points change).
 struct MeshTileLevel {
   std::string blob;  // SHA-256 of its GLB
   std::size_t triangles = 0;
