@@ -117,16 +117,23 @@ TEST_F(MeshExports, TheFixtureHasTwoTilesOfSeveralLevels) {
 }
 
 TEST_F(MeshExports, AModelWithoutAMeshIsNotFound) {
+  // "barren": one tile listed without levels; "bare": no mesh_tiles at all.
+  mesh_site::write_mesh_site(*store_, "barren", true, false);
   mesh_site::write_mesh_site(*store_, "bare", true, false);
-  for (const char* format : {"glb", "obj", "3dtiles-mesh"}) {
-    try {
-      export_site(*store_, "bare", format);
-      FAIL() << format << " exported a site without a mesh";
-    } catch (const util::Error& e) {
-      EXPECT_EQ(e.kind(), util::ErrorKind::kNotFound) << format;
-      EXPECT_STREQ(e.what(), "site bare has no mesh yet") << format;
+  db::Document model = *store_->get("/sites/bare/model");
+  model.attrs.erase("mesh_tiles");
+  store_->put(model.path, model.kind, model.attrs);
+  for (const std::string site : {"barren", "bare"})
+    for (const char* format : {"glb", "obj", "3dtiles-mesh"}) {
+      try {
+        export_site(*store_, site, format);
+        FAIL() << format << " exported a site without a mesh";
+      } catch (const util::Error& e) {
+        EXPECT_EQ(e.kind(), util::ErrorKind::kNotFound) << format;
+        EXPECT_EQ(std::string(e.what()), "site " + site + " has no mesh yet")
+            << format;
+      }
     }
-  }
 }
 
 TEST_F(MeshExports, TheTilesetNeedsAGeoRegisteredModel) {

@@ -97,8 +97,9 @@ std::vector<MeshTile> write_mesh_site(arscout::db::Store& store,
                                             kOrigin.alt};
   if (geo_registered) model.enu_origin = origin;
   nlohmann::json attrs = to_json(model);
-  if (with_mesh)
-    attrs["mesh_tiles"] = arscout::engine::mesh_tiles_json(entries);
+  // A third tile whose points made no surface: listed, without levels.
+  entries.push_back({"5_5", 2000, {}});
+  attrs["mesh_tiles"] = arscout::engine::mesh_tiles_json(entries);
   const std::int64_t version =
       store.put("/sites/" + site + "/model", "model", attrs).version;
   arscout::documents::Site doc;

@@ -31,8 +31,10 @@ struct MeshTile {
 std::vector<arscout::engine::TexturedMesh> synthetic_mesh_tiles();
 
 // Writes /sites/{site} and its model (geo-registered at kOrigin, or not)
-// with the two tiles' levels as blobs named in its "mesh_tiles"; returns
-// what it stored. With `with_mesh` false the model has no mesh.
+// with the two tiles' levels as blobs named in its "mesh_tiles", and a
+// third tile, "5_5", listed without levels (its points made no surface);
+// returns the two tiles. With `with_mesh` false only "5_5" is listed: the
+// model has no mesh.
 std::vector<MeshTile> write_mesh_site(arscout::db::Store& store,
                                       const std::string& site,
                                       bool geo_registered = true,

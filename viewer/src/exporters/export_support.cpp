@@ -42,7 +42,10 @@ std::vector<engine::ColoredPoint> nonempty_cloud(db::Store& store,
 std::vector<engine::MeshTileEntry> nonempty_mesh_tiles(const SiteModel& model) {
   db::Document document;
   document.attrs = model.attrs;
-  std::vector<engine::MeshTileEntry> tiles = engine::mesh_tiles_of(document);
+  std::vector<engine::MeshTileEntry> tiles;
+  // A tile whose points made no surface is listed without levels.
+  for (engine::MeshTileEntry& tile : engine::mesh_tiles_of(document))
+    if (!tile.levels.empty()) tiles.push_back(std::move(tile));
   if (tiles.empty())
     throw util::Error(util::ErrorKind::kNotFound,
                       "site " + model.site + " has no mesh yet");

@@ -34,9 +34,10 @@ std::vector<engine::ColoredPoint> nonempty_cloud(db::Store& store,
                                                  const SiteModel& model,
                                                  Cloud cloud);
 
-// The model's textured mesh, its "mesh_tiles" (engine::mesh_tiles_of), in
-// tile order. Throws util::Error kNotFound ("site S has no mesh yet") when
-// it has none.
+// The model's textured mesh, its "mesh_tiles" (engine::mesh_tiles_of) that
+// have levels (a tile whose points made no surface has none), in tile
+// order. Throws util::Error kNotFound ("site S has no mesh yet") when there
+// are none.
 std::vector<engine::MeshTileEntry> nonempty_mesh_tiles(const SiteModel& model);
 
 // Level `level` of mesh tile `tile` read from its stored GLB, the atlas as
