@@ -18,10 +18,10 @@
 // viewer/web/node_modules (npm ci --prefix viewer/web).
 
 import fs from 'node:fs';
-import http from 'node:http';
 import path from 'node:path';
 import {
   here, webRoot, requireFromViewer, log, TestFailure, fail, keyValueSettings, SOFTWARE_WEBGL_ARGS,
+  serve,
 } from './harness.mjs';
 
 const { chromium } = requireFromViewer('playwright-core');
@@ -192,38 +192,6 @@ function compare(from, to, tolerance) {
     if (Number.isFinite(d)) sum += d;
   }
   return { worst, mean: sum / (from.length / 3), beyond };
-}
-
-// A static file server on a free loopback port for the page, the npm
-// packages and the tileset. `files` maps a URL path to a file, `folders` a
-// URL prefix to a folder; nothing outside those is served.
-function serve(files, folders) {
-  const types = {
-    '.html': 'text/html', '.js': 'text/javascript', '.mjs': 'text/javascript',
-    '.json': 'application/json', '.glb': 'model/gltf-binary',
-  };
-  const server = http.createServer((request, response) => {
-    const pathname = decodeURIComponent(new URL(request.url, 'http://localhost').pathname);
-    let file = files[pathname] || null;
-    for (const [prefix, folder] of Object.entries(folders)) {
-      if (file || !pathname.startsWith(prefix)) continue;
-      const candidate = path.resolve(folder, pathname.slice(prefix.length));
-      if (candidate.startsWith(folder + path.sep)) file = candidate;
-    }
-    if (!file || !fs.existsSync(file) || !fs.statSync(file).isFile()) {
-      response.writeHead(404, { 'Content-Type': 'text/plain' });
-      response.end(`not found: ${pathname}\n`);
-      return;
-    }
-    response.writeHead(200, {
-      'Content-Type': types[path.extname(file)] || 'application/octet-stream',
-      'Cache-Control': 'no-store',
-    });
-    fs.createReadStream(file).pipe(response);
-  });
-  return new Promise((resolve) => {
-    server.listen(0, '127.0.0.1', () => resolve(server));
-  });
 }
 
 async function main() {

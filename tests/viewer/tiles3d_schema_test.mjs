@@ -21,14 +21,14 @@
 //
 // Also what arscout's export promises (docs/frames.md): version 1.1,
 // additive refinement set at the root (a tile without refine inherits
-// it), one transform (the root's), tiles as axis-aligned boxes in the
+// it; --refine=REPLACE for the mesh export's, docs/mesh.md), one transform (the root's), tiles as axis-aligned boxes in the
 // root's frame (half-axes on the diagonal), which is what makes the box
 // nesting check a comparison of intervals.
 //
 // Then the checks are shown able to fail: each of a list of broken copies
 // of the tileset (root geometricError dropped, a child's error above its
 // parent's, a box sticking out, a missing file, ...) must be rejected.
-//   node tiles3d_schema_test.mjs SCHEMA_DIR TILESET_DIR [--check-only]
+//   node tiles3d_schema_test.mjs SCHEMA_DIR TILESET_DIR [--check-only] [--refine=REPLACE]
 // SCHEMA_DIR: the folder of the official files (tileset.schema.json and
 // the files it refers to). --check-only: only check TILESET_DIR (exit 1 if
 // it fails), no broken copies; tiles3d_schema_test.sh runs it on broken
@@ -45,9 +45,11 @@ const ajvVersion = requireFromViewer('ajv/package.json').version;
 
 const args = process.argv.slice(2);
 const checkOnly = args.includes('--check-only');
-const positional = args.filter((arg) => arg !== '--check-only');
-if (positional.length !== 2) {
-  console.error('usage: node tiles3d_schema_test.mjs SCHEMA_DIR TILESET_DIR [--check-only]');
+const refineArg = args.find((arg) => arg.startsWith('--refine='));
+const exportRefine = refineArg ? refineArg.slice('--refine='.length) : 'ADD';
+const positional = args.filter((arg) => arg !== '--check-only' && arg !== refineArg);
+if (positional.length !== 2 || !['ADD', 'REPLACE'].includes(exportRefine)) {
+  console.error('usage: node tiles3d_schema_test.mjs SCHEMA_DIR TILESET_DIR [--check-only] [--refine=ADD|REPLACE]');
   process.exit(2);
 }
 const [schemaDir, tilesetDir] = positional;
@@ -205,7 +207,9 @@ function check(tileset, files, stats = {}) {
     });
 
     // What arscout's export promises.
-    if (effectiveRefine !== 'ADD') fail(`${where}: refine ${effectiveRefine}, the export refines by ADD`);
+    if (effectiveRefine !== exportRefine) {
+      fail(`${where}: refine ${effectiveRefine}, the export refines by ${exportRefine}`);
+    }
     if (tile.transform && parent) fail(`${where}: a transform below the root (the export has one frame)`);
     const box = tile.boundingVolume.box;
     if (!box) {

@@ -244,8 +244,8 @@ TEST(ExportRegistry, EveryFormatIsFoundByItsNameAndDescribed) {
     EXPECT_FALSE(e->summary.empty()) << e->name;
     EXPECT_NE(e->write, nullptr) << e->name;
   }
-  for (const char* name :
-       {"ply", "colmap", "geocsv", "ecef-ply", "las", "3dtiles", "geojson"})
+  for (const char* name : {"ply", "colmap", "geocsv", "ecef-ply", "las",
+                           "3dtiles", "geojson", "glb", "obj", "3dtiles-mesh"})
     EXPECT_TRUE(names.count(name)) << name;
   EXPECT_FALSE(find_exporter("PLY"));
   EXPECT_FALSE(find_exporter(""));
@@ -255,12 +255,12 @@ TEST(ExportRegistry, EveryFormatIsFoundByItsNameAndDescribed) {
 TEST(ExportRegistry, AnUnknownFormatIsRefusedNamingTheFormats) {
   auto store = db::Store::open(testing::fresh_sqlite_url());
   try {
-    export_site(*store, "s1", "obj");
+    export_site(*store, "s1", "stl");
     FAIL() << "an unknown format was exported";
   } catch (const util::Error& e) {
     EXPECT_EQ(e.kind(), util::ErrorKind::kInvalidArgument);
     const std::string what = e.what();
-    EXPECT_NE(what.find("'obj'"), std::string::npos) << what;
+    EXPECT_NE(what.find("'stl'"), std::string::npos) << what;
     for (const Exporter* format : exporters())
       EXPECT_NE(what.find(format->name), std::string::npos) << what;
   }

@@ -66,20 +66,22 @@ class TilesetWriter {
   std::vector<TilesetFile> files_;
 };
 
-// ENU to ECEF, column-major as 3D Tiles writes a transform.
-Json enu_to_ecef(const engine::Geodetic& origin) {
+}  // namespace
+
+std::array<double, 16> enu_to_ecef_transform(const engine::Geodetic& origin) {
   const engine::EnuFrame frame(origin);
   const auto o = frame.to_ecef({0, 0, 0});
-  Json m = Json::array();
+  std::array<double, 16> m{};
+  int at = 0;
   for (const Vec3& axis : {Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}}) {
     const auto p = frame.to_ecef(axis);
-    m.insert(m.end(), {p[0] - o[0], p[1] - o[1], p[2] - o[2], 0.0});
+    for (int r = 0; r < 3; ++r) m[at++] = p[r] - o[r];
+    m[at++] = 0.0;
   }
-  m.insert(m.end(), {o[0], o[1], o[2], 1.0});
+  for (int r = 0; r < 3; ++r) m[at++] = o[r];
+  m[at] = 1.0;
   return m;
 }
-
-}  // namespace
 
 std::vector<TilesetFile> build_point_tileset(
     const std::vector<engine::ColoredPoint>& enu_points,
@@ -90,7 +92,7 @@ std::vector<TilesetFile> build_point_tileset(
       enu_points, {options.max_tile_points, options.max_depth});
   TilesetWriter writer(enu_points, nodes);
   Json root = writer.tile(0);
-  root["transform"] = enu_to_ecef(origin);
+  root["transform"] = enu_to_ecef_transform(origin);
   const double error = std::max(root.at("geometricError").get<double>(),
                                 nodes[0].box.diagonal() / 2);
   const Json tileset = {

@@ -5,6 +5,7 @@
 // the site's ENU frame, and a root transform from ENU to ECEF (WGS84).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -23,6 +24,10 @@ struct TilesetFile {
   std::string path;  // "tileset.json", "tiles/r04.glb", ...
   std::string bytes;
 };
+
+// The transform from the site's ENU frame at `origin` to ECEF (WGS84),
+// column-major, as a tileset's root "transform" holds it.
+std::array<double, 16> enu_to_ecef_transform(const engine::Geodetic& origin);
 
 // tileset.json first, then one .glb per tile. Tile names spell their path
 // from the root ("r", then one octant digit per level). A tile's geometric

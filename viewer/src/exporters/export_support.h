@@ -8,6 +8,8 @@
 #include <string_view>
 
 #include "arscout/engine/geo.h"
+#include "arscout/engine/mesh.h"
+#include "arscout/engine/service.h"
 #include "arscout/viewer/exporter.h"
 #include "arscout/viewer/site_model.h"
 
@@ -31,6 +33,23 @@ engine::Geodetic geographic_origin(const SiteModel& model);
 std::vector<engine::ColoredPoint> nonempty_cloud(db::Store& store,
                                                  const SiteModel& model,
                                                  Cloud cloud);
+
+// The model's textured mesh, its "mesh_tiles" (engine::mesh_tiles_of) that
+// have levels (a tile whose points made no surface has none), in tile
+// order. Throws util::Error kNotFound ("site S has no mesh yet") when there
+// are none.
+std::vector<engine::MeshTileEntry> nonempty_mesh_tiles(const SiteModel& model);
+
+// Level `level` of mesh tile `tile` read from its stored GLB, the atlas as
+// the image file it embeds. Throws what the store throws (kNotFound for a
+// blob collected since a later model replaced it: export again), and
+// util::Error kInternal when the blob is not a mesh GLB.
+engine::GlbMesh load_mesh_level(db::Store& store, const SiteModel& model,
+                                const engine::MeshTileEntry& tile,
+                                std::size_t level);
+
+// The file name of an atlas image of `mime` type: "NAME.jpg" or "NAME.png".
+std::string image_file_name(const std::string& name, const std::string& mime);
 
 // Writes `bytes` to `out`.
 void put(std::ostream& out, const std::string& bytes);

@@ -12,7 +12,10 @@
   FORMAT(ecef_ply)                     \
   FORMAT(las)                          \
   FORMAT(tiles3d)                      \
-  FORMAT(geojson)
+  FORMAT(geojson)                      \
+  FORMAT(glb)                          \
+  FORMAT(obj)                          \
+  FORMAT(tiles3d_mesh)
 
 namespace arscout::viewer {
 namespace formats {

@@ -166,14 +166,53 @@ std::vector<MeshLevel> mesh_levels(const TexturedMesh& mesh, int levels = 3);
 // POSITION, NORMAL, COLOR_0, TEXCOORD_0 as present), the atlas as an
 // embedded JPEG of `jpeg_quality` with a metallic-roughness material that
 // is unlit (KHR_materials_unlit: the photos hold the light already).
-// Positions are written as given (the site frame, z up); a viewer turns
-// them. Throws std::invalid_argument for an empty mesh or inconsistent
-// attribute sizes.
+// With an atlas the vertex colours are written as "_COLOR" instead of
+// COLOR_0: glTF multiplies COLOR_0 into the base colour texture, which
+// would darken the photos; "_COLOR" is an application attribute that
+// renderers leave alone and decode_glb reads back. Colours are RGBA
+// normalized bytes (alpha 255), indices 32-bit. Positions are written as
+// given (the site frame, z up); a viewer turns them. Throws
+// std::invalid_argument for an empty mesh or inconsistent attribute sizes
+// (an index past the vertices, an atlas that is not CV_8UC3 or has no
+// texture coordinates, a position that is not finite).
 std::string encode_glb(const TexturedMesh& mesh, int jpeg_quality = 88);
 
 // Reads a GLB written by encode_glb (or any with one indexed triangle
-// primitive of float positions). Throws std::runtime_error, naming what is
-// wrong, for anything else.
+// primitive of float positions; node transforms are not applied). Throws
+// std::runtime_error, naming what is wrong, for anything else.
 TexturedMesh decode_glb(const std::string& bytes);
+
+// A mesh whose atlas is the image file a GLB embeds (JPEG or PNG) rather
+// than pixels: what the exports carry from the stored GLBs into theirs
+// without decoding the photos' texture and compressing it again.
+struct GlbMesh {
+  TexturedMesh mesh;       // its atlas is not read (left empty)
+  std::string image;       // the atlas's file; empty: none
+  std::string image_mime;  // "image/jpeg" or "image/png"
+};
+
+// Where encode_glb_meshes puts the meshes in the glTF's frame.
+struct GlbFrame {
+  // Positions are written less `offset` (floats keep millimetres near it)
+  // and the node's translation adds it back.
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  // Turns the site frame (z up) into glTF's (y up): (x, y, z) ->
+  // (x, z, -y), applied to positions, normals and the translation, so
+  // that a glTF viewer or a 3D Tiles client (which turns y up back into z
+  // up) sees the site upright. False: as given, as encode_glb writes.
+  bool y_up = false;
+};
+
+// One GLB holding `meshes` as the primitives of one mesh (one node), each
+// with its own unlit material and its image as given, attributes as
+// encode_glb writes them. Throws std::invalid_argument when `meshes` is
+// empty or one of them is not what encode_glb takes, or its image is not
+// image/jpeg or image/png.
+std::string encode_glb_meshes(const std::vector<GlbMesh>& meshes,
+                              const GlbFrame& frame = {});
+
+// decode_glb without decoding the atlas: its file as embedded. The same
+// errors (the image is not checked).
+GlbMesh decode_glb_mesh(const std::string& bytes);
 
 }  // namespace arscout::engine
