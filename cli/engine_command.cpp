@@ -95,6 +95,10 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
       ->capture_default_str()
       ->check(CLI::Range(100, 50000));
   cmd->add_flag("!--no-dense", o->dense, "sparse models only");
+  cmd->add_flag("--mesh", o->mesh,
+                "a textured surface per dense tile, made in the dense lane "
+                "after the tiles whose points changed, published with them "
+                "(docs/mesh.md)");
   cmd->add_option("--dense-long-side", o->dense_options.long_side,
                   "dense working resolution, long side in px")
       ->capture_default_str()
