@@ -3,6 +3,7 @@
 // with a progress line per photo; writes the COLMAP text model, the camera
 // table and a PLY of the sparse points, and with --dense grows the dense
 // cloud after every photo and writes it too.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -18,11 +19,13 @@
 #include "arscout/engine/camera.h"
 #include "arscout/engine/dense_reconstruction.h"
 #include "arscout/engine/image_size.h"
+#include "arscout/engine/mesh.h"
 #include "arscout/engine/model_io.h"
 #include "arscout/engine/ply.h"
 #include "arscout/engine/reconstruction.h"
 #include "arscout/metadata/gps.h"
 #include "arscout/util/error.h"
+#include "arscout/util/file.h"
 #include "cli_support.h"
 #include "command_registry.h"
 #include "commands.h"
@@ -42,6 +45,8 @@ struct ReconstructArgs {
   int limit = 0;
   engine::ReconstructionOptions options;
   bool dense = false;
+  bool mesh = false;
+  bool mesh_check = false;
   engine::DenseOptions dense_options;
   double refine_budget_s = 2.0;
 };
@@ -252,6 +257,65 @@ engine::Reconstruction start(const ReconstructArgs& a) {
   }
 }
 
+// The batch run's surface: the whole cloud as one tile, textured from every
+// key view, its finest level as OUT/mesh.glb (docs/mesh.md).
+// Each key view predicted by the surface textured from the others
+// (engine::holdout_scores): OUT/mesh_check.csv and the median.
+void write_mesh_check(const engine::TexturedMesh& surface,
+                      const std::vector<engine::TextureView>& views,
+                      const std::string& out) {
+  const std::vector<engine::HoldoutScore> scores =
+      engine::holdout_scores(surface, views);
+  std::ostringstream csv;
+  csv << "view,zncc,covered\n";
+  std::vector<double> zncc, covered;
+  for (const engine::HoldoutScore& s : scores) {
+    csv << s.id << "," << s.zncc << "," << s.covered << "\n";
+    zncc.push_back(s.zncc);
+    covered.push_back(s.covered);
+  }
+  util::write_file_atomic(out + "/mesh_check.csv", csv.str());
+  const auto median = [](std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  std::cout << "mesh check: " << scores.size()
+            << " views each predicted from the others, median ZNCC "
+            << median(zncc) << ", median covered share " << median(covered)
+            << ", wrote " << out << "/mesh_check.csv" << std::endl;
+}
+
+void write_mesh(const engine::DenseReconstruction& dense,
+                const std::string& out, bool check) {
+  const auto start = std::chrono::steady_clock::now();
+  const std::vector<engine::ColoredPoint> points = dense.points();
+  if (points.empty() || !(dense.voxel_size() > 0)) {
+    std::cout << "mesh: no dense points, no mesh.glb" << std::endl;
+    return;
+  }
+  const engine::TexturedMesh surface =
+      engine::mesh_surface(points, Eigen::Vector2d::Constant(-1e6),
+                           Eigen::Vector2d::Constant(1e6), dense.voxel_size());
+  const std::vector<engine::TextureView> views =
+      engine::texture_views(dense.key_views());
+  const engine::TexturedMesh textured = engine::texture_mesh(surface, views);
+  if (textured.empty()) {
+    std::cout << "mesh: no surface, no mesh.glb" << std::endl;
+    return;
+  }
+  util::write_file_atomic(out + "/mesh.glb", engine::encode_glb(textured));
+  std::cout << "mesh: " << textured.triangles() << " triangles, atlas "
+            << textured.atlas.cols << " x " << textured.atlas.rows << " ("
+            << std::setprecision(2) << std::fixed
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                             start)
+                   .count()
+            << " s), wrote " << out << "/mesh.glb" << std::defaultfloat
+            << std::endl;
+  if (check) write_mesh_check(surface, views, out);
+}
+
 void write_outputs(const engine::Reconstruction& site,
                    const engine::DenseReconstruction* dense,
                    const ReconstructArgs& a) {
@@ -267,6 +331,7 @@ void write_outputs(const engine::Reconstruction& site,
     std::cout << "dense cloud: " << points.size() << " points from "
               << dense->filtered_depth_maps().size() << " depth maps, wrote "
               << a.out << "/dense.ply" << std::endl;
+    if (a.mesh) write_mesh(*dense, a.out, a.mesh_check);
   }
   engine::write_colmap_text(model, a.out + "/sparse");
   engine::write_geo_csv(model, a.out + "/cameras_geo.csv");
@@ -283,6 +348,13 @@ void write_outputs(const engine::Reconstruction& site,
 }
 
 int run_reconstruct(const ReconstructArgs& a) {
+  if (a.mesh_check && !a.mesh)
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      "--mesh-check needs --mesh");
+  if (a.mesh && !a.dense)
+    throw util::Error(util::ErrorKind::kInvalidArgument,
+                      "--mesh needs --dense: the surface is made from the "
+                      "dense cloud");
   const std::vector<std::string> paths = list_image_files(a.images);
   InputSource source(a);
   engine::Reconstruction site = start(a);
@@ -419,6 +491,13 @@ void add_reconstruct_command(CLI::App& app) {
   cmd->add_flag("--dense", args.dense,
                 "also grow the dense cloud (plane-sweep depth maps, fused) "
                 "after every photo and write OUT/dense.ply");
+  cmd->add_flag("--mesh", args.mesh,
+                "with --dense, also the textured surface of the cloud "
+                "(docs/mesh.md) as OUT/mesh.glb (site frame, z up)");
+  cmd->add_flag("--mesh-check", args.mesh_check,
+                "with --mesh, predict each key view from the surface "
+                "textured from the others: ZNCC and covered share per view "
+                "in OUT/mesh_check.csv");
   cmd->add_option("--dense-long-side", args.dense_options.long_side,
                   "dense working resolution, long side in px")
       ->capture_default_str()

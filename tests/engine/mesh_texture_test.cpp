@@ -46,29 +46,13 @@ TextureView texture_view(const syn::Site& site, const syn::PinholeView& v) {
   return {"view", r.bgr, v.K, v.R, v.t, r.depth};
 }
 
-// ZNCC of the grey levels of a and b over the pixels of `mask`.
-double masked_zncc(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
-  cv::Mat ga, gb;
-  cv::cvtColor(a, ga, cv::COLOR_BGR2GRAY);
-  cv::cvtColor(b, gb, cv::COLOR_BGR2GRAY);
-  cv::Scalar ma, sa, mb, sb;
-  cv::meanStdDev(ga, ma, sa, mask);
-  cv::meanStdDev(gb, mb, sb, mask);
-  cv::Mat fa, fb;
-  ga.convertTo(fa, CV_64F, 1, -ma[0]);
-  gb.convertTo(fb, CV_64F, 1, -mb[0]);
-  cv::Mat weight;
-  mask.convertTo(weight, CV_64F, 1.0 / 255);
-  const double n = cv::countNonZero(mask);
-  return fa.mul(fb).dot(weight) / (n * sa[0] * sb[0]);
-}
-
 struct StreetTexture : ::testing::Test {
   void SetUp() override {
     site = syn::street_site(3);
-    views = syn::street_cameras(5);
-    const auto points = sample_site(site, 0.04, {0, 0, 1.6});
-    surface = mesh_surface(points, {-8, -2}, {8, 11}, 0.04);
+    // Three quarters of the usual size: the test runs under the sanitizers.
+    views = syn::street_cameras(5, {480, 360}, 420);
+    const auto points = sample_site(site, 0.06, {0, 0, 1.6});
+    surface = mesh_surface(points, {-8, -2}, {8, 11}, 0.06);
     for (int i : {0, 1, 3, 4}) sources.push_back(texture_view(site, views[i]));
   }
   syn::Site site;
@@ -78,7 +62,7 @@ struct StreetTexture : ::testing::Test {
 };
 
 TEST_F(StreetTexture, AHeldOutViewMatchesTheTexturedMesh) {
-  ASSERT_GT(surface.triangles(), 10000u);
+  ASSERT_GT(surface.triangles(), 5000u);
   const TexturedMesh textured = texture_mesh(surface, sources);
   ASSERT_FALSE(textured.atlas.empty());
   ASSERT_EQ(textured.uvs.size(), textured.positions.size());
@@ -86,28 +70,25 @@ TEST_F(StreetTexture, AHeldOutViewMatchesTheTexturedMesh) {
     ASSERT_GE(uv.minCoeff(), 0.0f);
     ASSERT_LE(uv.maxCoeff(), 1.0f);
   }
-  const syn::PinholeView& held = views[2];
-  const syn::Rendering truth = syn::render(site, held, 2);
-  const MeshRendering drawn =
-      render_mesh(textured, held.K, held.R, held.t, held.size);
-  const cv::Mat covered = (drawn.depth > 0) & (truth.depth > 0);
-  const double share =
-      cv::countNonZero(covered) / double(cv::countNonZero(truth.depth > 0));
-  EXPECT_GT(share, 0.9);
-  const double textured_zncc = masked_zncc(drawn.bgr, truth.bgr, covered);
-  EXPECT_GT(textured_zncc, 0.8);
-  std::cout << "covered " << share << ", ZNCC " << textured_zncc << ", atlas "
-            << textured.atlas.cols << " x " << textured.atlas.rows << ", "
-            << textured.positions.size() << " vertices of "
-            << surface.positions.size() << std::endl;
+  // The middle view, predicted from the four others (holdout_scores
+  // textures without it).
+  std::vector<TextureView> all = sources;
+  all.insert(all.begin() + 2, texture_view(site, views[2]));
+  const std::vector<HoldoutScore> scores =
+      holdout_scores(surface, all, {}, {2});
+  ASSERT_EQ(scores.size(), 1u);
+  std::cout << "held-out middle view: covered " << scores[0].covered
+            << ", ZNCC " << scores[0].zncc << std::endl;
+  EXPECT_GT(scores[0].covered, 0.9);
+  EXPECT_GT(scores[0].zncc, 0.7);  // 0.78 here, 0.86 at 640 x 480
 }
 
 TEST_F(StreetTexture, AnAtlasLimitScalesThePatchesDown) {
   TextureOptions options;
-  options.max_atlas_side = 1024;
+  options.max_atlas_side = 512;
   const TexturedMesh textured = texture_mesh(surface, sources, options);
   ASSERT_FALSE(textured.atlas.empty());
-  EXPECT_LE(std::max(textured.atlas.cols, textured.atlas.rows), 1024);
+  EXPECT_LE(std::max(textured.atlas.cols, textured.atlas.rows), 512);
   EXPECT_EQ(textured.triangles(), surface.triangles());
 }
 

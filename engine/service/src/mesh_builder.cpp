@@ -62,12 +62,9 @@ std::vector<TextureView> views_of(
   }
   std::sort(seeing.begin(), seeing.end());
   if (static_cast<int>(seeing.size()) > limit) seeing.resize(limit);
-  std::vector<TextureView> out;
-  for (const auto& [distance, v] : seeing) {
-    const DepthMap& map = views[v].map;
-    out.push_back({map.id, views[v].bgr, map.K, map.R, map.t, map.depth});
-  }
-  return out;
+  std::vector<DenseReconstruction::KeyView> nearest;
+  for (const auto& [distance, v] : seeing) nearest.push_back(views[v]);
+  return texture_views(nearest);
 }
 
 // One tile made: surface, texture, levels, each level's GLB stored.

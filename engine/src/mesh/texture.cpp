@@ -5,6 +5,14 @@
 
 namespace arscout::engine {
 
+std::vector<TextureView> texture_views(
+    const std::vector<DenseReconstruction::KeyView>& key_views) {
+  std::vector<TextureView> views;
+  for (const DenseReconstruction::KeyView& v : key_views)
+    views.push_back({v.map.id, v.bgr, v.map.K, v.map.R, v.map.t, v.map.depth});
+  return views;
+}
+
 TexturedMesh texture_mesh(const TexturedMesh& surface,
                           const std::vector<TextureView>& views,
                           const TextureOptions& options) {

@@ -23,6 +23,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "arscout/engine/dense_reconstruction.h"
 #include "arscout/engine/ply.h"
 
 namespace arscout::engine {
@@ -103,6 +104,11 @@ struct TextureView {
   cv::Mat depth;
 };
 
+// The dense reconstruction's key views as texture sources (their photos at
+// the working resolution, current poses and depth maps), sharing pixels.
+std::vector<TextureView> texture_views(
+    const std::vector<DenseReconstruction::KeyView>& key_views);
+
 struct TextureOptions {
   // A view textures a face only when it sees it at least this squarely
   // (cosine of the angle between the face's normal and the ray): a scout
@@ -146,6 +152,21 @@ struct MeshRendering {
 MeshRendering render_mesh(const TexturedMesh& mesh, const Eigen::Matrix3d& K,
                           const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
                           cv::Size size);
+
+// How well the textured surface predicts a photo it was not textured from
+// (the paper's "does the model match the view"): for each view, `surface`
+// textured from the others and drawn into it; the ZNCC of the grey levels
+// over the pixels the surface covers, and their share of the picture.
+struct HoldoutScore {
+  std::string id;
+  double zncc = 0;
+  double covered = 0;
+};
+// `held`: the indices of the views to score (empty: all).
+std::vector<HoldoutScore> holdout_scores(
+    const TexturedMesh& surface, const std::vector<TextureView>& views,
+    const TextureOptions& options = {},
+    const std::vector<std::size_t>& held = {});
 
 // ---------------------------------------------------------------------------
 // Levels of detail.
