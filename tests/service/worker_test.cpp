@@ -10,15 +10,19 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
+#include <map>
 #include <mutex>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+#include <tuple>
 
 #include <Eigen/Geometry>
 #include "arscout/db/store.h"
 #include "arscout/engine/camera.h"
+#include "arscout/engine/mesh.h"
 #include "arscout/engine/ply.h"
 #include "arscout/engine/service.h"
 #include "arscout/metadata/gps.h"
@@ -272,6 +276,96 @@ TEST(EngineWorker, RenderedSyntheticStreetBecomesOneSite) {
   EXPECT_FALSE(store->get(sites[0].path + "/depth/" + withdrawn));
   EXPECT_EQ(store->get("/captures/" + withdrawn)->attrs.value("status", ""),
             "withdrawn");
+}
+
+// With WorkerOptions::mesh the dense lane publishes a textured surface per
+// dense tile beside the cloud (docs/mesh.md): levels of detail as GLB
+// blobs, coarser levels with fewer triangles, the finest with an atlas;
+// neighbouring tiles' finest levels meet vertex for vertex on their shared
+// border (but where a hole's edge lies on it).
+TEST(EngineWorker, TheDenseLanePublishesATexturedSurfacePerTile) {
+  auto store = db::Store::open(testing::fresh_sqlite_url());
+  const std::string dir = render_street(*store, 8);
+  engine::WorkerOptions options;
+  options.mesh = true;
+  std::mutex lines_mutex;
+  std::vector<std::string> lines;
+  options.progress = [&](const std::string& line) {
+    std::lock_guard lock(lines_mutex);
+    lines.push_back(line);
+  };
+  engine::EngineWorker worker(*store, options);
+  worker.start();
+  upload_street(*store, dir);
+  ASSERT_TRUE(worker.wait_idle(std::chrono::minutes(5)));
+  worker.stop();
+  const auto sites = store->list_children("/sites");
+  ASSERT_EQ(sites.size(), 1u);
+  const auto model = store->get(sites[0].path + "/model");
+  ASSERT_TRUE(model);
+  const std::vector<engine::MeshTileEntry> tiles =
+      engine::mesh_tiles_of(*model);
+  ASSERT_FALSE(tiles.empty());
+  std::map<std::string, engine::TexturedMesh> finest;
+  std::size_t triangles = 0;
+  for (const engine::MeshTileEntry& tile : tiles) {
+    if (tile.levels.empty()) continue;
+    for (std::size_t l = 1; l < tile.levels.size(); ++l)
+      EXPECT_LT(tile.levels[l].triangles, tile.levels[l - 1].triangles);
+    finest[tile.tile] =
+        engine::decode_glb(store->get_blob(tile.levels.front().blob));
+    EXPECT_EQ(finest[tile.tile].triangles(), tile.levels.front().triangles);
+    EXPECT_FALSE(finest[tile.tile].atlas.empty()) << tile.tile;
+    triangles += tile.levels.front().triangles;
+  }
+  std::cout << tiles.size() << " mesh tiles, " << triangles << " triangles"
+            << std::endl;
+  EXPECT_GT(triangles, 20000u);
+  {
+    std::lock_guard lock(lines_mutex);
+    EXPECT_TRUE(std::any_of(lines.begin(), lines.end(), [](const auto& l) {
+      return l.find(", mesh ") != std::string::npos;
+    }));
+  }
+  // Neighbouring tiles share a plane (x or y = a multiple of the edge):
+  // the same vertices lie on it in both (each tile's texture patches may
+  // repeat a vertex, so compare the sets).
+  int shared_borders = 0;
+  const auto index_of = [](const std::string& name) {
+    return std::make_pair(std::stoll(name.substr(0, name.find('_'))),
+                          std::stoll(name.substr(name.find('_') + 1)));
+  };
+  for (const auto& [name, mesh] : finest)
+    for (const auto& [other_name, other] : finest) {
+      const auto [ix, iy] = index_of(name);
+      const auto [jx, jy] = index_of(other_name);
+      const int axis = jx == ix + 1 && jy == iy   ? 0
+                       : jy == iy + 1 && jx == ix ? 1
+                                                  : -1;
+      if (axis < 0) continue;
+      float border = std::numeric_limits<float>::max();
+      for (const Eigen::Vector3f& p : other.positions)
+        border = std::min(border, p[axis]);
+      const auto on_border = [&](const engine::TexturedMesh& m) {
+        std::set<std::tuple<float, float, float>> out;
+        for (const Eigen::Vector3f& p : m.positions)
+          if (p[axis] == border) out.insert({p.x(), p.y(), p.z()});
+        return out;
+      };
+      const auto mine = on_border(mesh), theirs = on_border(other);
+      std::cout << name << " | " << other_name << ": " << mine.size() << " and "
+                << theirs.size() << " vertices on the border" << std::endl;
+      ++shared_borders;
+      EXPECT_GT(theirs.size(), 10u);
+      // Where the surface leaves the cells near points (a hole's edge on
+      // the border) one side may hold a vertex the other lacks: a few.
+      std::size_t both = 0;
+      for (const auto& v : mine) both += theirs.count(v);
+      EXPECT_GE(both, std::max(mine.size(), theirs.size()) * 97 / 100)
+          << name << " and " << other_name;
+    }
+  EXPECT_GT(shared_borders, 0);
+  std::cout << shared_borders << " shared tile borders checked" << std::endl;
 }
 
 // Past `inline_global_ba_images` the global adjustment leaves the increment:
