@@ -39,6 +39,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <limits>
 #include <map>
@@ -48,8 +49,11 @@
 
 #include <CLI/CLI.hpp>
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
+#include "arscout/engine/mesh.h"
 #include "arscout/engine/ply.h"
+#include "arscout/util/file.h"
 #include "arscout/engine/synthetic_site.h"
 #include "bench_support.h"
 #include "child_process.h"
@@ -84,6 +88,7 @@ struct Options {
   std::string reconstruct_args;
   bool check = false;
   bool measure_only = false;  // measure WORK's outputs of an earlier run
+  bool mesh = false;          // also the surface (reconstruct --mesh)
 };
 
 struct Row {
@@ -103,6 +108,13 @@ struct Row {
   double confident_share = kNaN;
   ev::PlausibilityFigures confident_plausibility;
   double ground_m2 = kNaN;  // ev::ground_cover_m2
+  // With --mesh: the surface's triangles, its samples against the truth
+  // (block walks), and each key view predicted from the others
+  // (reconstruct --mesh-check: medians of ZNCC and covered share).
+  long mesh_triangles = 0;
+  ev::AccuracyFigures mesh_accuracy;
+  ev::CompletenessFigures mesh_completeness;
+  double holdout_zncc = kNaN, holdout_covered = kNaN;
 };
 
 int count_photos(const fs::path& images) {
@@ -132,6 +144,10 @@ bool reconstruct(const Options& o, const fs::path& scene, const fs::path& dir,
   if (fs::exists(scene / "images" / "K.txt"))
     args.insert(args.end(),
                 {"--camera", (scene / "images" / "K.txt").string()});
+  // The held-out check textures the surface again once per key view: a
+  // block walk's hundred are left to the truth's figures.
+  if (o.mesh) args.push_back("--mesh");
+  if (o.mesh && !row.block) args.push_back("--mesh-check");
   std::istringstream extra(o.reconstruct_args);
   for (std::string word; extra >> word;) args.push_back(word);
   if (o.measure_only) {
@@ -156,7 +172,51 @@ struct Outputs {
   std::map<std::string, ev::Pose> poses;
   std::vector<ev::CloudPoint> cloud;
   std::vector<std::string> key_views;
+  std::vector<Eigen::Vector3d> mesh_samples;  // with --mesh
 };
+
+// Points on the surface's triangles, about one per `spacing` squared
+// (at least one per triangle; the same points every run).
+std::vector<Eigen::Vector3d> sample_mesh(const arscout::engine::TexturedMesh& m,
+                                         double spacing) {
+  std::vector<Eigen::Vector3d> samples;
+  for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+    const Eigen::Vector3d a = m.positions[m.indices[t]].cast<double>();
+    const Eigen::Vector3d b = m.positions[m.indices[t + 1]].cast<double>();
+    const Eigen::Vector3d c = m.positions[m.indices[t + 2]].cast<double>();
+    const double area = 0.5 * (b - a).cross(c - a).norm();
+    const int n = std::max(1, static_cast<int>(std::lround(area / (spacing * spacing))));
+    for (int k = 0; k < n; ++k) {
+      // The R2 sequence folded into the triangle.
+      double u = std::fmod(0.5 + 0.7548776662 * (k + 1), 1.0);
+      double v = std::fmod(0.5 + 0.5698402910 * (k + 1), 1.0);
+      if (u + v > 1) u = 1 - u, v = 1 - v;
+      samples.push_back(a + u * (b - a) + v * (c - a));
+    }
+  }
+  return samples;
+}
+
+// reconstruct --mesh-check's table: the medians of its ZNCC and covered
+// share.
+void read_mesh_check(const fs::path& csv, Row& row) {
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);  // header
+  std::vector<double> zncc, covered;
+  while (std::getline(in, line)) {
+    std::istringstream fields(line);
+    std::string id, z, c;
+    if (std::getline(fields, id, ',') && std::getline(fields, z, ',') &&
+        std::getline(fields, c, ',')) {
+      zncc.push_back(std::stod(z));
+      covered.push_back(std::stod(c));
+    }
+  }
+  if (zncc.empty()) throw std::runtime_error("no views in " + csv.string());
+  row.holdout_zncc = ev::percentile(zncc, 0.5);
+  row.holdout_covered = ev::percentile(covered, 0.5);
+}
 
 // Reads the outputs in `dir` and fills the figures every scene gets:
 // counts, dense seconds, plausibility.
@@ -185,6 +245,14 @@ Outputs measure_common(const fs::path& dir, Row& row) {
                         std::max<size_t>(1, out.cloud.size());
   row.confident_plausibility = ev::measure_plausibility(confident, centres);
   row.ground_m2 = ev::ground_cover_m2(out.cloud, centres);
+  if (fs::exists(dir / "out/mesh.glb")) {
+    const arscout::engine::TexturedMesh mesh = arscout::engine::decode_glb(
+        arscout::util::read_file((dir / "out/mesh.glb").string()));
+    row.mesh_triangles = static_cast<long>(mesh.triangles());
+    out.mesh_samples = sample_mesh(mesh, 0.03);
+  }
+  if (fs::exists(dir / "out/mesh_check.csv"))
+    read_mesh_check(dir / "out/mesh_check.csv", row);
   return out;
 }
 
@@ -252,6 +320,13 @@ void measure_truth(const Options& o, int seed, const fs::path& dir,
       0.875 * o.width * o.dense_long_side / std::max(o.width, o.height);
   row.completeness =
       ev::measure_completeness(surfaces, key_views, points, options);
+  if (out.mesh_samples.empty()) return;
+  std::vector<Eigen::Vector3d> samples;
+  for (const Eigen::Vector3d& p : out.mesh_samples)
+    samples.push_back(to_truth.apply(p));
+  row.mesh_accuracy = ev::measure_accuracy(samples, ev::SurfaceDistance(surfaces));
+  row.mesh_completeness =
+      ev::measure_completeness(surfaces, key_views, samples, options);
 }
 
 Row measure_block(const Options& o, int seed) {
@@ -328,6 +403,25 @@ void print_rows(const std::vector<Row>& rows) {
   std::cout << std::endl;
 }
 
+// With --mesh: the surface's figures (docs/mesh.md).
+void print_mesh_rows(const std::vector<Row>& rows) {
+  std::cout << "| scene | triangles | mesh accuracy median cm | p90 cm | "
+               "within 5 cm | completeness 5 cm | held-out ZNCC (median) | "
+               "covered (median) |\n|---|---|---|---|---|---|---|---|\n";
+  for (const Row& r : rows) {
+    const auto& a = r.mesh_accuracy;
+    const bool truth = r.block && a.points > 0;
+    std::cout << "| " << r.label << " | " << r.mesh_triangles << " | "
+              << (truth ? fixed(100 * a.median_m, 2) : "-") << " | "
+              << (truth ? fixed(100 * a.p90_m, 2) : "-") << " | "
+              << (truth ? percent(a.within_share) : "-") << " | "
+              << (truth ? percent(r.mesh_completeness.share) : "-") << " | "
+              << fixed(r.holdout_zncc, 3) << " | " << percent(r.holdout_covered)
+              << " |\n";
+  }
+  std::cout << std::endl;
+}
+
 // The PASS/FAIL lines; true when every scene meets its targets.
 bool print_targets(const std::vector<Row>& rows) {
   bool all_met = true;
@@ -344,6 +438,13 @@ bool print_targets(const std::vector<Row>& rows) {
       verdict(r, "accuracy p90 <= 5 cm", r.accuracy.p90_m <= 0.05);
       verdict(r, "completeness >= 80 % at 5 cm", r.completeness.share >= 0.8);
     }
+    if (r.block && r.mesh_triangles > 0) {
+      verdict(r, "mesh accuracy p90 <= 5 cm", r.mesh_accuracy.p90_m <= 0.05);
+      verdict(r, "mesh completeness >= 85 % at 5 cm",
+              r.mesh_completeness.share >= 0.85);
+    }
+    if (r.label == "fountain-P11" && !std::isnan(r.holdout_zncc))
+      verdict(r, "held-out ZNCC >= 0.6 (median)", r.holdout_zncc >= 0.6);
     if (!std::isnan(r.max_implausible))
       verdict(r, "implausible <= " + percent(r.max_implausible),
               r.plausibility.implausible_share <= r.max_implausible);
@@ -371,6 +472,10 @@ void add_options(CLI::App& app, Options& o) {
   app.add_option("--reconstruct-args", o.reconstruct_args,
                  "extra arguments for arscout reconstruct, space-separated");
   app.add_flag("--check", o.check, "exit 1 when a scene misses a target");
+  app.add_flag("--mesh", o.mesh,
+               "also the surface: reconstruct --mesh, the mesh's samples "
+               "against the truth (block walks) and, with --mesh-check, "
+               "each key view predicted from the others (real scenes)");
   app.add_flag("--measure-only", o.measure_only,
                "measure the outputs an earlier run left in --work (its "
                "reconstruct.log and out/), reconstructing nothing");
@@ -415,6 +520,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   print_rows(rows);
+  if (o.mesh) print_mesh_rows(rows);
   const bool met = print_targets(rows);
   return o.check && !met ? 1 : 0;
 }
