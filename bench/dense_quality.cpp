@@ -53,8 +53,8 @@
 
 #include "arscout/engine/mesh.h"
 #include "arscout/engine/ply.h"
-#include "arscout/util/file.h"
 #include "arscout/engine/synthetic_site.h"
+#include "arscout/util/file.h"
 #include "bench_support.h"
 #include "child_process.h"
 #include "dense_eval.h"
@@ -185,7 +185,8 @@ std::vector<Eigen::Vector3d> sample_mesh(const arscout::engine::TexturedMesh& m,
     const Eigen::Vector3d b = m.positions[m.indices[t + 1]].cast<double>();
     const Eigen::Vector3d c = m.positions[m.indices[t + 2]].cast<double>();
     const double area = 0.5 * (b - a).cross(c - a).norm();
-    const int n = std::max(1, static_cast<int>(std::lround(area / (spacing * spacing))));
+    const int n =
+        std::max(1, static_cast<int>(std::lround(area / (spacing * spacing))));
     for (int k = 0; k < n; ++k) {
       // The R2 sequence folded into the triangle.
       double u = std::fmod(0.5 + 0.7548776662 * (k + 1), 1.0);
@@ -324,7 +325,8 @@ void measure_truth(const Options& o, int seed, const fs::path& dir,
   std::vector<Eigen::Vector3d> samples;
   for (const Eigen::Vector3d& p : out.mesh_samples)
     samples.push_back(to_truth.apply(p));
-  row.mesh_accuracy = ev::measure_accuracy(samples, ev::SurfaceDistance(surfaces));
+  row.mesh_accuracy =
+      ev::measure_accuracy(samples, ev::SurfaceDistance(surfaces));
   row.mesh_completeness =
       ev::measure_completeness(surfaces, key_views, samples, options);
 }

@@ -55,8 +55,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <sstream>
@@ -99,6 +101,7 @@ struct Options {
   bool split = false;
   bool toward = false;
   bool no_dense = false;
+  bool mesh = false;  // WorkerOptions::mesh
   int prepare_ahead = arscout::engine::WorkerOptions{}.prepare_ahead;
   int increment_captures = arscout::engine::WorkerOptions{}.increment_captures;
   bool per_capture = false;
@@ -159,7 +162,35 @@ struct Observed {
   std::map<std::string, std::int64_t> current_us;
   std::vector<IncrementSeen> increments;
   int versions = 0;  // model versions seen, all kinds
+  // With --mesh: each dense phase's mesh seconds (its log line), with the
+  // photos stored when it ended.
+  int photos_stored = 0;
+  std::vector<std::pair<int, double>> mesh_phases;
 };
+
+// The mesh seconds of `line` when it is a dense phase's ("mesh N triangles
+// (k of n tiles made, MS ms)"); negative otherwise.
+double mesh_seconds(const std::string& line) {
+  const auto at = line.find(", mesh ");
+  if (at == std::string::npos) return -1;
+  const auto made = line.find("tiles made, ", at);
+  if (made == std::string::npos) return -1;
+  return std::atof(line.c_str() + made + 12) / 1000;
+}
+
+// Per photo (in storing order), the mesh seconds of the first dense phase
+// that ended after it was stored: what meshing added before the surface
+// could show it. NaN when none did.
+std::vector<double> mesh_cost_per_photo(const Observed& seen, std::size_t n) {
+  std::vector<double> cost(n, std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t i = 0; i < n; ++i)
+    for (const auto& [stored, seconds] : seen.mesh_phases)
+      if (stored >= static_cast<int>(i) + 1) {
+        cost[i] = seconds;
+        break;
+      }
+  return cost;
+}
 
 std::string read_file(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -537,6 +568,11 @@ void print_report(arscout::db::Store& store, const Options& o,
     print_latency("to a model with dense_state current (the earlier rule)",
                   latencies(photos, seen.stored_us, seen.current_us));
   }
+  if (o.mesh) {
+    std::printf("%zu dense phases made the surface\n", seen.mesh_phases.size());
+    print_latency("mesh seconds of the phase that followed it",
+                  mesh_cost_per_photo(seen, photos.size()));
+  }
   print_folding(seen.increments);
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
@@ -569,8 +605,13 @@ void run(const Options& o) {
   options.dense_options.sweep_budget = o.sweep_budget;
   options.dense_options.refuse_budget_sweeping = o.refuse_budget_sweeping;
   options.dense_options.catch_up_backlog = o.catch_up_backlog;
-  options.progress = [](const std::string& line) {
+  options.mesh = o.mesh;
+  options.progress = [&seen](const std::string& line) {
     std::fprintf(stderr, "  %s\n", line.c_str());
+    const double mesh = mesh_seconds(line);
+    if (mesh < 0) return;
+    std::lock_guard lock(seen.mutex);
+    seen.mesh_phases.push_back({seen.photos_stored, mesh});
   };
   options.refinement_interval = std::chrono::milliseconds(
       static_cast<std::int64_t>(o.refine_interval_s * 1000));
@@ -588,6 +629,10 @@ void run(const Options& o) {
     std::this_thread::sleep_until(
         start + std::chrono::milliseconds(static_cast<int>(1000 * photo.at_s)));
     store_photo(*store, photo, meta, seen);
+    {
+      std::lock_guard lock(seen.mutex);
+      ++seen.photos_stored;
+    }
     std::fprintf(stderr, "stored %s (scout %d)\n", photo.id.c_str(),
                  photo.scout + 1);
   }
@@ -626,6 +671,9 @@ int main(int argc, char** argv) {
   app.add_flag("--toward", o.toward,
                "with --split: every second scout walks its part backwards");
   app.add_flag("--no-dense", o.no_dense, "sparse only");
+  app.add_flag("--mesh", o.mesh,
+               "the surface per dense tile too (WorkerOptions::mesh): its "
+               "seconds per dense phase, per photo");
   app.add_option("--prepare-ahead", o.prepare_ahead,
                  "photos decoded and described ahead of their increments "
                  "(0: inside them), as arscout engine's")
