@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "arscout/engine/mesh.h"
+#include "mesh/point_hash.h"
 
 namespace arscout::engine {
 namespace {
@@ -102,15 +103,16 @@ TEST(MeshSurface, CoversTheSampledSurface) {
   const TexturedMesh right = right_half(points);
   both.positions.insert(both.positions.end(), right.positions.begin(),
                         right.positions.end());
-  // Every third input point (on the surface) has a vertex within a cell.
+  // Every input point (on the surface) has a vertex within a cell.
   const double cell = 2 * kVoxel;
+  const mesh::PointHash vertices(both.positions, cell);
   int covered = 0, total = 0;
-  for (std::size_t i = 0; i < points.size(); i += 3) {
-    const Eigen::Vector3f p(points[i].x, points[i].y, points[i].z);
+  for (const ColoredPoint& p : points) {
+    bool near = false;
+    vertices.within(Eigen::Vector3d(p.x, p.y, p.z), cell,
+                    [&](std::uint32_t, double) { near = true; });
     ++total;
-    covered += std::any_of(
-        both.positions.begin(), both.positions.end(),
-        [&](const Eigen::Vector3f& v) { return (v - p).norm() < cell; });
+    covered += near;
   }
   EXPECT_GT(covered, total * 97 / 100) << covered << " of " << total;
 }
