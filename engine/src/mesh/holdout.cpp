@@ -29,15 +29,15 @@ double masked_zncc(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
 
 std::vector<HoldoutScore> holdout_scores(
     const TexturedMesh& surface, const std::vector<TextureView>& views,
-    const TextureOptions& options, const std::vector<std::size_t>& which) {
+    const TextureOptions& options, const std::vector<std::size_t>& held) {
   std::vector<std::size_t> all(views.size());
   for (std::size_t v = 0; v < views.size(); ++v) all[v] = v;
   std::vector<HoldoutScore> scores;
-  for (const std::size_t held : which.empty() ? all : which) {
+  for (const std::size_t view_index : held.empty() ? all : held) {
     std::vector<TextureView> others;
     for (std::size_t v = 0; v < views.size(); ++v)
-      if (v != held) others.push_back(views[v]);
-    const TextureView& view = views[held];
+      if (v != view_index) others.push_back(views[v]);
+    const TextureView& view = views[view_index];
     const MeshRendering drawn =
         render_mesh(texture_mesh(surface, others, options), view.K, view.R,
                     view.t, view.bgr.size());
