@@ -27,9 +27,10 @@ double masked_zncc(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
 
 }  // namespace
 
-std::vector<HoldoutScore> holdout_scores(
-    const TexturedMesh& surface, const std::vector<TextureView>& views,
-    const TextureOptions& options, const std::vector<std::size_t>& held) {
+std::vector<HoldoutScore> holdout_scores(const TexturedMesh& surface,
+                                         const std::vector<TextureView>& views,
+                                         const TextureOptions& options,
+                                         const std::vector<std::size_t>& held) {
   std::vector<std::size_t> all(views.size());
   for (std::size_t v = 0; v < views.size(); ++v) all[v] = v;
   std::vector<HoldoutScore> scores;
