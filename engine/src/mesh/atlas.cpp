@@ -1,4 +1,5 @@
 #include "mesh/atlas.h"
+#include "mesh/image_sample.h"
 
 #include <algorithm>
 #include <cmath>
@@ -133,18 +134,7 @@ cv::Size pack(std::vector<Patch>& patches, double scale, int limit) {
 
 // The photo's colour at a pixel, bilinear (BGR).
 cv::Vec3d sample(const cv::Mat& bgr, const Eigen::Vector2d& p) {
-  const double x = std::clamp(p.x(), 0.0, bgr.cols - 1.001);
-  const double y = std::clamp(p.y(), 0.0, bgr.rows - 1.001);
-  const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
-  const double fx = x - x0, fy = y - y0;
-  cv::Vec3d out;
-  for (int dy = 0; dy < 2; ++dy)
-    for (int dx = 0; dx < 2; ++dx) {
-      const cv::Vec3b c = bgr.at<cv::Vec3b>(y0 + dy, x0 + dx);
-      const double w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy);
-      out += cv::Vec3d(c[0], c[1], c[2]) * w;
-    }
-  return out;
+  return sample_bilinear(bgr, p.x(), p.y());
 }
 
 // One gain per patch and channel: the median, over its vertices that

@@ -2,28 +2,18 @@
 #include <algorithm>
 
 #include "arscout/engine/mesh.h"
+#include "mesh/image_sample.h"
 #include "mesh/rasterize.h"
 
 namespace arscout::engine {
 namespace {
 
 cv::Vec3b bilinear(const cv::Mat& atlas, const Eigen::Vector2f& uv) {
-  const double x =
-      std::clamp(uv.x() * atlas.cols - 0.5, 0.0, atlas.cols - 1.001);
-  const double y =
-      std::clamp(uv.y() * atlas.rows - 0.5, 0.0, atlas.rows - 1.001);
-  const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
-  const double fx = x - x0, fy = y - y0;
-  cv::Vec3d out;
-  for (int dy = 0; dy < 2; ++dy)
-    for (int dx = 0; dx < 2; ++dx) {
-      const cv::Vec3b c = atlas.at<cv::Vec3b>(y0 + dy, x0 + dx);
-      out += cv::Vec3d(c[0], c[1], c[2]) *
-             ((dx ? fx : 1 - fx) * (dy ? fy : 1 - fy));
-    }
-  return cv::Vec3b(cv::saturate_cast<uchar>(out[0]),
-                   cv::saturate_cast<uchar>(out[1]),
-                   cv::saturate_cast<uchar>(out[2]));
+  const cv::Vec3d c = mesh::sample_bilinear(atlas, uv.x() * atlas.cols - 0.5,
+                                            uv.y() * atlas.rows - 0.5);
+  return cv::Vec3b(cv::saturate_cast<uchar>(c[0]),
+                   cv::saturate_cast<uchar>(c[1]),
+                   cv::saturate_cast<uchar>(c[2]));
 }
 
 cv::Vec3b shade(const TexturedMesh& mesh, int triangle, const cv::Vec2f& w) {
