@@ -282,7 +282,8 @@ TEST(EngineWorker, RenderedSyntheticStreetBecomesOneSite) {
 // dense tile beside the cloud (docs/mesh.md): levels of detail as GLB
 // blobs, coarser levels with fewer triangles, the finest with an atlas;
 // neighbouring tiles' finest levels meet vertex for vertex on their shared
-// border (but where a hole's edge lies on it).
+// border (but where a hole's edge lies on it); the levels' blobs outlive a
+// collection.
 TEST(EngineWorker, TheDenseLanePublishesATexturedSurfacePerTile) {
   auto store = db::Store::open(testing::fresh_sqlite_url());
   const std::string dir = render_street(*store, 8);
@@ -306,6 +307,14 @@ TEST(EngineWorker, TheDenseLanePublishesATexturedSurfacePerTile) {
   const std::vector<engine::MeshTileEntry> tiles =
       engine::mesh_tiles_of(*model);
   ASSERT_FALSE(tiles.empty());
+  // Each tile's document refers to its levels' blobs: a collection with no
+  // grace keeps every one the model names.
+  store->collect_garbage(std::chrono::seconds(0));
+  for (const engine::MeshTileEntry& tile : tiles) {
+    const auto doc = store->get(sites[0].path + "/mesh/" + tile.tile);
+    ASSERT_TRUE(doc) << tile.tile;
+    EXPECT_EQ(doc->blobs.size(), tile.levels.size());
+  }
   std::map<std::string, engine::TexturedMesh> finest;
   std::size_t triangles = 0;
   for (const engine::MeshTileEntry& tile : tiles) {

@@ -616,6 +616,7 @@ Increment SiteJob::finish_dense(DenseTask& task) {
     pending_removed_maps_.insert(map);
   }
   if (!task.tiles_held) add_tile_ops(task.tiles, &ops);
+  if (task.mesh) add_mesh_tile_ops(task.mesh->tiles, &ops);
   IncrementReport report;
   report.added = task.added;
   report.withdrawn = task.withdrawn;
@@ -668,6 +669,32 @@ void SiteJob::add_tile_ops(const DenseTiles& tiles,
   for (const auto& [name, tile] : dense_tiles_)
     if (!tiles.count(name))
       ops->push_back(db::WriteOp::remove(site_path(id_, "dense/" + name)));
+}
+
+// The mesh tiles that changed since the published surface, each a document
+// whose blob references keep its levels' GLBs from the collector (the
+// model's mesh_tiles only names them), and those gone.
+void SiteJob::add_mesh_tile_ops(const std::vector<MeshTileEntry>& tiles,
+                                std::vector<db::WriteOp>* ops) const {
+  std::map<std::string, const MeshTileEntry*> before;
+  for (const MeshTileEntry& tile : mesh_tiles_) before[tile.tile] = &tile;
+  std::set<std::string> now;
+  for (const MeshTileEntry& tile : tiles) {
+    now.insert(tile.tile);
+    const auto was = before.find(tile.tile);
+    if (was != before.end() && was->second->hash == tile.hash) continue;
+    db::BlobRefs blobs;
+    for (std::size_t l = 0; l < tile.levels.size(); ++l)
+      blobs["level-" + std::to_string(l)] = tile.levels[l].blob;
+    db::WriteOp op = db::WriteOp::put(
+        site_path(id_, "mesh/" + tile.tile), "mesh-tile",
+        Json{{"tile", tile.tile}, {"levels", tile.levels.size()}});
+    op.blobs = std::move(blobs);
+    ops->push_back(std::move(op));
+  }
+  for (const auto& [name, tile] : before)
+    if (!now.count(name))
+      ops->push_back(db::WriteOp::remove(site_path(id_, "mesh/" + name)));
 }
 
 std::string SiteJob::dense_summary(const DenseTask& task,

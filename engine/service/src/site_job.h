@@ -209,6 +209,8 @@ class SiteJob {
                        std::vector<db::WriteOp>* ops);
   // `new_cloud` and `new_mesh`: the tiles a dense phase publishes;
   // otherwise the last published ones stay.
+  void add_mesh_tile_ops(const std::vector<MeshTileEntry>& tiles,
+                         std::vector<db::WriteOp>* ops) const;
   db::WriteOp model_op(const Model& model,
                        const std::vector<CaptureState>& captures,
                        const IncrementReport& report,
