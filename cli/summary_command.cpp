@@ -130,6 +130,21 @@ void print_clouds(db::Store& store, const SummaryArgs& a,
   std::cout << "\n";
 }
 
+// The model's textured mesh (docs/mesh.md): its tiles with a surface and
+// their triangles at the finest level.
+void print_mesh(const db::Document& model) {
+  std::size_t tiles = 0, triangles = 0;
+  for (const engine::MeshTileEntry& tile : engine::mesh_tiles_of(model)) {
+    if (tile.levels.empty()) continue;  // its points made no surface
+    ++tiles;
+    triangles += tile.levels.front().triangles;
+  }
+  if (tiles == 0) return;
+  std::cout << "  mesh: " << tiles << " tile" << (tiles == 1 ? "" : "s") << ", "
+            << triangles
+            << " triangles at the finest level (GET /v1/sites/{id}/mesh)\n";
+}
+
 // A site's captures by status and its model's version and counts.
 void print_site(db::Store& store, const SummaryArgs& a,
                 const db::Document& site_doc) {
@@ -158,6 +173,7 @@ void print_site(db::Store& store, const SummaryArgs& a,
             << m.statistics.dense_points << " dense points, frame "
             << (m.geo_registered ? "enu" : "local") << "\n";
   print_clouds(store, a, id, *model);
+  print_mesh(*model);
 }
 
 int run_summary(const SummaryArgs& a) {

@@ -75,6 +75,8 @@ async function openSite(page, site) {
     const app = window.arscoutViewer;
     return app?.state.site === id && app.viewer.lod && document.body.dataset.cloud === 'loaded';
   }, site, { timeout: 300000, polling: 200 });
+  // The street has no textured mesh: the points / mesh / both switch stays hidden.
+  if (!(await page.isHidden('#display-mode'))) fail(`${site} has no mesh, yet the points / mesh / both switch is shown`);
   return settleView(page);
 }
 

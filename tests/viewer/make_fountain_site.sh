@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # CTest fixture for the viewer tests: a SQLite store holding the
 # fountain-P11 site built the way scouts build it. `arscout serve
-# --with-engine` runs; a scout uploads 10 of the 11 photos (0010.jpg is kept
+# --with-engine --mesh` runs (the textured mesh is made in the dense lane
+# with the dense tiles, so waiting for the dense cloud waits for it too); a
+# scout uploads 10 of the 11 photos (0010.jpg is kept
 # back for the browser test to upload) with `--overlay`, so the scout's AR
 # overlay path is exercised too; `arscout summary --wait` waits for the
-# engine; the server stops. Leaves in OUT: arscout.db, scout.token,
+# engine; the server stops; the model must name a mesh (mesh_tiles). Leaves in OUT: arscout.db, scout.token,
 # planner.token, overlays/, ready.
 #   make_fountain_site.sh ARSCOUT_BINARY OUT SHARED_DATA
 # Exit 77 (skipped) without the data, except under CI=true.
@@ -28,7 +30,7 @@ db="sqlite:$out/arscout.db"
 "$bin" token create --db "$db" --role planner --name pat > "$out/planner.token"
 
 "$bin" serve --db "$db" --listen 127.0.0.1:0 --with-engine \
-  --dense-long-side 480 > "$out/server.log" 2>&1 &
+  --dense-long-side 480 --mesh > "$out/server.log" 2>&1 &
 server=$!
 trap 'kill $server 2>/dev/null || true' EXIT
 url=""
@@ -60,5 +62,8 @@ for f in "$out"/overlays/*.overlay.jpg; do
   head -c 3 "$f" | od -An -tx1 | grep -q "ff d8 ff" || {
     echo "FAIL: $f is not a JPEG"; exit 1; }
 done
+# The textured mesh, made with the dense cloud.
+grep -q "^  mesh: [1-9][0-9]* tiles\?, [1-9][0-9]* triangles" "$out/summary.log" || {
+  echo "FAIL: the model has no textured mesh (mesh_tiles with levels)"; exit 1; }
 touch "$out/ready"
 echo "fountain site ready in $out"

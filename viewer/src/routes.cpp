@@ -19,6 +19,7 @@
 #include "arscout/viewer/overlay.h"
 #include "cloud_octree.h"
 #include "export_cache.h"
+#include "mesh_routes.h"
 #include "site_coverage.h"
 
 namespace arscout::viewer {
@@ -388,7 +389,7 @@ std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
               return site_export(*exports, *s, req, id);
             });
   export_route.runs_long = true;
-  return {
+  std::vector<ingest::ApiRoute> routes = {
       route("GET /v1/captures/*/overlay.jpg", "captures", "overlay.jpg",
             [s](const HttpRequest& req, const std::string& id) {
               return overlay(*s, req, id);
@@ -424,6 +425,8 @@ std::vector<ingest::ApiRoute> viewer_routes(db::Store& store) {
               return site_coverage(*coverage, *s, req, id, max);
             }),
   };
+  for (ingest::ApiRoute& r : mesh_routes(store)) routes.push_back(std::move(r));
+  return routes;
 }
 
 std::vector<http::StaticMount> web_mounts(const std::string& web_root) {

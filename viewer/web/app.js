@@ -5,6 +5,7 @@ import * as THREE from 'three';
 import { ApiClient, ApiError, UnauthorizedError, healthz, tokenStore, encodePath } from './api.js';
 import { Viewer, robustBounds } from './scene.js';
 import { OctreeCloud, DEFAULT_POINT_BUDGET } from './lod.js';
+import { MeshTiles } from './mesh.js';
 import { Measurement } from './measure.js';
 import { CONFIDENT_SUPPORT, shownAt } from './points_material.js';
 import { ThumbnailCache, cameraCentre, cameraRotation, intrinsicsOf } from './frusta.js';
@@ -30,6 +31,7 @@ const state = {
   model: null, // the model document on screen
   shownKind: null, // 'sparse' | 'dense' on screen
   chosenKind: null, // the user's choice; null: dense when there is one
+  display: 'points', // the user's choice of points, mesh or both
   framed: false, // the camera was framed on this site's cloud
   frustumDepth: 1,
   thumbnails: null,
@@ -49,6 +51,7 @@ viewer.scene.add(measurement.group);
 viewer.afterRender.push(() => {
   measurement.placeLabels((p) => viewer.toScreen(p));
   showDrawnCount();
+  showMeshCount();
 });
 // For the browser tests and the console.
 window.arscoutViewer = { viewer, measurement, state };
@@ -74,6 +77,7 @@ function report(err, what) {
 const LOAD_SITES = 'could not load the sites';
 const LOAD_CAPTURES = 'could not load the captures';
 const LOAD_MODEL = 'could not load the model';
+const LOAD_MESH = 'could not load the mesh';
 
 // ---- token ------------------------------------------------------------
 
@@ -312,6 +316,21 @@ function cloudKind(doc) {
   return kinds.dense ? 'dense' : 'sparse';
 }
 
+/** True when the model names a textured mesh (a mesh tile with levels). */
+function hasMesh(doc) {
+  const tiles = doc?.attrs?.mesh_tiles;
+  return Array.isArray(tiles) && tiles.some((tile) => Array.isArray(tile.levels) && tile.levels.length > 0);
+}
+
+/** The points / mesh / both switch, shown when the model has a mesh. */
+function showDisplayControls(doc) {
+  const mesh = hasMesh(doc);
+  $('display-mode').hidden = !mesh;
+  const mode = mesh ? state.display : 'points';
+  for (const radio of document.querySelectorAll('input[name="display-mode"]')) radio.checked = radio.value === mode;
+  viewer.setDisplay(mode);
+}
+
 function showKindControls(doc, kind) {
   const kinds = cloudKinds(doc);
   $('cloud-sparse').disabled = !kinds.sparse;
@@ -376,6 +395,7 @@ function showNoModel() {
   showModelVersion(null);
   showPointCount(0, '');
   showKindControls(null, null);
+  showDisplayControls(null);
   $('model-details').textContent = '';
   $('components').replaceChildren();
   $('components').hidden = true;
@@ -419,10 +439,44 @@ async function openOctree(site, kind, generation, signal) {
   return lod;
 }
 
-/** Puts a model document's cloud and frusta on screen. */
+/**
+ * The model's textured mesh, streamed (mesh.js), in place of the last
+ * version's (whose levels it keeps where their blobs are the same); none
+ * when the model has no mesh.
+ */
+async function showMesh(doc, generation, signal) {
+  if (!hasMesh(doc)) {
+    viewer.setMesh(null);
+    return;
+  }
+  if (viewer.mesh && viewer.mesh.version >= doc.version) return;
+  const site = state.site;
+  const listing = await api.json(`/v1/sites/${encodePath(site)}/mesh`, { signal });
+  if (generation !== state.generation) return;
+  const mesh = new MeshTiles({
+    listing,
+    previous: viewer.mesh,
+    fetchLevel: (url, levelSignal) => api.download(url, () => {}, levelSignal),
+    onLoad: () => viewer.requestRender(),
+    onError: (err) => {
+      // 410: a tile changed since the listing; show the current model.
+      if (err instanceof ApiError && err.status === 410 && generation === state.generation) {
+        state.model = null;
+        reloadModel();
+      } else {
+        report(err, LOAD_MESH);
+      }
+    },
+  });
+  viewer.setMesh(mesh);
+  status.clear(LOAD_MESH);
+}
+
+/** Puts a model document's cloud, mesh and frusta on screen. */
 async function showModel(doc, generation, signal) {
   const kind = cloudKind(doc);
   showKindControls(doc, kind);
+  showDisplayControls(doc);
   if (!cloudKinds(doc)[kind]) {
     viewer.clearCloud();
     state.model = doc;
@@ -448,6 +502,9 @@ async function showModel(doc, generation, signal) {
   if (sample?.count > 0) state.heightRange = heightRange(sample);
   applyColourMode();
   viewer.setLod(lod);
+  showMesh(doc, generation, signal).catch((err) => {
+    if (generation === state.generation) report(err, LOAD_MESH);
+  });
   viewer.frusta.update(doc.attrs || {}, state.frustumDepth, state.thumbnails);
   state.model = doc;
   state.shownKind = kind;
@@ -502,6 +559,17 @@ function showDrawnCount() {
   const text = (drawn ? `${formatCount(drawn)} drawn` : '') + (loading ? ` · loading ${loading} nodes` : '');
   if (label.textContent === text) return; // every frame: keep it cheap
   label.dataset.points = String(drawn);
+  label.textContent = text;
+}
+
+/** Mesh triangles drawn, and the levels still on their way. */
+function showMeshCount() {
+  const label = $('mesh-drawn');
+  const drawn = viewer.triangleCount;
+  const loading = viewer.showsMesh ? viewer.mesh?.loading || 0 : 0;
+  const text = (drawn ? `${formatCount(drawn)} triangles` : '') + (loading ? ` · loading ${loading} mesh levels` : '');
+  if (label.textContent === text) return;
+  label.dataset.triangles = String(drawn);
   label.textContent = text;
 }
 
@@ -608,6 +676,13 @@ function wireControls() {
       if (!radio.checked) return;
       state.chosenKind = radio.value;
       reloadModel();
+    });
+  }
+  for (const radio of document.querySelectorAll('input[name="display-mode"]')) {
+    radio.addEventListener('change', () => {
+      if (!radio.checked) return;
+      state.display = radio.value;
+      viewer.setDisplay(radio.value);
     });
   }
   const size = $('point-size');

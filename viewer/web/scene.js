@@ -1,6 +1,7 @@
 // The 3D view: renderer, camera, orbit controls, the streamed point cloud
-// (lod.js), eye-dome lighting, picking and the camera frusta. Renders on
-// demand (after a change, a control move or a node's arrival).
+// (lod.js) and textured mesh (mesh.js), shown alone or together,
+// eye-dome lighting, picking and the camera frusta. Renders on demand
+// (after a change, a control move or a node's or level's arrival).
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
@@ -68,6 +69,8 @@ export class Viewer {
     this.minSupport = CONFIDENT_SUPPORT;
     this.material.setSize(this.pointSizePx * this.renderer.getPixelRatio());
     this.lod = null; // the OctreeCloud on screen
+    this.mesh = null; // the MeshTiles on screen
+    this.display = 'points'; // 'points' | 'mesh' | 'both'
     this.edl = new EyeDomeLighting();
     this.afterRender = []; // callbacks (camera) after each frame: labels
 
@@ -111,7 +114,10 @@ export class Viewer {
   renderNow() {
     this.frameRequested = false;
     this.camera.updateMatrixWorld();
-    if (this.lod) this.lod.update(this.camera, this.renderer.getDrawingBufferSize(new THREE.Vector2()).y);
+    const heightPx = this.renderer.getDrawingBufferSize(new THREE.Vector2()).y;
+    // What is hidden is neither ranked nor fetched.
+    if (this.lod && this.showsPoints) this.lod.update(this.camera, heightPx);
+    if (this.mesh && this.showsMesh) this.mesh.update(this.camera, heightPx);
     if (this.edl.enabled) this.edl.render(this.renderer, this.scene, this.camera);
     else this.renderer.render(this.scene, this.camera);
     for (const callback of this.afterRender) callback(this.camera);
@@ -142,16 +148,49 @@ export class Viewer {
     }
     this.lod = lod;
     if (lod) this.scene.add(lod.group);
-    this.requestRender();
+    this.setDisplay(this.display);
+  }
+
+  /** Shows a streamed mesh (mesh.js), replacing the last one (null: none). */
+  setMesh(mesh) {
+    if (this.mesh && this.mesh !== mesh) {
+      this.scene.remove(this.mesh.group);
+      this.mesh.dispose();
+    }
+    this.mesh = mesh;
+    if (mesh) this.scene.add(mesh.group);
+    this.setDisplay(this.display);
   }
 
   clearCloud() {
     this.setLod(null);
+    this.setMesh(null);
+  }
+
+  /** 'points', 'mesh' or 'both': what of the model is drawn. */
+  setDisplay(mode) {
+    this.display = mode;
+    if (this.lod) this.lod.group.visible = this.showsPoints;
+    if (this.mesh) this.mesh.group.visible = this.showsMesh;
+    this.requestRender();
+  }
+
+  get showsPoints() {
+    return this.display !== 'mesh';
+  }
+
+  get showsMesh() {
+    return this.display !== 'points';
   }
 
   /** Points drawn in the last frame. */
   get pointCount() {
-    return this.lod ? this.lod.drawnPoints : 0;
+    return this.lod && this.showsPoints ? this.lod.drawnPoints : 0;
+  }
+
+  /** Mesh triangles drawn in the last frame. */
+  get triangleCount() {
+    return this.mesh && this.showsMesh ? this.mesh.drawnTriangles : 0;
   }
 
   setPointSize(px) {
@@ -183,6 +222,28 @@ export class Viewer {
   }
 
   /**
+   * What a click at the canvas position (clientX, clientY) picks: a drawn
+   * point (pickPoint) where the points are shown, else the drawn mesh's
+   * surface under the cursor; null when there is neither.
+   */
+  pick(clientX, clientY, radiusPx = 12) {
+    const point = this.showsPoints ? this.pickPoint(clientX, clientY, radiusPx) : null;
+    return point || (this.showsMesh ? this.pickMesh(clientX, clientY) : null);
+  }
+
+  /** The nearest surface of the drawn mesh levels under the cursor, or null. */
+  pickMesh(clientX, clientY) {
+    if (!this.mesh) return null;
+    const rect = this.canvas.getBoundingClientRect();
+    const ndc = new THREE.Vector2(
+      ((clientX - rect.left) / rect.width) * 2 - 1, 1 - ((clientY - rect.top) / rect.height) * 2);
+    const raycaster = new THREE.Raycaster();
+    raycaster.setFromCamera(ndc, this.camera);
+    const hit = raycaster.intersectObjects(this.mesh.visibleMeshes(), false)[0];
+    return hit ? hit.point.clone() : null;
+  }
+
+  /**
    * The drawn point nearest the canvas position (clientX, clientY) within
    * `radiusPx` (low-confidence points hidden by setMinSupport are not
    * drawn, so not candidates), among those not hidden on screen: a point is hidden when a
@@ -191,7 +252,7 @@ export class Viewer {
    * seen, not to a point behind a surface; null when no point is that
    * close.
    */
-  pick(clientX, clientY, radiusPx = 12) {
+  pickPoint(clientX, clientY, radiusPx = 12) {
     if (!this.lod) return null;
     const rect = this.canvas.getBoundingClientRect();
     const candidates = this.pointsNear(clientX - rect.left, clientY - rect.top, rect, radiusPx);

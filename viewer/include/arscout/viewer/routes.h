@@ -15,6 +15,9 @@
 //   GET /v1/sites/{id}/octree/{version}/{node}.bin
 //   GET /v1/sites/{id}/coordinates?x=&y=&z=&crs=&heights=
 //       a point of the site's ENU frame in an output CRS (docs/frames.md)
+//   GET /v1/sites/{id}/mesh             the textured mesh's tiles and
+//       their levels of detail, for streaming; each level's GLB at
+//   GET /v1/sites/{id}/mesh/{tile}/{level}  (mesh_routes.h)
 //
 // and the web viewer's static files (viewer/web, with three.js from its
 // node_modules at /vendor/three/).
