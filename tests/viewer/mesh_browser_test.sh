@@ -21,11 +21,9 @@ need_browser
 [ -d "$scene/images" ] || skip "$scene not found"
 copy_fixture_store "$fixture"
 "$bin" token create --db "$db" --role admin --name root > "$work/admin.token"
-# No blob collection on this copy, which nothing else writes: the engine
-# names the mesh's GLBs in the model's attrs.mesh_tiles only, not as blob
-# references, so the collector would take them once they are older than
-# its grace (300 s), from its first pass, 60 s after the start.
-start_server "$work/server.log" --db "$db" --listen 127.0.0.1:0 --gc-interval 0
+# The collector runs as it does in production: each mesh tile's document
+# (/sites/{id}/mesh/{tile}) refers to its levels' GLBs, so it keeps them.
+start_server "$work/server.log" --db "$db" --listen 127.0.0.1:0
 status=0
 SERVER="$url" PLANNER_TOKEN=$(cat "$fixture/planner.token") \
   ADMIN_TOKEN=$(cat "$work/admin.token") \
