@@ -286,10 +286,11 @@ void write_mesh_check(const engine::TexturedMesh& surface,
             << ", wrote " << out << "/mesh_check.csv" << std::endl;
 }
 
+// `points`: the cloud as dense.ply has it (without its isolated points).
 void write_mesh(const engine::DenseReconstruction& dense,
+                const std::vector<engine::ColoredPoint>& points,
                 const std::string& out, bool check) {
   const auto start = std::chrono::steady_clock::now();
-  const std::vector<engine::ColoredPoint> points = dense.points();
   if (points.empty() || !(dense.voxel_size() > 0)) {
     std::cout << "mesh: no dense points, no mesh.glb" << std::endl;
     return;
@@ -331,7 +332,7 @@ void write_outputs(const engine::Reconstruction& site,
     std::cout << "dense cloud: " << points.size() << " points from "
               << dense->filtered_depth_maps().size() << " depth maps, wrote "
               << a.out << "/dense.ply" << std::endl;
-    if (a.mesh) write_mesh(*dense, a.out, a.mesh_check);
+    if (a.mesh) write_mesh(*dense, points, a.out, a.mesh_check);
   }
   engine::write_colmap_text(model, a.out + "/sparse");
   engine::write_geo_csv(model, a.out + "/cameras_geo.csv");

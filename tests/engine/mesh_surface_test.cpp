@@ -169,7 +169,11 @@ TEST(MeshSurface, LeavesAFloaterAndEmptySpaceAlone) {
 TEST(MeshSurface, LowSupportPointsMakeNoSurface) {
   auto points = box_cloud(kVoxel, 0.003);
   for (ColoredPoint& p : points) p.support = 2;
-  EXPECT_TRUE(left_half(points).empty());
+  SurfaceOptions options;
+  options.min_support = 3;
+  EXPECT_TRUE(
+      mesh_surface(points, {-10, -10}, {0, 10}, kVoxel, options).empty());
+  EXPECT_FALSE(left_half(points).empty());  // the default takes every fused
 }
 
 TEST(MeshLevels, EachLevelKeepsAboutAQuarterAndTheBorder) {

@@ -78,8 +78,13 @@ MeshTileEntry make_tile(
   entry.tile = name_of(key);
   const Eigen::Vector2d lo(static_cast<double>(key.first) * edge,
                            static_cast<double>(key.second) * edge);
+  // The pass the published tiles had, over the tile and its margin: a
+  // point the surface reads has all its neighbours in the margin, so two
+  // tiles judge it alike.
   const TexturedMesh surface = mesh_surface(
-      points, lo, lo + Eigen::Vector2d(edge, edge), voxel, options.surface);
+      without_isolated_points(points, kIsolatedRadiusVoxels * voxel,
+                              kIsolatedMinNeighbours),
+      lo, lo + Eigen::Vector2d(edge, edge), voxel, options.surface);
   if (surface.empty()) return entry;
   const TexturedMesh textured = texture_mesh(
       surface, views_of(surface, views, options.max_views), options.texture);
@@ -101,7 +106,8 @@ MeshBuild update_mesh_tiles(
   const auto start = std::chrono::steady_clock::now();
   const double cell =
       options.surface.cell > 0 ? options.surface.cell : 2 * voxel;
-  const double margin = (options.surface.radius_cells + 2) * cell;
+  const double margin =
+      (options.surface.radius_cells + 2) * cell + kIsolatedRadiusVoxels * voxel;
   std::map<MeshTileKey, std::uint64_t> hash;
   for (const ColoredPoint& p : cloud)
     for_tiles_of(p, edge, margin,
