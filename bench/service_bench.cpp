@@ -102,6 +102,7 @@ struct Options {
   bool toward = false;
   bool no_dense = false;
   bool mesh = false;  // WorkerOptions::mesh
+  double mesh_budget = arscout::engine::WorkerOptions{}.mesh_budget_seconds;
   int prepare_ahead = arscout::engine::WorkerOptions{}.prepare_ahead;
   int increment_captures = arscout::engine::WorkerOptions{}.increment_captures;
   bool per_capture = false;
@@ -166,16 +167,29 @@ struct Observed {
   // photos stored when it ended.
   int photos_stored = 0;
   std::vector<std::pair<int, double>> mesh_phases;
+  // The last mesh phase: when it ended (microseconds since the epoch) and
+  // how many tiles it left stale.
+  std::int64_t last_mesh_us = 0;
+  long last_mesh_left = 0;
 };
 
+std::int64_t now_us() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
 // The mesh seconds of `line` when it is a dense phase's ("mesh N triangles
-// (k of n tiles made, MS ms)"); negative otherwise.
-double mesh_seconds(const std::string& line) {
+// (k tiles made, L left, n of them new, MS ms)"), and the tiles it left in
+// *left; negative otherwise.
+double mesh_seconds(const std::string& line, long* left) {
   const auto at = line.find(", mesh ");
   if (at == std::string::npos) return -1;
   const auto made = line.find("tiles made, ", at);
-  if (made == std::string::npos) return -1;
-  return std::atof(line.c_str() + made + 12) / 1000;
+  const auto ms = line.find(" of them new, ", at);
+  if (made == std::string::npos || ms == std::string::npos) return -1;
+  *left = std::atol(line.c_str() + made + 12);
+  return std::atof(line.c_str() + ms + 14) / 1000;
 }
 
 // Per photo (in storing order), the mesh seconds of the first dense phase
@@ -572,6 +586,13 @@ void print_report(arscout::db::Store& store, const Options& o,
     std::printf("%zu dense phases made the surface\n", seen.mesh_phases.size());
     print_latency("mesh seconds of the phase that followed it",
                   mesh_cost_per_photo(seen, photos.size()));
+    std::int64_t last_stored = 0;
+    for (const auto& [id, us] : seen.stored_us)
+      last_stored = std::max(last_stored, us);
+    std::printf(
+        "the last mesh phase ended %.1f s after the last photo was stored, "
+        "leaving %ld tiles stale\n",
+        (seen.last_mesh_us - last_stored) / 1e6, seen.last_mesh_left);
   }
   print_folding(seen.increments);
   rusage usage{};
@@ -606,12 +627,16 @@ void run(const Options& o) {
   options.dense_options.refuse_budget_sweeping = o.refuse_budget_sweeping;
   options.dense_options.catch_up_backlog = o.catch_up_backlog;
   options.mesh = o.mesh;
+  options.mesh_budget_seconds = o.mesh_budget;
   options.progress = [&seen](const std::string& line) {
     std::fprintf(stderr, "  %s\n", line.c_str());
-    const double mesh = mesh_seconds(line);
+    long left = 0;
+    const double mesh = mesh_seconds(line, &left);
     if (mesh < 0) return;
     std::lock_guard lock(seen.mutex);
     seen.mesh_phases.push_back({seen.photos_stored, mesh});
+    seen.last_mesh_us = now_us();
+    seen.last_mesh_left = left;
   };
   options.refinement_interval = std::chrono::milliseconds(
       static_cast<std::int64_t>(o.refine_interval_s * 1000));
@@ -672,8 +697,12 @@ int main(int argc, char** argv) {
                "with --split: every second scout walks its part backwards");
   app.add_flag("--no-dense", o.no_dense, "sparse only");
   app.add_flag("--mesh", o.mesh,
-               "the surface per dense tile too (WorkerOptions::mesh): its "
+               "the surface per mesh tile too (WorkerOptions::mesh): its "
                "seconds per dense phase, per photo");
+  app.add_option("--mesh-budget", o.mesh_budget,
+                 "as arscout serve's: seconds of mesh tile making per dense "
+                 "phase (0: every changed tile)")
+      ->capture_default_str();
   app.add_option("--prepare-ahead", o.prepare_ahead,
                  "photos decoded and described ahead of their increments "
                  "(0: inside them), as arscout engine's")

@@ -96,9 +96,15 @@ void add_engine_worker_options(CLI::App* cmd, engine::WorkerOptions* o) {
       ->check(CLI::Range(100, 50000));
   cmd->add_flag("!--no-dense", o->dense, "sparse models only");
   cmd->add_flag("--mesh", o->mesh,
-                "a textured surface per dense tile, made in the dense lane "
-                "after the tiles whose points changed, published with them "
+                "a textured surface per mesh tile, made in the dense lane "
+                "where the points changed and published with the model "
                 "(docs/mesh.md)");
+  cmd->add_option("--mesh-budget", o->mesh_budget_seconds,
+                  "seconds of mesh tile making per dense phase; the tiles in "
+                  "most need first, the rest in later phases (0: every "
+                  "changed tile each phase)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 3600.0));
   cmd->add_option("--dense-long-side", o->dense_options.long_side,
                   "dense working resolution, long side in px")
       ->capture_default_str()

@@ -34,6 +34,7 @@
 #include "arscout/viewer/overlay.h"
 #include "arscout/viewer/routes.h"
 #include "model_eval.h"
+#include "overlay_meshes.h"
 #include "test_stores.h"
 #include "tool_process.h"
 
@@ -150,6 +151,59 @@ TEST_F(FountainSite, OverlayDrawsTheModelOverThePhoto) {
             << " % of the pixels drawn" << std::endl;
   EXPECT_GT(drawn, 0.3);
   EXPECT_THROW(overlay_jpeg(*store_, "alice.nope.jpg", {}), util::Error);
+}
+
+// The scout's overlay of the textured surface: drawn through the photo's
+// pose from the mesh tiles it sees, it matches the photo (ZNCC of the grey
+// levels over the pixels the surface covers).
+TEST_F(FountainSite, OverlayDrawsTheTexturedSurfaceOverThePhoto) {
+  const std::string capture = "alice.0005.jpg";
+  OverlayOptions options;
+  options.draw = OverlayDraw::kMesh;
+  options.opacity = 1;
+  const std::string jpeg = overlay_jpeg(*store_, capture, options);
+  const cv::Mat overlay =
+      cv::imdecode(cv::Mat(1, static_cast<int>(jpeg.size()), CV_8U,
+                           const_cast<char*>(jpeg.data())),
+                   cv::IMREAD_GRAYSCALE);
+  ASSERT_EQ(overlay.size(), cv::Size(1280, 853));
+  // Where the surface is: the same drawing over a white picture, compared
+  // with one over black (a texel may be black or white, not both).
+  const auto camera = image_camera(model_, capture);
+  ASSERT_TRUE(camera);
+  const std::vector<engine::TexturedMesh> meshes = meshes_seen_by(
+      *store_, model_, *camera,
+      camera->intrinsics.fx * 1280.0 /
+          std::max(camera->intrinsics.width, camera->intrinsics.height));
+  ASSERT_FALSE(meshes.empty());
+  const cv::Size photo_size(camera->intrinsics.width,
+                            camera->intrinsics.height);
+  const cv::Mat on_black =
+      draw_mesh_overlay(cv::Mat(photo_size, CV_8UC3, cv::Scalar::all(0)),
+                        *camera, meshes, options);
+  const cv::Mat on_white =
+      draw_mesh_overlay(cv::Mat(photo_size, CV_8UC3, cv::Scalar::all(255)),
+                        *camera, meshes, options);
+  cv::Mat same;
+  cv::compare(on_black, on_white, same, cv::CMP_EQ);
+  cv::cvtColor(same, same, cv::COLOR_BGR2GRAY);
+  const cv::Mat covered = same == 255;
+  ASSERT_EQ(covered.size(), overlay.size());
+  cv::Mat photo = cv::imread(scene_ + "/images/0005.jpg", cv::IMREAD_GRAYSCALE);
+  cv::resize(photo, photo, overlay.size(), 0, 0, cv::INTER_AREA);
+  cv::Scalar mean_a, sd_a, mean_b, sd_b;
+  cv::meanStdDev(overlay, mean_a, sd_a, covered);
+  cv::meanStdDev(photo, mean_b, sd_b, covered);
+  cv::Mat a, b;
+  overlay.convertTo(a, CV_64F, 1, -mean_a[0]);
+  photo.convertTo(b, CV_64F, 1, -mean_b[0]);
+  const double n = cv::countNonZero(covered);
+  const double zncc = cv::mean(a.mul(b), covered)[0] / (sd_a[0] * sd_b[0]);
+  std::cout << "surface overlay of 0005.jpg: " << meshes.size()
+            << " tiles, covers " << n / overlay.total() * 100
+            << " % of the picture, ZNCC " << zncc << std::endl;
+  EXPECT_GT(n / overlay.total(), 0.3);
+  EXPECT_GT(zncc, 0.6);
 }
 
 TEST_F(FountainSite, ColmapExportReadsBackWithTheSamePoses) {
@@ -317,6 +371,16 @@ TEST_F(FountainSite, EndpointsServeTheSameBytesAndClearErrors) {
             400);
   EXPECT_EQ(client.get("/v1/sites/nowhere/export?format=ply").status, 404);
   EXPECT_EQ(client.get("/v1/captures/nobody/overlay.jpg").status, 404);
+  EXPECT_EQ(
+      client.get("/v1/captures/alice.0003.jpg/overlay.jpg?draw=wire").status,
+      400);
+  EXPECT_EQ(
+      client.get("/v1/captures/alice.0003.jpg/overlay.jpg?opacity=101").status,
+      400);
+  const auto surface =
+      client.get("/v1/captures/alice.0003.jpg/overlay.jpg?draw=mesh");
+  ASSERT_EQ(surface.status, 200);
+  EXPECT_EQ(surface.headers.at("content-type"), "image/jpeg");
   EXPECT_EQ(
       client.get("/v1/captures/alice.0003.jpg/thumbnail.jpg?size=0").status,
       400);

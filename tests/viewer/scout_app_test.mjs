@@ -266,6 +266,52 @@ async function checkStatusBar(alice, fix) {
   log(`status bar: ${text} ${accuracy}`);
 }
 
+/**
+ * The see-through's switch to the textured surface (the server's engine runs
+ * with --mesh): until the site has a surface the app says so and shows the
+ * points; then the overlay is the surface, unlike the points' picture.
+ */
+async function checkSurfaceOverlay(page, id, screenshots) {
+  const pixels = () => page.evaluate(() => {
+    const img = document.getElementById('see-through-overlay');
+    const canvas = document.createElement('canvas');
+    canvas.width = 160;
+    canvas.height = Math.round(160 * img.naturalHeight / img.naturalWidth);
+    const g = canvas.getContext('2d');
+    g.drawImage(img, 0, 0, canvas.width, canvas.height);
+    return Array.from(g.getImageData(0, 0, canvas.width, canvas.height).data);
+  });
+  const points = await pixels();
+  await until('the see-through drawing the surface', async () => {
+    await page.tap('#overlay-draw button[data-draw="mesh"]');
+    try {
+      await page.waitForFunction((c) => {
+        const img = document.getElementById('see-through-overlay');
+        return img.dataset.capture === c && img.dataset.draw === 'mesh' && !img.hidden &&
+          img.complete && img.naturalWidth > 0;
+      }, id, { timeout: 5000 });
+      return true;
+    } catch {
+      const caption = await page.textContent('#see-through-caption');
+      if (!caption.includes('no surface yet')) fail(`no surface and the caption says "${caption}"`);
+      return false;
+    }
+  }, 120000, 2000);
+  const pressed = await page.getAttribute('#overlay-draw button[data-draw="mesh"]', 'aria-pressed');
+  if (pressed !== 'true') fail('the surface button is not shown pressed');
+  const surface = await pixels();
+  let differ = 0;
+  for (let i = 0; i < surface.length; i += 4) {
+    differ += Math.abs(surface[i] - points[i]) + Math.abs(surface[i + 1] - points[i + 1]) > 60;
+  }
+  const share = differ / (surface.length / 4);
+  // The points' overlay is tinted by depth; the surface is the photos' own colours.
+  if (share < 0.05) fail(`the surface overlay looks like the points' (${(share * 100).toFixed(1)} % differ)`);
+  if (screenshots) await page.screenshot({ path: path.join(screenshots, 'scout-see-through-mesh.png') });
+  log(`surface overlay shown for ${id} (${(share * 100).toFixed(0)} % of pixels unlike the points')`);
+  await page.tap('#overlay-draw button[data-draw="points"]');
+}
+
 async function checkOverlayAndWithdraw(alice, adminToken, site, screenshots) {
   const page = alice.page;
   // Live see-through: the latest registered photo's overlay over the camera.
@@ -289,6 +335,7 @@ async function checkOverlayAndWithdraw(alice, adminToken, site, screenshots) {
   }, id, { timeout: 60000 });
   if (screenshots) await page.screenshot({ path: path.join(screenshots, 'scout-see-through.png') });
   log(`overlay shown for ${id}`);
+  await checkSurfaceOverlay(page, id, screenshots);
   const before = (await api(adminToken, `/v1/docs/sites/${encodeURIComponent(site)}/model`)).version;
   await page.tap('#withdraw');
   await page.waitForSelector(`#photos li[data-capture="${id}"][data-state="withdrawn"]`);

@@ -25,7 +25,7 @@ alice=$("$bin" token create --db "$db" --role scout --name alice)
 bob=$("$bin" token create --db "$db" --role scout --name bob)
 admin=$("$bin" token create --db "$db" --role admin --name ops)
 start_server "$work/server.log" --db "$db" --listen 127.0.0.1:0 --with-engine \
-  --dense-long-side 480
+  --dense-long-side 480 --mesh
 
 [ -n "$shots" ] && mkdir -p "$shots"
 status=0

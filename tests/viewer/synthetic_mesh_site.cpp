@@ -81,7 +81,7 @@ std::vector<MeshTile> write_mesh_site(arscout::db::Store& store,
       with_mesh ? synthetic_mesh_tiles() : std::vector<TexturedMesh>{};
   for (std::size_t t = 0; t < meshes.size(); ++t) {
     MeshTile tile{names[t], arscout::engine::mesh_levels(meshes[t]), {}};
-    arscout::engine::MeshTileEntry entry{tile.name, 1000 + t, {}};
+    arscout::engine::MeshTileEntry entry{tile.name, 1000 + t, 0, 0, {}};
     for (const arscout::engine::MeshLevel& level : tile.levels) {
       tile.glbs.push_back(arscout::engine::encode_glb(level.mesh));
       entry.levels.push_back({store.put_blob(tile.glbs.back()),
@@ -98,7 +98,7 @@ std::vector<MeshTile> write_mesh_site(arscout::db::Store& store,
   if (geo_registered) model.enu_origin = origin;
   nlohmann::json attrs = to_json(model);
   // A third tile whose points made no surface: listed, without levels.
-  entries.push_back({"5_5", 2000, {}});
+  entries.push_back({"5_5", 2000, 0, 0, {}});
   attrs["mesh_tiles"] = arscout::engine::mesh_tiles_json(entries);
   const std::int64_t version =
       store.put("/sites/" + site + "/model", "model", attrs).version;

@@ -1,6 +1,7 @@
 // The viewer's pieces on synthetic data with exact answers: the projection
 // the overlay draws with, the overlay's z-buffer and depth colours, the tar
 // writer, and the ECEF PLY.
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -160,6 +161,66 @@ TEST(ViewerOverlay, LowConfidencePointsAreNotDrawn) {
   const cv::Mat sparse =
       draw_overlay(photo, camera, two_walls(camera), options);
   EXPECT_EQ(cv::norm(sparse, without, cv::NORM_INF), 0);
+}
+
+// A quad of one colour at depth z over x in [x0, x1], y in [y0, y1]
+// (camera frame of test_camera: the identity pose).
+engine::TexturedMesh flat_quad(double z, double x0, double x1, double y0,
+                               double y1, std::array<std::uint8_t, 3> rgb) {
+  engine::TexturedMesh quad;
+  for (const auto& [x, y] : {std::pair{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}) {
+    quad.positions.emplace_back(x, y, z);
+    quad.colors.push_back(rgb);
+  }
+  quad.indices = {0, 1, 2, 0, 2, 3};
+  return quad;
+}
+
+// The mesh overlay: the nearest surface wins whatever the meshes' order,
+// the lens's distortion bends the drawn edge where project() puts it, and
+// where no surface is seen the photo stays.
+TEST(ViewerOverlay, MeshIsDrawnThroughTheLensNearestFirst) {
+  ImageCamera camera = test_camera();
+  camera.intrinsics.k1 = -0.2;
+  camera.intrinsics.k2 = 0.02;
+  camera.intrinsics.p1 = 0.001;
+  const cv::Mat photo(480, 640, CV_8UC3, cv::Scalar(128, 128, 128));
+  // A red near wall whose right edge is at normalised x 0.476 (pixel 560 of
+  // a pinhole, about 549 through this lens); a blue far wall behind it
+  // over the lower 3/4 of the view; nothing above.
+  const double edge = 0.476 * 4;
+  const engine::TexturedMesh near =
+      flat_quad(4, -10, edge, -0.8, 10, {255, 0, 0});
+  const engine::TexturedMesh far =
+      flat_quad(12, -40, 40, -2.4, 40, {0, 0, 255});
+  OverlayOptions options;
+  options.opacity = 1;
+  const cv::Mat a = draw_mesh_overlay(photo, camera, {near, far}, options);
+  const cv::Mat b = draw_mesh_overlay(photo, camera, {far, near}, options);
+  ASSERT_EQ(a.size(), photo.size());
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0);
+  int checked = 0;
+  for (double y = -0.6; y <= 3; y += 0.3) {
+    const auto at = project(camera, {edge, y, 4});
+    ASSERT_TRUE(at);
+    const int u = static_cast<int>(std::lround(at->x()));
+    const int v = static_cast<int>(std::lround(at->y()));
+    if (v < 0 || v >= 480) continue;
+    const cv::Vec3b inside = a.at<cv::Vec3b>(v, u - 3);  // BGR
+    const cv::Vec3b outside = a.at<cv::Vec3b>(v, u + 3);
+    EXPECT_GT(inside[2], 200) << "at " << u - 3 << ", " << v;
+    EXPECT_LT(inside[0], 50) << "at " << u - 3 << ", " << v;
+    EXPECT_GT(outside[0], 200) << "at " << u + 3 << ", " << v;
+    EXPECT_LT(outside[2], 50) << "at " << u + 3 << ", " << v;
+    ++checked;
+  }
+  EXPECT_GE(checked, 8);
+  // Above both walls the photo is untouched.
+  EXPECT_EQ(a.at<cv::Vec3b>(5, 320), cv::Vec3b(128, 128, 128));
+  // Half opacity: half the photo's grey.
+  options.opacity = 0.5;
+  const cv::Mat half = draw_mesh_overlay(photo, camera, {near, far}, options);
+  EXPECT_NEAR(half.at<cv::Vec3b>(240, 100)[2], (255 + 128) / 2.0, 1.5);
 }
 
 TEST(ViewerTar, GnuTarListsAndExtractsTheFiles) {

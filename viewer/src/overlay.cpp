@@ -5,10 +5,12 @@
 #include <cmath>
 #include <limits>
 
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "arscout/ingest/image_budget.h"
+#include "overlay_meshes.h"
 
 namespace arscout::viewer {
 namespace {
@@ -78,6 +80,102 @@ void clear_see_through(cv::Mat& depth, int radius) {
   }
 }
 
+// The output image's size and its pixels per camera pixel.
+struct OutputFrame {
+  cv::Size size;
+  double scale = 1;
+};
+
+OutputFrame output_frame(const cv::Mat& photo, const ImageCamera& camera,
+                         int max_side) {
+  if (photo.empty() || camera.intrinsics.width <= 0)
+    throw std::invalid_argument("overlay: empty photo or camera");
+  const int long_side = std::max(photo.cols, photo.rows);
+  const double fit = std::min(1.0, static_cast<double>(max_side) / long_side);
+  OutputFrame frame;
+  frame.size = cv::Size(static_cast<int>(std::lround(photo.cols * fit)),
+                        static_cast<int>(std::lround(photo.rows * fit)));
+  // The photo may be stored at another size than the camera was estimated
+  // for; pixels scale with it.
+  frame.scale = fit * static_cast<double>(photo.cols) / camera.intrinsics.width;
+  return frame;
+}
+
+// `colours` over `out` at `opacity` where `depth` is positive.
+void blend_where_seen(const cv::Mat& colours, const cv::Mat& depth,
+                      double opacity, cv::Mat* out) {
+  const double a = std::clamp(opacity, 0.0, 1.0);
+  for (int y = 0; y < out->rows; ++y)
+    for (int x = 0; x < out->cols; ++x)
+      if (depth.at<float>(y, x) > 0) {
+        cv::Vec3b& o = out->at<cv::Vec3b>(y, x);
+        const cv::Vec3b& c = colours.at<cv::Vec3b>(y, x);
+        for (int ch = 0; ch < 3; ++ch)
+          o[ch] = cv::saturate_cast<uint8_t>(a * c[ch] + (1 - a) * o[ch]);
+      }
+}
+
+// The camera's pinhole in output pixels (pixel centres map as OpenCV's
+// resize maps them).
+Eigen::Matrix3d output_pinhole(const engine::CameraIntrinsics& k,
+                               double scale) {
+  Eigen::Matrix3d K;
+  K << k.fx * scale, 0, (k.cx + 0.5) * scale - 0.5,  //
+      0, k.fy * scale, (k.cy + 0.5) * scale - 0.5,   //
+      0, 0, 1;
+  return K;
+}
+
+// The camera's focal length in output pixels: what turns a surface's
+// geometric error into pixels.
+double output_focal(const cv::Mat& photo, const ImageCamera& camera,
+                    int max_side) {
+  return output_frame(photo, camera, max_side).scale * camera.intrinsics.fx;
+}
+
+bool has_distortion(const engine::CameraIntrinsics& k) {
+  return k.k1 != 0 || k.k2 != 0 || k.k3 != 0 || k.p1 != 0 || k.p2 != 0;
+}
+
+// `layer`'s pixels where it is nearer than `*drawn` (or *drawn has none).
+void keep_nearest(const engine::MeshRendering& layer,
+                  engine::MeshRendering* drawn) {
+  for (int y = 0; y < drawn->depth.rows; ++y) {
+    const float* near = layer.depth.ptr<float>(y);
+    float* depth = drawn->depth.ptr<float>(y);
+    for (int x = 0; x < drawn->depth.cols; ++x)
+      if (near[x] > 0 && (depth[x] == 0 || near[x] < depth[x])) {
+        depth[x] = near[x];
+        drawn->bgr.at<cv::Vec3b>(y, x) = layer.bgr.at<cv::Vec3b>(y, x);
+      }
+  }
+}
+
+// The pinhole rendering `pinhole` (intrinsics K) as the lens sees it: each
+// output pixel takes the rendering's pixel its undistorted ray hits.
+engine::MeshRendering distort(const engine::MeshRendering& pinhole,
+                              const engine::CameraIntrinsics& k,
+                              const Eigen::Matrix3d& K, double scale) {
+  const cv::Size size = pinhole.bgr.size();
+  std::vector<cv::Point2f> pixels;
+  pixels.reserve(static_cast<std::size_t>(size.area()));
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x)  // in the camera's own pixels
+      pixels.emplace_back(static_cast<float>((x + 0.5) / scale - 0.5),
+                          static_cast<float>((y + 0.5) / scale - 0.5));
+  const cv::Matx33d lens(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
+  const cv::Matx33d out(K(0, 0), 0, K(0, 2), 0, K(1, 1), K(1, 2), 0, 0, 1);
+  std::vector<cv::Point2f> rays;
+  cv::undistortPoints(pixels, rays, lens,
+                      std::vector<double>{k.k1, k.k2, k.p1, k.p2, k.k3},
+                      cv::noArray(), out);
+  const cv::Mat map = cv::Mat(rays, /*copyData=*/false).reshape(2, size.height);
+  engine::MeshRendering lensed;
+  cv::remap(pinhole.bgr, lensed.bgr, map, cv::noArray(), cv::INTER_LINEAR);
+  cv::remap(pinhole.depth, lensed.depth, map, cv::noArray(), cv::INTER_NEAREST);
+  return lensed;
+}
+
 }  // namespace
 
 std::optional<Eigen::Vector2d> project(const ImageCamera& camera,
@@ -96,19 +194,11 @@ std::optional<Eigen::Vector2d> project(const ImageCamera& camera,
 cv::Mat draw_overlay(const cv::Mat& photo, const ImageCamera& camera,
                      const std::vector<engine::ColoredPoint>& points,
                      const OverlayOptions& options) {
-  if (photo.empty() || camera.intrinsics.width <= 0)
-    throw std::invalid_argument("overlay: empty photo or camera");
-  const int long_side = std::max(photo.cols, photo.rows);
-  const double fit =
-      std::min(1.0, static_cast<double>(options.max_side) / long_side);
-  const cv::Size size(static_cast<int>(std::lround(photo.cols * fit)),
-                      static_cast<int>(std::lround(photo.rows * fit)));
+  const OutputFrame frame = output_frame(photo, camera, options.max_side);
+  const cv::Size size = frame.size;
+  const double scale = frame.scale;
   cv::Mat out;
   cv::resize(photo, out, size, 0, 0, cv::INTER_AREA);
-  // The photo may be stored at another size than the camera was estimated
-  // for; pixels scale with it.
-  const double scale =
-      fit * static_cast<double>(photo.cols) / camera.intrinsics.width;
   const int radius = options.radius >= 0
                          ? options.radius
                          : std::max(1, std::max(size.width, size.height) / 900);
@@ -125,15 +215,26 @@ cv::Mat draw_overlay(const cv::Mat& photo, const ImageCamera& camera,
             30 + 210.0 * (far - std::clamp(z, near, far)) / (far - near));
   cv::Mat colours;
   cv::applyColorMap(level, colours, cv::COLORMAP_TURBO);
-  const double a = std::clamp(options.opacity, 0.0, 1.0);
-  for (int y = 0; y < size.height; ++y)
-    for (int x = 0; x < size.width; ++x)
-      if (depth.at<float>(y, x) > 0) {
-        cv::Vec3b& o = out.at<cv::Vec3b>(y, x);
-        const cv::Vec3b& c = colours.at<cv::Vec3b>(y, x);
-        for (int ch = 0; ch < 3; ++ch)
-          o[ch] = cv::saturate_cast<uint8_t>(a * c[ch] + (1 - a) * o[ch]);
-      }
+  blend_where_seen(colours, depth, options.opacity, &out);
+  return out;
+}
+
+cv::Mat draw_mesh_overlay(const cv::Mat& photo, const ImageCamera& camera,
+                          const std::vector<engine::TexturedMesh>& meshes,
+                          const OverlayOptions& options) {
+  const OutputFrame frame = output_frame(photo, camera, options.max_side);
+  cv::Mat out;
+  cv::resize(photo, out, frame.size, 0, 0, cv::INTER_AREA);
+  const Eigen::Matrix3d K = output_pinhole(camera.intrinsics, frame.scale);
+  engine::MeshRendering drawn;
+  drawn.bgr = cv::Mat::zeros(frame.size, CV_8UC3);
+  drawn.depth = cv::Mat::zeros(frame.size, CV_32F);
+  for (const engine::TexturedMesh& mesh : meshes)
+    keep_nearest(engine::render_mesh(mesh, K, camera.R, camera.t, frame.size),
+                 &drawn);
+  if (has_distortion(camera.intrinsics))
+    drawn = distort(drawn, camera.intrinsics, K, frame.scale);
+  blend_where_seen(drawn.bgr, drawn.depth, options.opacity, &out);
   return out;
 }
 
@@ -162,8 +263,15 @@ std::string overlay_jpeg(db::Store& store, const std::string& capture,
   if (photo.empty())
     throw util::Error(util::ErrorKind::kInternal,
                       "the photo of capture " + capture + ": " + why);
-  const cv::Mat drawn = draw_overlay(
-      photo, *camera, load_cloud(store, model, options.cloud), options);
+  const cv::Mat drawn =
+      options.draw == OverlayDraw::kMesh
+          ? draw_mesh_overlay(
+                photo, *camera,
+                meshes_seen_by(store, model, *camera,
+                               output_focal(photo, *camera, options.max_side)),
+                options)
+          : draw_overlay(photo, *camera,
+                         load_cloud(store, model, options.cloud), options);
   std::vector<uchar> jpeg;
   cv::imencode(".jpg", drawn, jpeg, {cv::IMWRITE_JPEG_QUALITY, 88});
   return std::string(jpeg.begin(), jpeg.end());

@@ -75,6 +75,17 @@ std::optional<Cloud> cloud_query(const HttpRequest& req,
   return std::nullopt;
 }
 
+std::optional<OverlayDraw> draw_query(const HttpRequest& req,
+                                      std::optional<HttpResponse>* bad) {
+  auto it = req.query.find("draw");
+  if (it == req.query.end() || it->second == "points")
+    return OverlayDraw::kPoints;
+  if (it->second == "mesh") return OverlayDraw::kMesh;
+  *bad = HttpResponse::error(400, "bad_request",
+                             "query parameter 'draw' must be points or mesh");
+  return std::nullopt;
+}
+
 HttpResponse jpeg(std::string bytes) {
   HttpResponse r;
   r.content_type = "image/jpeg";
@@ -89,7 +100,13 @@ HttpResponse overlay(db::Store& store, const HttpRequest& req,
   options.max_side = int_query(req, "max_side", 1280, 64, 4096, &bad);
   options.min_support =
       int_query(req, "min_support", engine::kConfidentSupport, 0, 255, &bad);
+  // Percent, so that the value is an integer like the others.
+  options.opacity =
+      int_query(req, "opacity", static_cast<int>(options.opacity * 100), 0, 100,
+                &bad) /
+      100.0;
   if (auto cloud = cloud_query(req, &bad)) options.cloud = *cloud;
+  if (auto draw = draw_query(req, &bad)) options.draw = *draw;
   if (bad) return *bad;
   HttpResponse r = jpeg(overlay_jpeg(store, capture, options));
   r.headers.emplace_back("Cache-Control", "no-cache");

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include "dense_tiles.h"
@@ -31,6 +32,109 @@ void for_tiles_of(const ColoredPoint& p, double edge, double margin, Fn&& fn) {
   for (int dx = x_lo; dx <= x_hi; ++dx)
     for (int dy = y_lo; dy <= y_hi; ++dy) fn(MeshTileKey{ix + dx, iy + dy});
 }
+
+// The points a column's surface reads: its own and its margin's.
+struct Column {
+  std::uint64_t hash = 0;  // of them all
+  std::size_t points = 0;
+  std::size_t own = 0;  // in the column itself
+};
+
+// The cloud's points by the column they lie in, on a dense grid over the
+// columns' bounds: one pass to count, one to place, so that a tile's input
+// is read from its 3 x 3 columns instead of the whole cloud.
+class ColumnIndex {
+ public:
+  ColumnIndex(const std::vector<ColoredPoint>& cloud, double edge)
+      : cloud_(cloud), edge_(edge) {
+    for (const ColoredPoint& p : cloud)
+      for_tiles_of(p, edge, 0, [&](const MeshTileKey& k) {
+        lo_ = {std::min(lo_.first, k.first), std::min(lo_.second, k.second)};
+        hi_ = {std::max(hi_.first, k.first), std::max(hi_.second, k.second)};
+      });
+    if (lo_.first > hi_.first) return;  // no finite point
+    start_.assign(columns() + 1, 0);
+    for (const ColoredPoint& p : cloud)
+      for_tiles_of(p, edge, 0,
+                   [&](const MeshTileKey& k) { ++start_[slot(k) + 1]; });
+    for (std::size_t c = 0; c < columns(); ++c) start_[c + 1] += start_[c];
+    order_.resize(start_.back());
+    std::vector<std::size_t> next(start_.begin(), start_.end() - 1);
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      for_tiles_of(cloud[i], edge, 0, [&](const MeshTileKey& k) {
+        order_[next[slot(k)]++] = static_cast<std::uint32_t>(i);
+      });
+  }
+
+  // Per column with a point of its own: the hash, count and own count of
+  // the points its surface reads (a margin is under an edge, so it reaches
+  // one column over at most).
+  std::map<MeshTileKey, Column> columns_read(double margin) const {
+    std::vector<Column> grid(columns());
+    for (std::size_t c = 0; c < columns(); ++c)
+      for (std::size_t at = start_[c]; at < start_[c + 1]; ++at) {
+        const ColoredPoint& p = cloud_[order_[at]];
+        for_tiles_of(p, edge_, margin, [&](const MeshTileKey& k) {
+          if (!inside(k)) return;
+          Column& column = grid[slot(k)];
+          column.hash += dense_point_hash(p);
+          ++column.points;
+          column.own += slot(k) == c;
+        });
+      }
+    std::map<MeshTileKey, Column> out;
+    for (std::size_t c = 0; c < columns(); ++c)
+      if (grid[c].own > 0) out[key(c)] = grid[c];
+    return out;
+  }
+
+  // The points column `k`'s surface reads, as columns_read counted them.
+  std::vector<ColoredPoint> input(const MeshTileKey& k, double margin) const {
+    std::vector<ColoredPoint> points;
+    for (long long dx = -1; dx <= 1; ++dx)
+      for (long long dy = -1; dy <= 1; ++dy) {
+        const MeshTileKey n{k.first + dx, k.second + dy};
+        if (!inside(n)) continue;
+        const std::size_t c = slot(n);
+        for (std::size_t at = start_[c]; at < start_[c + 1]; ++at) {
+          const ColoredPoint& p = cloud_[order_[at]];
+          for_tiles_of(p, edge_, margin, [&](const MeshTileKey& t) {
+            if (t == k) points.push_back(p);
+          });
+        }
+      }
+    return points;
+  }
+
+ private:
+  std::size_t columns() const {
+    return static_cast<std::size_t>(hi_.first - lo_.first + 1) *
+           static_cast<std::size_t>(hi_.second - lo_.second + 1);
+  }
+  bool inside(const MeshTileKey& k) const {
+    return k.first >= lo_.first && k.first <= hi_.first &&
+           k.second >= lo_.second && k.second <= hi_.second;
+  }
+  std::size_t slot(const MeshTileKey& k) const {
+    return static_cast<std::size_t>(k.first - lo_.first) *
+               static_cast<std::size_t>(hi_.second - lo_.second + 1) +
+           static_cast<std::size_t>(k.second - lo_.second);
+  }
+  MeshTileKey key(std::size_t at) const {
+    const auto h = static_cast<std::size_t>(hi_.second - lo_.second + 1);
+    return {lo_.first + static_cast<long long>(at / h),
+            lo_.second + static_cast<long long>(at % h)};
+  }
+
+  const std::vector<ColoredPoint>& cloud_;
+  double edge_;
+  MeshTileKey lo_{std::numeric_limits<long long>::max(),
+                  std::numeric_limits<long long>::max()};
+  MeshTileKey hi_{std::numeric_limits<long long>::min(),
+                  std::numeric_limits<long long>::min()};
+  std::vector<std::size_t> start_;    // per column, into order_; one more
+  std::vector<std::uint32_t> order_;  // point indices by column
+};
 
 // The key views that see the tile's box, nearest first, at most `limit`.
 std::vector<TextureView> views_of(
@@ -70,76 +174,143 @@ std::vector<TextureView> views_of(
 // One tile made: surface, texture, levels, each level's GLB stored.
 MeshTileEntry make_tile(
     const MeshTileKey& key, const std::vector<ColoredPoint>& points,
-    double edge, double voxel,
+    double edge, double voxel, double cell,
     const std::vector<DenseReconstruction::KeyView>& views,
     const std::function<std::string(const std::string&)>& put_blob,
     const MeshBuildOptions& options) {
   MeshTileEntry entry;
   entry.tile = name_of(key);
+  entry.points = points.size();
+  entry.cell = cell;
   const Eigen::Vector2d lo(static_cast<double>(key.first) * edge,
                            static_cast<double>(key.second) * edge);
+  SurfaceOptions surface_options = options.surface;
+  surface_options.cell = cell;
   // The pass the published tiles had, over the tile and its margin: a
   // point the surface reads has all its neighbours in the margin, so two
   // tiles judge it alike.
   const TexturedMesh surface = mesh_surface(
       without_isolated_points(points, kIsolatedRadiusVoxels * voxel,
                               kIsolatedMinNeighbours),
-      lo, lo + Eigen::Vector2d(edge, edge), voxel, options.surface);
+      lo, lo + Eigen::Vector2d(edge, edge), voxel, surface_options);
   if (surface.empty()) return entry;
   const TexturedMesh textured = texture_mesh(
       surface, views_of(surface, views, options.max_views), options.texture);
-  for (const MeshLevel& level : mesh_levels(textured, options.levels))
+  // The levels share the atlas: compressed once, embedded in each GLB.
+  const std::string atlas =
+      encode_atlas_jpeg(textured.atlas, options.jpeg_quality);
+  for (MeshLevel& level : mesh_levels(textured, options.levels)) {
+    const std::size_t triangles = level.mesh.triangles();
+    GlbMesh glb{std::move(level.mesh), atlas,
+                atlas.empty() ? "" : "image/jpeg"};
+    glb.mesh.atlas.release();
     entry.levels.push_back(
-        {put_blob(encode_glb(level.mesh, options.jpeg_quality)),
-         level.mesh.triangles(), level.geometric_error});
+        {put_blob(encode_glb_meshes({glb})), triangles, level.geometric_error});
+  }
   return entry;
+}
+
+// The published tiles' grid step while 2 * voxel stays near it, else
+// 2 * voxel (or the options' fixed step).
+double grid_cell(const std::vector<MeshTileEntry>& published, double voxel,
+                 const MeshBuildOptions& options) {
+  if (options.surface.cell > 0) return options.surface.cell;
+  const double wanted = 2 * voxel;
+  for (const MeshTileEntry& tile : published)
+    if (tile.cell > 0 && wanted <= 1.25 * tile.cell &&
+        tile.cell <= 1.25 * wanted)
+      return tile.cell;
+  return wanted;
+}
+
+// A changed tile's place in the queue: never made first (the larger first),
+// then by the share its point count changed since it was made.
+struct Need {
+  bool never_made = false;
+  double change = 0;
+  std::size_t points = 0;
+  MeshTileKey key;
+  bool operator<(const Need& o) const {
+    if (never_made != o.never_made) return never_made;
+    if (never_made && points != o.points) return points > o.points;
+    if (change != o.change) return change > o.change;
+    return key < o.key;
+  }
+};
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+      .count();
 }
 
 }  // namespace
 
 MeshBuild update_mesh_tiles(
-    const std::vector<ColoredPoint>& cloud, double edge, double voxel,
+    const std::vector<ColoredPoint>& cloud, double voxel,
     const std::vector<MeshTileEntry>& published,
     const std::vector<DenseReconstruction::KeyView>& views,
     const std::function<std::string(const std::string& bytes)>& put_blob,
     const MeshBuildOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  const double cell =
-      options.surface.cell > 0 ? options.surface.cell : 2 * voxel;
+  const double cell = grid_cell(published, voxel, options);
+  const double edge = options.tile_cells * cell;
   const double margin =
       (options.surface.radius_cells + 2) * cell + kIsolatedRadiusVoxels * voxel;
-  std::map<MeshTileKey, std::uint64_t> hash;
-  for (const ColoredPoint& p : cloud)
-    for_tiles_of(p, edge, margin,
-                 [&](const MeshTileKey& k) { hash[k] += dense_point_hash(p); });
+  const ColumnIndex index(cloud, edge);
+  // A column with margin points alone has no cell of its own to mesh.
+  const std::map<MeshTileKey, Column> columns = index.columns_read(margin);
   std::map<std::string, const MeshTileEntry*> before;
-  for (const MeshTileEntry& e : published) before[e.tile] = &e;
-  std::map<MeshTileKey, std::vector<ColoredPoint>> inputs;
-  for (const auto& [key, h] : hash) {
+  for (const MeshTileEntry& e : published)
+    if (e.cell == cell) before[e.tile] = &e;  // another grid's: dropped
+  std::vector<Need> queue;
+  for (const auto& [key, column] : columns) {
     const auto was = before.find(name_of(key));
-    if (was == before.end() || was->second->hash != h) inputs[key];
+    if (was != before.end() && was->second->hash == column.hash) continue;
+    Need need{was == before.end(), 0, column.points, key};
+    if (!need.never_made)
+      need.change = std::abs(static_cast<double>(column.points) -
+                             static_cast<double>(was->second->points)) /
+                    std::max<double>(1, was->second->points);
+    queue.push_back(need);
   }
-  for (const ColoredPoint& p : cloud)
-    for_tiles_of(p, edge, margin, [&](const MeshTileKey& k) {
-      if (const auto it = inputs.find(k); it != inputs.end())
-        it->second.push_back(p);
-    });
+  std::sort(queue.begin(), queue.end());
   MeshBuild build;
-  for (const auto& [key, h] : hash) {
-    const auto input = inputs.find(key);
-    MeshTileEntry entry = input == inputs.end()
-                              ? *before.at(name_of(key))
-                              : make_tile(key, input->second, edge, voxel,
-                                          views, put_blob, options);
-    build.remade += input != inputs.end();
-    entry.hash = h;
-    if (entry.levels.empty()) continue;
-    build.triangles += entry.levels.front().triangles;
+  std::map<MeshTileKey, MeshTileEntry> made;
+  std::size_t points_made = 0;
+  const auto making = std::chrono::steady_clock::now();
+  for (const Need& need : queue) {
+    // The next tile's cost estimated from this call's tiles, per point.
+    const double estimate =
+        seconds_since(making) /
+        static_cast<double>(std::max<std::size_t>(points_made, 1)) *
+        static_cast<double>(need.points);
+    if (options.budget_seconds > 0 && !made.empty() &&
+        seconds_since(start) + estimate > options.budget_seconds)
+      break;
+    made[need.key] = make_tile(need.key, index.input(need.key, margin), edge,
+                               voxel, cell, views, put_blob, options);
+    points_made += need.points;
+  }
+  for (const auto& [key, column] : columns) {
+    MeshTileEntry entry;
+    if (const auto it = made.find(key); it != made.end()) {
+      entry = std::move(it->second);
+      entry.hash = column.hash;
+      ++build.remade;
+    } else if (const auto was = before.find(name_of(key));
+               was != before.end()) {
+      entry = *was->second;  // unchanged, or stale until a later call
+      build.left += entry.hash != column.hash;
+    } else {
+      ++build.left;  // never made: nothing to publish yet
+      ++build.left_new;
+      continue;
+    }
+    if (!entry.levels.empty())
+      build.triangles += entry.levels.front().triangles;
     build.tiles.push_back(std::move(entry));
   }
-  build.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-          .count();
+  build.seconds = seconds_since(start);
   return build;
 }
 

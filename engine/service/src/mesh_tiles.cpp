@@ -25,6 +25,8 @@ std::vector<MeshTileEntry> mesh_tiles_of(const db::Document& model) {
     MeshTileEntry tile;
     tile.tile = entry.value("tile", std::string());
     tile.hash = parse_hash(entry);
+    tile.points = entry.value("points", std::size_t{0});
+    tile.cell = entry.value("cell", 0.0);
     for (const nlohmann::json& level :
          entry.value("levels", nlohmann::json::array()))
       tile.levels.push_back({level.value("blob", std::string()),
@@ -45,6 +47,8 @@ nlohmann::json mesh_tiles_json(const std::vector<MeshTileEntry>& tiles) {
                         {"error", level.geometric_error}});
     out.push_back({{"tile", tile.tile},
                    {"hash", std::to_string(tile.hash)},
+                   {"points", tile.points},
+                   {"cell", tile.cell},
                    {"levels", std::move(levels)}});
   }
   return out;

@@ -566,21 +566,30 @@ void SiteJob::compute_dense(DenseTask& task) {
   const std::vector<std::string> covered = dense.covered_ids();
   task.views.insert(covered.begin(), covered.end());
   task.tiles_held = tiles_wait(task.update);
+  const bool meshing = options_.mesh && dense.voxel_size() > 0;
+  const auto put = [this](const std::string& bytes) {
+    return store_.put_blob(bytes);
+  };
+  std::vector<ColoredPoint> points;
+  if (!task.tiles_held || meshing) points = dense.points();
   if (!task.tiles_held) {
-    const auto put = [this](const std::string& bytes) {
-      return store_.put_blob(bytes);
-    };
-    const std::vector<ColoredPoint> points = dense.points();
-    double edge = 0;
     task.tiles = store_dense_tiles(
         points, dense_tile_size(dense.voxel_size()), task.published, put,
         kIsolatedRadiusVoxels * dense.voxel_size(),
-        dense.voxel_size() > 0 ? kIsolatedMinNeighbours : 0, &edge);
+        dense.voxel_size() > 0 ? kIsolatedMinNeighbours : 0);
     tiles_stored_at_ = Clock::now();
-    if (options_.mesh && dense.voxel_size() > 0)
-      task.mesh =
-          update_mesh_tiles(points, edge, dense.voxel_size(),
-                            task.published_mesh, dense.key_views(), put);
+  }
+  // The surface in every phase, the tiles held or not: its budget keeps
+  // each phase short, so it must not wait for the tiles' interval.
+  if (meshing) {
+    MeshBuildOptions mesh_options;
+    mesh_options.budget_seconds =
+        task.settle || options_.reconstruction.deterministic
+            ? 0
+            : options_.mesh_budget_seconds;
+    task.mesh =
+        update_mesh_tiles(points, dense.voxel_size(), task.published_mesh,
+                          dense.key_views(), put, mesh_options);
   }
   task.voxel_size = dense.voxel_size();
   task.seconds = seconds_since(start);
@@ -625,7 +634,8 @@ Increment SiteJob::finish_dense(DenseTask& task) {
   report.total_s = task.seconds;
   // Moved maps or views left for later: the lane runs again, and the
   // cloud is published as pending until then.
-  if (task.update.deferred_maps > 0 || task.update.deferred_views > 0)
+  if (task.update.deferred_maps > 0 || task.update.deferred_views > 0 ||
+      (task.mesh && task.mesh->left > 0))
     dense_due_ = true;
   // The sparse model of now: the sparse lane may have moved on meanwhile.
   const Model model = sparse_->model();
@@ -682,7 +692,9 @@ void SiteJob::add_mesh_tile_ops(const std::vector<MeshTileEntry>& tiles,
   for (const MeshTileEntry& tile : tiles) {
     now.insert(tile.tile);
     const auto was = before.find(tile.tile);
-    if (was != before.end() && was->second->hash == tile.hash) continue;
+    if (was != before.end() && was->second->hash == tile.hash &&
+        was->second->cell == tile.cell)
+      continue;
     db::BlobRefs blobs;
     for (std::size_t l = 0; l < tile.levels.size(); ++l)
       blobs["level-" + std::to_string(l)] = tile.levels[l].blob;
@@ -720,9 +732,9 @@ std::string SiteJob::dense_summary(const DenseTask& task,
   summary << ")";
   if (task.mesh)
     summary << ", mesh " << task.mesh->triangles << " triangles ("
-            << task.mesh->remade << " of " << task.mesh->tiles.size()
-            << " tiles made, " << static_cast<int>(task.mesh->seconds * 1000)
-            << " ms)";
+            << task.mesh->remade << " tiles made, " << task.mesh->left
+            << " left, " << task.mesh->left_new << " of them new, "
+            << static_cast<int>(task.mesh->seconds * 1000) << " ms)";
   if (model_published) summary << ", model v" << pending_model_version_;
   summary << " (" << static_cast<int>(task.seconds * 1000) << " ms)";
   return summary.str();

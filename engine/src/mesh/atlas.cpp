@@ -141,7 +141,7 @@ cv::Vec3d sample(const cv::Mat& bgr, const Eigen::Vector2d& p) {
 // other patches share, of the mean colour all those patches' photos give
 // there over this patch's own; clamped, so a bad seam cannot recolour a
 // patch.
-void level_patches(std::vector<Patch>& patches, const TexturedMesh& mesh,
+void level_patches(std::vector<Patch>& patches,
                    const std::vector<TextureView>& views) {
   std::unordered_map<std::uint32_t,
                      std::vector<std::pair<std::size_t, cv::Vec3d>>>
@@ -261,7 +261,7 @@ TexturedMesh build_atlas(
   // many of them for the limit leave the surface with its vertex colours.
   while ((size = pack(patches, scale, limit)).empty())
     if ((scale *= 0.9) < 1e-3) return mesh;
-  level_patches(patches, mesh, views);
+  level_patches(patches, views);
   TexturedMesh out = with_uvs(patches, mesh, size);
   out.atlas = paint_atlas(patches, mesh, views, size);
   return out;

@@ -560,6 +560,10 @@ std::string encode_glb_meshes(const std::vector<GlbMesh>& meshes,
   return encode_parts(parts, frame);
 }
 
+std::string encode_atlas_jpeg(const cv::Mat& atlas, int jpeg_quality) {
+  return jpeg_of(atlas, jpeg_quality);
+}
+
 GlbMesh decode_glb_mesh(const std::string& bytes) {
   const Glb glb = split_glb(bytes);
   try {

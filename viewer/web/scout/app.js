@@ -39,6 +39,7 @@ const state = {
   device: '',
   objectUrls: new Map(), // captureId -> thumbnail URL
   shown: '', // the photo in the see-through view
+  overlayDraw: 'points', // what the see-through draws: 'points' or 'mesh'
 };
 
 const api = new ApiClient({ tokens, onUnauthorized: () => tokenRejected(TOKEN_REJECTED) });
@@ -492,9 +493,13 @@ async function follow() {
 
 // ---- AR: the model over the photo and over the live view --------------------
 
-async function overlayUrl(captureId, maxSide) {
+// draw 'mesh': the textured surface alone (opacity 100), which the
+// see-through slider fades over the photo; 'points': the depth-coloured
+// cloud blended by the server.
+async function overlayUrl(captureId, maxSide, draw = 'points') {
   const id = serverIdOf(state.photos.get(captureId) || { captureId });
-  const blob = await api.blob(`/v1/captures/${encodeURIComponent(id)}/overlay.jpg?max_side=${maxSide}`);
+  const query = draw === 'mesh' ? `max_side=${maxSide}&draw=mesh&opacity=100` : `max_side=${maxSide}`;
+  const blob = await api.blob(`/v1/captures/${encodeURIComponent(id)}/overlay.jpg?${query}`);
   return URL.createObjectURL(blob);
 }
 
@@ -529,13 +534,48 @@ async function openSeeThrough(captureId) {
   setView('see-through');
   renderSeeThroughCaption(photo);
   $('see-through-photo').src = await thumbnailOf(photo);
+  await loadSeeThroughOverlay(photo);
+}
+
+// The shown photo's overlay as the switch asks; a site without a surface
+// yet says so and shows its points.
+async function loadSeeThroughOverlay(photo) {
   const overlay = $('see-through-overlay');
   overlay.hidden = true;
   overlay.removeAttribute('data-capture');
-  if (photo.status === CaptureStatus.REGISTERED) {
-    overlay.src = await overlayUrl(captureId, 1280).catch(() => '');
-    overlay.hidden = !overlay.src;
-    if (overlay.src) overlay.dataset.capture = captureId;
+  overlay.removeAttribute('data-draw');
+  if (photo.status !== CaptureStatus.REGISTERED) return;
+  let draw = state.overlayDraw;
+  let url = await overlayUrl(photo.captureId, 1280, draw).catch((err) => {
+    if (draw === 'mesh') {
+      $('see-through-caption').textContent =
+        `${photo.captureId}: no surface yet (${err.message}); showing the points`;
+    }
+    return '';
+  });
+  if (!url && draw === 'mesh') {
+    draw = 'points';
+    url = await overlayUrl(photo.captureId, 1280, draw).catch(() => '');
+  }
+  if (state.shown !== photo.captureId) return;  // another photo opened meanwhile
+  if (overlay.src.startsWith('blob:')) URL.revokeObjectURL(overlay.src);
+  overlay.src = url;
+  overlay.hidden = !url;
+  if (url) {
+    overlay.dataset.capture = photo.captureId;
+    overlay.dataset.draw = draw;
+  }
+}
+
+function setOverlayDraw(draw) {
+  state.overlayDraw = draw;
+  for (const b of document.querySelectorAll('#overlay-draw button')) {
+    b.setAttribute('aria-pressed', String(b.dataset.draw === draw));
+  }
+  const photo = state.photos.get(state.shown);
+  if (photo) {
+    renderSeeThroughCaption(photo);
+    loadSeeThroughOverlay(photo);
   }
 }
 
@@ -571,6 +611,9 @@ function wire() {
   $('open-map').addEventListener('click', () => setView('map'));
   $('close-see-through').addEventListener('click', () => setView('photos'));
   $('withdraw').addEventListener('click', withdrawShown);
+  for (const b of document.querySelectorAll('#overlay-draw button')) {
+    b.addEventListener('click', () => setOverlayDraw(b.dataset.draw));
+  }
   $('overlay-opacity').addEventListener('input', (e) => {
     $('see-through-overlay').style.opacity = String(e.target.value / 100);
   });

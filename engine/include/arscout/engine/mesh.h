@@ -202,6 +202,11 @@ std::vector<MeshLevel> mesh_levels(const TexturedMesh& mesh, int levels = 3);
 // texture coordinates, a position that is not finite).
 std::string encode_glb(const TexturedMesh& mesh, int jpeg_quality = 88);
 
+// The atlas as the JPEG file encode_glb embeds ("" for an empty atlas):
+// for GLBs that share one atlas (encode_glb_meshes with it as the image),
+// compressed once. Throws std::invalid_argument when it is not CV_8UC3.
+std::string encode_atlas_jpeg(const cv::Mat& atlas, int jpeg_quality = 88);
+
 // Reads a GLB written by encode_glb (or any with one indexed triangle
 // primitive of float positions; node transforms are not applied). Throws
 // std::runtime_error, naming what is wrong, for anything else.

@@ -78,10 +78,16 @@ struct WorkerOptions {
   // their timing would follow the machine.
   int prepare_ahead = 16;
   bool dense = true;
-  // A textured surface per dense tile, remade in the dense lane after the
-  // tiles whose points changed and published with them (docs/mesh.md).
-  // Needs `dense`.
+  // A textured surface per mesh tile, remade in the dense lane after each
+  // dense phase where its points changed and published with the model
+  // (docs/mesh.md). Needs `dense`.
   bool mesh = false;
+  // Seconds of mesh tile making per dense phase (after the first tile):
+  // the tiles in most need first, the others stay as published until a
+  // later phase, which the lane runs even with no photo left to sweep.
+  // Bounds what the mesh adds to the dense lane. 0: every changed tile
+  // each phase (and in deterministic runs).
+  double mesh_budget_seconds = 1.0;
   ReconstructionOptions reconstruction;
   DenseOptions dense_options;
   // Sites reconstructed at the same time; one site's work never waits for
@@ -201,21 +207,25 @@ std::vector<std::string> dense_cloud_blobs(const db::Document& model);
 std::vector<ColoredPoint> load_dense_cloud(
     db::Store& store, const std::vector<std::string>& blobs);
 
-// The surface a model document publishes (docs/mesh.md): per dense tile,
-// its levels of detail as GLB blobs (engine/mesh.h encode_glb), finest
-// first. The attribute "mesh_tiles" is an array of {tile, hash (decimal
-// string: of the points it was made from), levels: [{blob, triangles,
-// error}]}, by tile name; empty before the first mesh phase. A tile whose
-// points made no surface has no levels (it is kept so that it is not made
-// again until its points change).
+// The surface a model document publishes (docs/mesh.md): per mesh tile
+// (a column of the surface's grid), its levels of detail as GLB blobs
+// (engine/mesh.h encode_glb), finest first. The attribute "mesh_tiles" is
+// an array of {tile, hash (decimal string: of the points it was made
+// from), points, cell, levels: [{blob, triangles, error}]}, by tile name;
+// empty before the first mesh phase. A tile whose points made no surface
+// has no levels (it is kept so that it is not made again until its points
+// change). A tile's surface may be older than the cloud (its hash is then
+// not that of its points now): the mesh phase has a time budget.
 struct MeshTileLevel {
   std::string blob;  // SHA-256 of its GLB
   std::size_t triangles = 0;
   double geometric_error = 0;  // site units (metres once geo-registered)
 };
 struct MeshTileEntry {
-  std::string tile;  // the dense tile's name, "ix_iy"
-  std::uint64_t hash = 0;
+  std::string tile;        // "ix_iy": its column on the mesh grid
+  std::uint64_t hash = 0;  // of the points it was made from
+  std::size_t points = 0;  // how many
+  double cell = 0;         // the surface's grid step it was made on
   std::vector<MeshTileLevel> levels;
 };
 std::vector<MeshTileEntry> mesh_tiles_of(const db::Document& model);
