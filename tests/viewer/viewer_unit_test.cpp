@@ -38,13 +38,19 @@ ImageCamera test_camera() {
   return c;
 }
 
+// test_camera() with a lens: OpenCV's radial and tangential coefficients.
+ImageCamera with_lens(double k1, double k2, double p1, double p2, double k3) {
+  ImageCamera c = test_camera();
+  c.intrinsics.k1 = k1;
+  c.intrinsics.k2 = k2;
+  c.intrinsics.p1 = p1;
+  c.intrinsics.p2 = p2;
+  c.intrinsics.k3 = k3;
+  return c;
+}
+
 TEST(ViewerProject, AgreesWithOpenCvIncludingDistortion) {
-  ImageCamera camera = test_camera();
-  camera.intrinsics.k1 = -0.12;
-  camera.intrinsics.k2 = 0.03;
-  camera.intrinsics.p1 = 0.001;
-  camera.intrinsics.p2 = -0.002;
-  camera.intrinsics.k3 = 0.004;
+  ImageCamera camera = with_lens(-0.12, 0.03, 0.001, -0.002, 0.004);
   camera.R = Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1, 0.1).normalized())
                  .toRotationMatrix();
   camera.t = Eigen::Vector3d(0.5, -0.2, 4);
@@ -180,10 +186,7 @@ engine::TexturedMesh flat_quad(double z, double x0, double x1, double y0,
 // the lens's distortion bends the drawn edge where project() puts it, and
 // where no surface is seen the photo stays.
 TEST(ViewerOverlay, MeshIsDrawnThroughTheLensNearestFirst) {
-  ImageCamera camera = test_camera();
-  camera.intrinsics.k1 = -0.2;
-  camera.intrinsics.k2 = 0.02;
-  camera.intrinsics.p1 = 0.001;
+  const ImageCamera camera = with_lens(-0.2, 0.02, 0.001, 0, 0);
   const cv::Mat photo(480, 640, CV_8UC3, cv::Scalar(128, 128, 128));
   // A red near wall whose right edge is at normalised x 0.476 (pixel 560 of
   // a pinhole, about 549 through this lens); a blue far wall behind it

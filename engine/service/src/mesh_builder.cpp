@@ -17,7 +17,8 @@ std::string name_of(const MeshTileKey& key) {
   return dense_tile_name(key.first, key.second);
 }
 
-// Calls fn(key) for the tile of `p` and each neighbour within `margin`.
+// Calls fn(key, own) for the tile of `p` (own: true) and each neighbour
+// within `margin` (false).
 template <typename Fn>
 void for_tiles_of(const ColoredPoint& p, double edge, double margin, Fn&& fn) {
   const double fx = p.x / edge, fy = p.y / edge;
@@ -30,7 +31,8 @@ void for_tiles_of(const ColoredPoint& p, double edge, double margin, Fn&& fn) {
   const int x_lo = fx - ix < m ? -1 : 0, x_hi = ix + 1 - fx < m ? 1 : 0;
   const int y_lo = fy - iy < m ? -1 : 0, y_hi = iy + 1 - fy < m ? 1 : 0;
   for (int dx = x_lo; dx <= x_hi; ++dx)
-    for (int dy = y_lo; dy <= y_hi; ++dy) fn(MeshTileKey{ix + dx, iy + dy});
+    for (int dy = y_lo; dy <= y_hi; ++dy)
+      fn(MeshTileKey{ix + dx, iy + dy}, dx == 0 && dy == 0);
 }
 
 // The points a column's surface reads: its own and its margin's.
@@ -40,101 +42,80 @@ struct Column {
   std::size_t own = 0;  // in the column itself
 };
 
-// The cloud's points by the column they lie in, on a dense grid over the
-// columns' bounds: one pass to count, one to place, so that a tile's input
-// is read from its 3 x 3 columns instead of the whole cloud.
-class ColumnIndex {
+// The columns over the cloud's bounds, numbered row by row: a dense array
+// instead of a map in the passes over every point.
+class ColumnGrid {
  public:
-  ColumnIndex(const std::vector<ColoredPoint>& cloud, double edge)
-      : cloud_(cloud), edge_(edge) {
+  ColumnGrid(const std::vector<ColoredPoint>& cloud, double edge) {
     for (const ColoredPoint& p : cloud)
-      for_tiles_of(p, edge, 0, [&](const MeshTileKey& k) {
+      for_tiles_of(p, edge, 0, [&](const MeshTileKey& k, bool) {
         lo_ = {std::min(lo_.first, k.first), std::min(lo_.second, k.second)};
         hi_ = {std::max(hi_.first, k.first), std::max(hi_.second, k.second)};
       });
-    if (lo_.first > hi_.first) return;  // no finite point
-    start_.assign(columns() + 1, 0);
-    for (const ColoredPoint& p : cloud)
-      for_tiles_of(p, edge, 0,
-                   [&](const MeshTileKey& k) { ++start_[slot(k) + 1]; });
-    for (std::size_t c = 0; c < columns(); ++c) start_[c + 1] += start_[c];
-    order_.resize(start_.back());
-    std::vector<std::size_t> next(start_.begin(), start_.end() - 1);
-    for (std::size_t i = 0; i < cloud.size(); ++i)
-      for_tiles_of(cloud[i], edge, 0, [&](const MeshTileKey& k) {
-        order_[next[slot(k)]++] = static_cast<std::uint32_t>(i);
-      });
   }
-
-  // Per column with a point of its own: the hash, count and own count of
-  // the points its surface reads (a margin is under an edge, so it reaches
-  // one column over at most).
-  std::map<MeshTileKey, Column> columns_read(double margin) const {
-    std::vector<Column> grid(columns());
-    for (std::size_t c = 0; c < columns(); ++c)
-      for (std::size_t at = start_[c]; at < start_[c + 1]; ++at) {
-        const ColoredPoint& p = cloud_[order_[at]];
-        for_tiles_of(p, edge_, margin, [&](const MeshTileKey& k) {
-          if (!inside(k)) return;
-          Column& column = grid[slot(k)];
-          column.hash += dense_point_hash(p);
-          ++column.points;
-          column.own += slot(k) == c;
-        });
-      }
-    std::map<MeshTileKey, Column> out;
-    for (std::size_t c = 0; c < columns(); ++c)
-      if (grid[c].own > 0) out[key(c)] = grid[c];
-    return out;
-  }
-
-  // The points column `k`'s surface reads, as columns_read counted them.
-  std::vector<ColoredPoint> input(const MeshTileKey& k, double margin) const {
-    std::vector<ColoredPoint> points;
-    for (long long dx = -1; dx <= 1; ++dx)
-      for (long long dy = -1; dy <= 1; ++dy) {
-        const MeshTileKey n{k.first + dx, k.second + dy};
-        if (!inside(n)) continue;
-        const std::size_t c = slot(n);
-        for (std::size_t at = start_[c]; at < start_[c + 1]; ++at) {
-          const ColoredPoint& p = cloud_[order_[at]];
-          for_tiles_of(p, edge_, margin, [&](const MeshTileKey& t) {
-            if (t == k) points.push_back(p);
-          });
-        }
-      }
-    return points;
-  }
-
- private:
-  std::size_t columns() const {
-    return static_cast<std::size_t>(hi_.first - lo_.first + 1) *
-           static_cast<std::size_t>(hi_.second - lo_.second + 1);
+  std::size_t size() const {
+    if (lo_.first > hi_.first) return 0;  // no finite point
+    return static_cast<std::size_t>(hi_.first - lo_.first + 1) * height();
   }
   bool inside(const MeshTileKey& k) const {
     return k.first >= lo_.first && k.first <= hi_.first &&
            k.second >= lo_.second && k.second <= hi_.second;
   }
   std::size_t slot(const MeshTileKey& k) const {
-    return static_cast<std::size_t>(k.first - lo_.first) *
-               static_cast<std::size_t>(hi_.second - lo_.second + 1) +
+    return static_cast<std::size_t>(k.first - lo_.first) * height() +
            static_cast<std::size_t>(k.second - lo_.second);
   }
   MeshTileKey key(std::size_t at) const {
-    const auto h = static_cast<std::size_t>(hi_.second - lo_.second + 1);
-    return {lo_.first + static_cast<long long>(at / h),
-            lo_.second + static_cast<long long>(at % h)};
+    return {lo_.first + static_cast<long long>(at / height()),
+            lo_.second + static_cast<long long>(at % height())};
   }
 
-  const std::vector<ColoredPoint>& cloud_;
-  double edge_;
+ private:
+  std::size_t height() const {
+    return static_cast<std::size_t>(hi_.second - lo_.second + 1);
+  }
   MeshTileKey lo_{std::numeric_limits<long long>::max(),
                   std::numeric_limits<long long>::max()};
   MeshTileKey hi_{std::numeric_limits<long long>::min(),
                   std::numeric_limits<long long>::min()};
-  std::vector<std::size_t> start_;    // per column, into order_; one more
-  std::vector<std::uint32_t> order_;  // point indices by column
 };
+
+// Per column with a point of its own: the hash, count and own count of
+// the points its surface reads. One pass over the cloud.
+std::map<MeshTileKey, Column> columns_read(
+    const std::vector<ColoredPoint>& cloud, const ColumnGrid& grid, double edge,
+    double margin) {
+  std::vector<Column> columns(grid.size());
+  for (const ColoredPoint& p : cloud)
+    for_tiles_of(p, edge, margin, [&](const MeshTileKey& k, bool own) {
+      if (!grid.inside(k)) return;  // a margin past every point's column
+      Column& column = columns[grid.slot(k)];
+      column.hash += dense_point_hash(p);
+      ++column.points;
+      column.own += own;
+    });
+  std::map<MeshTileKey, Column> out;
+  for (std::size_t c = 0; c < columns.size(); ++c)
+    if (columns[c].own > 0) out[grid.key(c)] = columns[c];
+  return out;
+}
+
+// The points each of `keys`' surfaces reads, as columns_read counted
+// them, in the cloud's order. One pass over the cloud.
+std::vector<std::vector<ColoredPoint>> inputs_of(
+    const std::vector<ColoredPoint>& cloud, const ColumnGrid& grid, double edge,
+    double margin, const std::vector<MeshTileKey>& keys) {
+  std::vector<int> wanted(grid.size(), -1);
+  for (std::size_t i = 0; i < keys.size(); ++i)
+    wanted[grid.slot(keys[i])] = static_cast<int>(i);
+  std::vector<std::vector<ColoredPoint>> inputs(keys.size());
+  for (const ColoredPoint& p : cloud)
+    for_tiles_of(p, edge, margin, [&](const MeshTileKey& k, bool) {
+      if (!grid.inside(k)) return;
+      if (const int i = wanted[grid.slot(k)]; i >= 0) inputs[i].push_back(p);
+    });
+  return inputs;
+}
 
 // The key views that see the tile's box, nearest first, at most `limit`.
 std::vector<TextureView> views_of(
@@ -243,6 +224,55 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
+// Where a call's tiles lie and what they read.
+struct TileGeometry {
+  double edge = 0;    // of a column
+  double margin = 0;  // read around it
+  double voxel = 0;   // the dense cloud's
+  double cell = 0;    // the surface's grid step
+};
+
+// Tiles whose inputs one pass over the cloud gathers.
+constexpr std::size_t kTilesPerPass = 32;
+
+// The queue's tiles made in order while the budget allows (after the
+// first), their inputs read kTilesPerPass at a time.
+std::map<MeshTileKey, MeshTileEntry> make_queued(
+    const std::vector<Need>& queue, const std::vector<ColoredPoint>& cloud,
+    const ColumnGrid& grid, const TileGeometry& at,
+    const std::vector<DenseReconstruction::KeyView>& views,
+    const std::function<std::string(const std::string&)>& put_blob,
+    const MeshBuildOptions& options,
+    std::chrono::steady_clock::time_point start) {
+  std::map<MeshTileKey, MeshTileEntry> made;
+  std::size_t points_made = 0;
+  const auto making = std::chrono::steady_clock::now();
+  for (std::size_t first = 0; first < queue.size(); first += kTilesPerPass) {
+    const std::size_t last = std::min(queue.size(), first + kTilesPerPass);
+    std::vector<MeshTileKey> keys;
+    for (std::size_t q = first; q < last; ++q) keys.push_back(queue[q].key);
+    std::vector<std::vector<ColoredPoint>> inputs =
+        inputs_of(cloud, grid, at.edge, at.margin, keys);
+    for (std::size_t q = first; q < last; ++q) {
+      // The next tile's cost estimated from this call's tiles, per point.
+      const double estimate =
+          seconds_since(making) /
+          static_cast<double>(std::max<std::size_t>(points_made, 1)) *
+          static_cast<double>(queue[q].points);
+      if (options.budget_seconds > 0 && !made.empty() &&
+          seconds_since(start) + estimate > options.budget_seconds)
+        return made;
+      made[queue[q].key] =
+          make_tile(queue[q].key, inputs[q - first], at.edge, at.voxel, at.cell,
+                    views, put_blob, options);
+      inputs[q - first].clear();
+      inputs[q - first].shrink_to_fit();
+      points_made += queue[q].points;
+    }
+  }
+  return made;
+}
+
 }  // namespace
 
 MeshBuild update_mesh_tiles(
@@ -256,9 +286,10 @@ MeshBuild update_mesh_tiles(
   const double edge = options.tile_cells * cell;
   const double margin =
       (options.surface.radius_cells + 2) * cell + kIsolatedRadiusVoxels * voxel;
-  const ColumnIndex index(cloud, edge);
+  const ColumnGrid grid(cloud, edge);
   // A column with margin points alone has no cell of its own to mesh.
-  const std::map<MeshTileKey, Column> columns = index.columns_read(margin);
+  const std::map<MeshTileKey, Column> columns =
+      columns_read(cloud, grid, edge, margin);
   std::map<std::string, const MeshTileEntry*> before;
   for (const MeshTileEntry& e : published)
     if (e.cell == cell) before[e.tile] = &e;  // another grid's: dropped
@@ -274,27 +305,14 @@ MeshBuild update_mesh_tiles(
     queue.push_back(need);
   }
   std::sort(queue.begin(), queue.end());
+  const std::map<MeshTileKey, MeshTileEntry> made =
+      make_queued(queue, cloud, grid, {edge, margin, voxel, cell}, views,
+                  put_blob, options, start);
   MeshBuild build;
-  std::map<MeshTileKey, MeshTileEntry> made;
-  std::size_t points_made = 0;
-  const auto making = std::chrono::steady_clock::now();
-  for (const Need& need : queue) {
-    // The next tile's cost estimated from this call's tiles, per point.
-    const double estimate =
-        seconds_since(making) /
-        static_cast<double>(std::max<std::size_t>(points_made, 1)) *
-        static_cast<double>(need.points);
-    if (options.budget_seconds > 0 && !made.empty() &&
-        seconds_since(start) + estimate > options.budget_seconds)
-      break;
-    made[need.key] = make_tile(need.key, index.input(need.key, margin), edge,
-                               voxel, cell, views, put_blob, options);
-    points_made += need.points;
-  }
   for (const auto& [key, column] : columns) {
     MeshTileEntry entry;
     if (const auto it = made.find(key); it != made.end()) {
-      entry = std::move(it->second);
+      entry = it->second;
       entry.hash = column.hash;
       ++build.remade;
     } else if (const auto was = before.find(name_of(key));

@@ -25,11 +25,14 @@ struct MeshBuildOptions {
   int levels = 3;         // of detail, the finest included
   int max_views = 8;      // nearest key views that see a tile texture it
   int jpeg_quality = 85;  // of the atlases
-  // A mesh tile is a column this many grid steps wide (128 dense voxels, a
-  // quarter of a dense tile's edge: on the block walk's 400 photos its
-  // largest tile took about a second, so one tile's work fits a phase's
-  // budget; bench/RESULTS.md).
-  int tile_cells = 64;
+  // A mesh tile is a column this many grid steps wide (256 dense voxels,
+  // half a dense tile's edge). Narrower tiles keep the first tile of a
+  // phase, made whatever the budget, inside it (the block walk's figures
+  // in bench/RESULTS.md are for 48 steps), but at 48 steps neighbouring
+  // tiles did not meet edge to edge in
+  // EngineWorker.TheDenseLanePublishesATexturedSurfacePerTile: to find
+  // before narrowing them.
+  int tile_cells = 128;
   // Seconds of tile making per call, after the first tile: the tiles
   // whose points changed are made in order of need (never made first, then
   // by how much their point count changed) while the next one's estimated

@@ -587,8 +587,13 @@ void SiteJob::compute_dense(DenseTask& task) {
         task.settle || options_.reconstruction.deterministic
             ? 0
             : options_.mesh_budget_seconds;
+    // A cloud rebuilt from all its maps has moved as a whole (a new frame
+    // or voxel): a surface made before it would be drawn out of place
+    // until made again, so the mesh starts over, the new tiles first.
+    const std::vector<MeshTileEntry> none;
     task.mesh =
-        update_mesh_tiles(points, dense.voxel_size(), task.published_mesh,
+        update_mesh_tiles(points, dense.voxel_size(),
+                          task.update.refused ? none : task.published_mesh,
                           dense.key_views(), put, mesh_options);
   }
   task.voxel_size = dense.voxel_size();
