@@ -6,10 +6,13 @@
 #include <limits>
 #include <map>
 
+#include "arscout/util/clock.h"
 #include "dense_tiles.h"
 
 namespace arscout::engine::service {
 namespace {
+
+using util::seconds_since;
 
 using MeshTileKey = std::pair<long long, long long>;
 
@@ -218,11 +221,6 @@ struct Need {
     return key < o.key;
   }
 };
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-      .count();
-}
 
 // Where a call's tiles lie and what they read.
 struct TileGeometry {
