@@ -180,16 +180,16 @@ std::int64_t now_us() {
 }
 
 // The mesh seconds of `line` when it is a dense phase's ("mesh N triangles
-// (k tiles made, L left, n of them new, MS ms)"), and the tiles it left in
-// *left; negative otherwise.
+// (k tiles made, L left, n of them new, c columns read, MS ms)"), and the
+// tiles it left in *left; negative otherwise.
 double mesh_seconds(const std::string& line, long* left) {
   const auto at = line.find(", mesh ");
   if (at == std::string::npos) return -1;
   const auto made = line.find("tiles made, ", at);
-  const auto ms = line.find(" of them new, ", at);
+  const auto ms = line.find(" columns read, ", at);
   if (made == std::string::npos || ms == std::string::npos) return -1;
   *left = std::atol(line.c_str() + made + 12);
-  return std::atof(line.c_str() + ms + 14) / 1000;
+  return std::atof(line.c_str() + ms + 15) / 1000;
 }
 
 // Per photo (in storing order), the mesh seconds of the first dense phase

@@ -876,6 +876,80 @@ TEST(DenseStagesVoxelCloud, FirstSeenOrderIsDeterministic) {
   EXPECT_NEAR(out[0].x, 5.55, 1e-6);
 }
 
+// The points of a box as points() filtered, in its order.
+std::vector<ColoredPoint> filtered(const std::vector<ColoredPoint>& all,
+                                   const Eigen::Vector2d& lo,
+                                   const Eigen::Vector2d& hi) {
+  std::vector<ColoredPoint> in;
+  for (const ColoredPoint& p : all)
+    if (p.x >= lo.x() && p.x < hi.x() && p.y >= lo.y() && p.y < hi.y())
+      in.push_back(p);
+  return in;
+}
+
+TEST(DenseStagesVoxelCloud, BlocksFollowTheChangesAndPointsInReadsABox) {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> coord(-6, 6);
+  std::vector<Eigen::Vector3d> samples;
+  for (int i = 0; i < 6000; ++i)
+    samples.emplace_back(coord(rng), coord(rng), coord(rng) / 4);
+  VoxelCloud cloud(0.1);  // blocks of 1.6 m
+  ASSERT_DOUBLE_EQ(cloud.block_edge(), 1.6);
+  for (const auto& p : samples) cloud.add(p, {1, 2, 3});
+  std::size_t listed = 0;
+  for (const CloudBlock& block : cloud.blocks()) {
+    EXPECT_GT(block.points, 0u);
+    listed += block.points;
+  }
+  EXPECT_EQ(listed, cloud.size());
+  // Any box, block edges or not: exactly points() inside it, in its order.
+  for (const auto& [lo, hi] :
+       {std::pair{Eigen::Vector2d(-1.6, 0), Eigen::Vector2d(1.6, 3.2)},
+        std::pair{Eigen::Vector2d(-2.05, -5.3), Eigen::Vector2d(0.77, 4.1)},
+        std::pair{Eigen::Vector2d(-100, -100), Eigen::Vector2d(100, 100)}}) {
+    const auto want = filtered(cloud.points(), lo, hi);
+    const auto got = cloud.points_in(lo, hi);
+    ASSERT_EQ(got.size(), want.size());
+    for (std::size_t i = 0; i < got.size(); ++i) {
+      EXPECT_EQ(got[i].x, want[i].x);
+      EXPECT_EQ(got[i].y, want[i].y);
+      EXPECT_EQ(got[i].z, want[i].z);
+    }
+  }
+  // After a mark, only the blocks edited carry a later stamp; a block
+  // emptied is listed with no point.
+  const std::uint64_t seen = cloud.mark();
+  cloud.add({0.05, 0.05, 0}, {1, 2, 3});  // block (0, 0)
+  std::size_t emptied = 0;
+  for (const auto& p : samples)
+    if (p.x() >= 3.2 && p.x() < 4.8 && p.y() >= 3.2 && p.y() < 4.8) {
+      ASSERT_TRUE(cloud.remove(p, {1, 2, 3}));  // block (2, 2)
+      ++emptied;
+    }
+  ASSERT_GT(emptied, 0u);
+  for (const CloudBlock& block : cloud.blocks()) {
+    const bool added = block.ix == 0 && block.iy == 0;
+    const bool emptied = block.ix == 2 && block.iy == 2;
+    EXPECT_EQ(block.points == 0, emptied);
+    EXPECT_EQ(block.changed > seen, added || emptied)
+        << block.ix << " " << block.iy;
+  }
+  // Removals far past half the voxels compact the cloud: the blocks still
+  // read what points() holds.
+  for (const auto& p : samples)
+    if (p.x() < 2) cloud.remove(p, {1, 2, 3});
+  const Eigen::Vector2d lo(-7, -7), hi(7, 7);
+  EXPECT_EQ(cloud.points_in(lo, hi).size(), cloud.points().size());
+  // A cloud made later, or cleared, is all later stamps.
+  const std::uint64_t before = cloud.mark();
+  VoxelCloud other(0.1);
+  other.add({0, 0, 0}, {1, 2, 3});
+  cloud.clear();
+  cloud.add({0, 0, 0}, {1, 2, 3});
+  EXPECT_GT(other.blocks().front().changed, before);
+  EXPECT_GT(cloud.blocks().front().changed, before);
+}
+
 // ---------------------------------------------------------------------------
 // render_points
 

@@ -119,10 +119,60 @@ TEST(MeshSurface, CoversTheSampledSurface) {
 
 TEST(MeshSurface, TwoColumnsMeetEdgeToEdge) {
   const auto points = box_cloud(kVoxel, 0.003);
-  const auto left = vertices_at_x0(left_half(points));
-  const auto right = vertices_at_x0(right_half(points));
+  // Untrimmed: the trim drops a triangle on one side of the border and
+  // keeps its neighbour on the other where the rim below the walls ends,
+  // as one surface over both columns would (the service's
+  // MeshBuilder.TheTilesTogetherAreTheSurfaceMadeAsOne checks that).
+  SurfaceOptions options;
+  options.trim_cells = 0;
+  const auto left = vertices_at_x0(
+      mesh_surface(points, {-10, -10}, {0, 10}, kVoxel, options));
+  const auto right =
+      vertices_at_x0(mesh_surface(points, {0, -10}, {10, 10}, kVoxel, options));
   ASSERT_GT(left.size(), 50u);
   EXPECT_EQ(left, right);
+}
+
+// The largest distance from a triangle's centre to its nearest point.
+double farthest_centre(const TexturedMesh& m,
+                       const std::vector<ColoredPoint>& points) {
+  std::vector<Eigen::Vector3f> positions;
+  for (const ColoredPoint& p : points) positions.emplace_back(p.x, p.y, p.z);
+  const mesh::PointHash hash(positions, 0.5);
+  double farthest = 0;
+  for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+    const Eigen::Vector3d centre =
+        ((m.positions[m.indices[t]] + m.positions[m.indices[t + 1]] +
+          m.positions[m.indices[t + 2]]) /
+         3)
+            .cast<double>();
+    double nearest = 0.5;
+    hash.within(centre, 0.5, [&](std::uint32_t, double d2) {
+      nearest = std::min(nearest, std::sqrt(d2));
+    });
+    farthest = std::max(farthest, nearest);
+  }
+  return farthest;
+}
+
+TEST(MeshSurface, NoTriangleLiesFartherThanTheTrimFromThePoints) {
+  // The box's points with a square window cut out of a wall: the blending
+  // bridges into the hole and rims its edge, past the data.
+  std::vector<ColoredPoint> points = box_cloud(kVoxel, 0.003);
+  std::erase_if(points, [](const ColoredPoint& p) {
+    return p.y < -kHalf + 0.05 && std::abs(p.x + 1) < 0.3 &&
+           std::abs(p.z - 1.5) < 0.3;
+  });
+  const double cell = 2 * kVoxel;
+  SurfaceOptions untrimmed;
+  untrimmed.trim_cells = 0;
+  const TexturedMesh loose =
+      mesh_surface(points, {-10, -10}, {0, 10}, kVoxel, untrimmed);
+  const TexturedMesh trimmed = left_half(points);
+  EXPECT_GT(farthest_centre(loose, points), 1.2 * cell);
+  EXPECT_LE(farthest_centre(trimmed, points), 1.0 * cell + 1e-6);
+  // What is measured stays: nearly all of it.
+  EXPECT_GT(trimmed.triangles(), loose.triangles() * 97 / 100);
 }
 
 TEST(MeshSurface, TrianglesFaceTheNormalsSide) {

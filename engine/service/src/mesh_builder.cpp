@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <set>
 
 #include "arscout/util/clock.h"
 #include "dense_tiles.h"
@@ -38,87 +39,141 @@ void for_tiles_of(const ColoredPoint& p, double edge, double margin, Fn&& fn) {
       fn(MeshTileKey{ix + dx, iy + dy}, dx == 0 && dy == 0);
 }
 
-// The points a column's surface reads: its own and its margin's.
-struct Column {
-  std::uint64_t hash = 0;  // of them all
-  std::size_t points = 0;
-  std::size_t own = 0;  // in the column itself
-};
+// A share of a column's edge: slack for bounds that for_tiles_of's division
+// and a float point may place either side of.
+constexpr double kHair = 1e-4;
 
-// The columns over the cloud's bounds, numbered row by row: a dense array
-// instead of a map in the passes over every point.
-class ColumnGrid {
+// Whether `p` is among the points the surface of column `key` reads, and
+// whether in the column itself (for_tiles_of's test).
+bool reads(const ColoredPoint& p, const MeshTileKey& key, double edge,
+           double margin, bool* own) {
+  bool found = false;
+  for_tiles_of(p, edge, margin, [&](const MeshTileKey& k, bool in_column) {
+    if (k != key) return;
+    found = true;
+    *own = in_column;
+  });
+  return found;
+}
+
+// A column's x-y bounds, grown by `reach` on every side.
+std::pair<Eigen::Vector2d, Eigen::Vector2d> column_box(const MeshTileKey& key,
+                                                       double edge,
+                                                       double reach) {
+  // Each bound from its own index: a neighbour's lower bound is then this
+  // column's upper one to the bit.
+  const Eigen::Vector2d lo(static_cast<double>(key.first) * edge,
+                           static_cast<double>(key.second) * edge);
+  const Eigen::Vector2d hi(static_cast<double>(key.first + 1) * edge,
+                           static_cast<double>(key.second + 1) * edge);
+  const Eigen::Vector2d grow(reach, reach);
+  return {lo - grow, hi + grow};
+}
+
+// The points a column's surface reads (its own and its margin's), in the
+// cloud's order, and how many are its own.
+std::vector<ColoredPoint> inputs_of(const MeshCloud& cloud,
+                                    const MeshTileKey& key, double edge,
+                                    double margin, std::size_t* own_count) {
+  // A hair more: points_in tests the points, for_tiles_of divides them.
+  const auto [lo, hi] = column_box(key, edge, margin + kHair * edge);
+  std::vector<ColoredPoint> points = cloud.points_in(lo, hi);
+  *own_count = 0;
+  std::erase_if(points, [&](const ColoredPoint& p) {
+    bool own = false;
+    if (!reads(p, key, edge, margin, &own)) return true;
+    *own_count += own;
+    return false;
+  });
+  return points;
+}
+
+// The columns of `edge` that the points of the blocks `take` accepts lie
+// in, or reach within `reach` (for_tiles_of's floor of x / edge).
+template <typename Take>
+std::set<MeshTileKey> columns_of_blocks(const std::vector<CloudBlock>& blocks,
+                                        double edge, double reach,
+                                        Take&& take) {
+  std::set<MeshTileKey> columns;
+  const auto column = [edge](double v) {
+    return static_cast<long long>(std::floor(v / edge));
+  };
+  for (const CloudBlock& block : blocks) {
+    // Bounds past every finite point (a stray sample at infinity): its
+    // points have no column (for_tiles_of).
+    if (!take(block) || !std::isfinite(block.min_x) ||
+        !std::isfinite(block.max_x) || !std::isfinite(block.min_y) ||
+        !std::isfinite(block.max_y) || block.min_x > block.max_x)
+      continue;
+    for (long long ix = column(block.min_x - reach);
+         ix <= column(block.max_x + reach); ++ix)
+      for (long long iy = column(block.min_y - reach);
+           iy <= column(block.max_y + reach); ++iy)
+        columns.insert({ix, iy});
+  }
+  return columns;
+}
+
+// A cloud given whole, bucketed by blocks, every block stamped 1.
+class WholeCloud : public MeshCloud {
  public:
-  ColumnGrid(const std::vector<ColoredPoint>& cloud, double edge) {
-    for (const ColoredPoint& p : cloud)
-      for_tiles_of(p, edge, 0, [&](const MeshTileKey& k, bool) {
-        lo_ = {std::min(lo_.first, k.first), std::min(lo_.second, k.second)};
-        hi_ = {std::max(hi_.first, k.first), std::max(hi_.second, k.second)};
-      });
+  WholeCloud(const std::vector<ColoredPoint>& points, double block_edge)
+      : points_(points), edge_(block_edge) {
+    // A point past for_tiles_of's range has no column: no block either.
+    for (std::size_t i = 0; i < points.size(); ++i)
+      if (std::abs(points[i].x / edge_) < 1e9 &&
+          std::abs(points[i].y / edge_) < 1e9)
+        buckets_[block_of(points[i])].push_back(i);
   }
-  std::size_t size() const {
-    if (lo_.first > hi_.first) return 0;  // no finite point
-    return static_cast<std::size_t>(hi_.first - lo_.first + 1) * height();
+  double block_edge() const override { return edge_; }
+  std::vector<CloudBlock> blocks() const override {
+    std::vector<CloudBlock> blocks;
+    for (const auto& [key, members] : buckets_) {
+      CloudBlock block{key.first, key.second, 1, members.size()};
+      block.min_x = block.max_x = points_[members.front()].x;
+      block.min_y = block.max_y = points_[members.front()].y;
+      for (const std::size_t i : members) {
+        block.min_x = std::min(block.min_x, points_[i].x);
+        block.max_x = std::max(block.max_x, points_[i].x);
+        block.min_y = std::min(block.min_y, points_[i].y);
+        block.max_y = std::max(block.max_y, points_[i].y);
+      }
+      blocks.push_back(block);
+    }
+    return blocks;
   }
-  bool inside(const MeshTileKey& k) const {
-    return k.first >= lo_.first && k.first <= hi_.first &&
-           k.second >= lo_.second && k.second <= hi_.second;
-  }
-  std::size_t slot(const MeshTileKey& k) const {
-    return static_cast<std::size_t>(k.first - lo_.first) * height() +
-           static_cast<std::size_t>(k.second - lo_.second);
-  }
-  MeshTileKey key(std::size_t at) const {
-    return {lo_.first + static_cast<long long>(at / height()),
-            lo_.second + static_cast<long long>(at % height())};
+  std::vector<ColoredPoint> points_in(
+      const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) const override {
+    std::vector<std::size_t> at;
+    for (const auto& [key, members] : buckets_)
+      if (overlaps(key, lo, hi))
+        at.insert(at.end(), members.begin(), members.end());
+    std::sort(at.begin(), at.end());
+    std::vector<ColoredPoint> points;
+    for (const std::size_t i : at) {
+      const ColoredPoint& p = points_[i];
+      if (p.x >= lo.x() && p.x < hi.x() && p.y >= lo.y() && p.y < hi.y())
+        points.push_back(p);
+    }
+    return points;
   }
 
  private:
-  std::size_t height() const {
-    return static_cast<std::size_t>(hi_.second - lo_.second + 1);
+  MeshTileKey block_of(const ColoredPoint& p) const {
+    return {static_cast<long long>(std::floor(p.x / edge_)),
+            static_cast<long long>(std::floor(p.y / edge_))};
   }
-  MeshTileKey lo_{std::numeric_limits<long long>::max(),
-                  std::numeric_limits<long long>::max()};
-  MeshTileKey hi_{std::numeric_limits<long long>::min(),
-                  std::numeric_limits<long long>::min()};
+  bool overlaps(const MeshTileKey& key, const Eigen::Vector2d& lo,
+                const Eigen::Vector2d& hi) const {
+    const double x = static_cast<double>(key.first) * edge_;
+    const double y = static_cast<double>(key.second) * edge_;
+    return x + edge_ >= lo.x() && x <= hi.x() && y + edge_ >= lo.y() &&
+           y <= hi.y();
+  }
+  const std::vector<ColoredPoint>& points_;
+  double edge_;
+  std::map<MeshTileKey, std::vector<std::size_t>> buckets_;
 };
-
-// Per column with a point of its own: the hash, count and own count of
-// the points its surface reads. One pass over the cloud.
-std::map<MeshTileKey, Column> columns_read(
-    const std::vector<ColoredPoint>& cloud, const ColumnGrid& grid, double edge,
-    double margin) {
-  std::vector<Column> columns(grid.size());
-  for (const ColoredPoint& p : cloud)
-    for_tiles_of(p, edge, margin, [&](const MeshTileKey& k, bool own) {
-      if (!grid.inside(k)) return;  // a margin past every point's column
-      Column& column = columns[grid.slot(k)];
-      column.hash += dense_point_hash(p);
-      ++column.points;
-      column.own += own;
-    });
-  std::map<MeshTileKey, Column> out;
-  for (std::size_t c = 0; c < columns.size(); ++c)
-    if (columns[c].own > 0) out[grid.key(c)] = columns[c];
-  return out;
-}
-
-// The points each of `keys`' surfaces reads, as columns_read counted
-// them, in the cloud's order. One pass over the cloud.
-std::vector<std::vector<ColoredPoint>> inputs_of(
-    const std::vector<ColoredPoint>& cloud, const ColumnGrid& grid, double edge,
-    double margin, const std::vector<MeshTileKey>& keys) {
-  std::vector<int> wanted(grid.size(), -1);
-  for (std::size_t i = 0; i < keys.size(); ++i)
-    wanted[grid.slot(keys[i])] = static_cast<int>(i);
-  std::vector<std::vector<ColoredPoint>> inputs(keys.size());
-  for (const ColoredPoint& p : cloud)
-    for_tiles_of(p, edge, margin, [&](const MeshTileKey& k, bool) {
-      if (!grid.inside(k)) return;
-      if (const int i = wanted[grid.slot(k)]; i >= 0) inputs[i].push_back(p);
-    });
-  return inputs;
-}
 
 // The key views that see the tile's box, nearest first, at most `limit`.
 std::vector<TextureView> views_of(
@@ -166,8 +221,7 @@ MeshTileEntry make_tile(
   entry.tile = name_of(key);
   entry.points = points.size();
   entry.cell = cell;
-  const Eigen::Vector2d lo(static_cast<double>(key.first) * edge,
-                           static_cast<double>(key.second) * edge);
+  const auto [lo, hi] = column_box(key, edge, 0);
   SurfaceOptions surface_options = options.surface;
   surface_options.cell = cell;
   // The pass the published tiles had, over the tile and its margin: a
@@ -176,7 +230,7 @@ MeshTileEntry make_tile(
   const TexturedMesh surface = mesh_surface(
       without_isolated_points(points, kIsolatedRadiusVoxels * voxel,
                               kIsolatedMinNeighbours),
-      lo, lo + Eigen::Vector2d(edge, edge), voxel, surface_options);
+      lo, hi, voxel, surface_options);
   if (surface.empty()) return entry;
   const TexturedMesh textured = texture_mesh(
       surface, views_of(surface, views, options.max_views), options.texture);
@@ -230,14 +284,11 @@ struct TileGeometry {
   double cell = 0;    // the surface's grid step
 };
 
-// Tiles whose inputs one pass over the cloud gathers.
-constexpr std::size_t kTilesPerPass = 32;
-
 // The queue's tiles made in order while the budget allows (after the
-// first), their inputs read kTilesPerPass at a time.
+// first), each from its column's points read again.
 std::map<MeshTileKey, MeshTileEntry> make_queued(
-    const std::vector<Need>& queue, const std::vector<ColoredPoint>& cloud,
-    const ColumnGrid& grid, const TileGeometry& at,
+    const std::vector<Need>& queue, const MeshCloud& cloud,
+    const TileGeometry& at,
     const std::vector<DenseReconstruction::KeyView>& views,
     const std::function<std::string(const std::string&)>& put_blob,
     const MeshBuildOptions& options,
@@ -245,52 +296,66 @@ std::map<MeshTileKey, MeshTileEntry> make_queued(
   std::map<MeshTileKey, MeshTileEntry> made;
   std::size_t points_made = 0;
   const auto making = std::chrono::steady_clock::now();
-  for (std::size_t first = 0; first < queue.size(); first += kTilesPerPass) {
-    const std::size_t last = std::min(queue.size(), first + kTilesPerPass);
-    std::vector<MeshTileKey> keys;
-    for (std::size_t q = first; q < last; ++q) keys.push_back(queue[q].key);
-    std::vector<std::vector<ColoredPoint>> inputs =
-        inputs_of(cloud, grid, at.edge, at.margin, keys);
-    for (std::size_t q = first; q < last; ++q) {
-      // The next tile's cost estimated from this call's tiles, per point.
-      const double estimate =
-          seconds_since(making) /
-          static_cast<double>(std::max<std::size_t>(points_made, 1)) *
-          static_cast<double>(queue[q].points);
-      if (options.budget_seconds > 0 && !made.empty() &&
-          seconds_since(start) + estimate > options.budget_seconds)
-        return made;
-      made[queue[q].key] =
-          make_tile(queue[q].key, inputs[q - first], at.edge, at.voxel, at.cell,
-                    views, put_blob, options);
-      inputs[q - first].clear();
-      inputs[q - first].shrink_to_fit();
-      points_made += queue[q].points;
-    }
+  for (const Need& need : queue) {
+    // The next tile's cost estimated from this call's tiles, per point.
+    const double estimate =
+        seconds_since(making) /
+        static_cast<double>(std::max<std::size_t>(points_made, 1)) *
+        static_cast<double>(need.points);
+    if (options.budget_seconds > 0 && !made.empty() &&
+        seconds_since(start) + estimate > options.budget_seconds)
+      break;
+    std::size_t own = 0;
+    made[need.key] = make_tile(
+        need.key, inputs_of(cloud, need.key, at.edge, at.margin, &own), at.edge,
+        at.voxel, at.cell, views, put_blob, options);
+    points_made += need.points;
   }
   return made;
 }
 
-}  // namespace
+// The columns a call reads again: near a block changed since the cursor
+// (every column with a block when the cursor is for another grid, or
+// none), of those holding a block at all.
+std::set<MeshTileKey> columns_to_look_at(const std::vector<CloudBlock>& blocks,
+                                         const TileGeometry& at,
+                                         const MeshCursor& since,
+                                         const std::set<MeshTileKey>& held) {
+  if (since.seen == 0 || since.cell != at.cell) return held;
+  std::set<MeshTileKey> look = columns_of_blocks(
+      blocks, at.edge, at.margin + kHair * at.edge,
+      [&](const CloudBlock& block) { return block.changed > since.seen; });
+  std::erase_if(look, [&](const MeshTileKey& k) { return !held.count(k); });
+  return look;
+}
 
-MeshBuild update_mesh_tiles(
-    const std::vector<ColoredPoint>& cloud, double voxel,
-    const std::vector<MeshTileEntry>& published,
-    const std::vector<DenseReconstruction::KeyView>& views,
-    const std::function<std::string(const std::string& bytes)>& put_blob,
-    const MeshBuildOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  const double cell = grid_cell(published, voxel, options);
-  const double edge = options.tile_cells * cell;
-  const double margin =
-      (options.surface.radius_cells + 2) * cell + kIsolatedRadiusVoxels * voxel;
-  const ColumnGrid grid(cloud, edge);
-  // A column with margin points alone has no cell of its own to mesh.
-  const std::map<MeshTileKey, Column> columns =
-      columns_read(cloud, grid, edge, margin);
-  std::map<std::string, const MeshTileEntry*> before;
-  for (const MeshTileEntry& e : published)
-    if (e.cell == cell) before[e.tile] = &e;  // another grid's: dropped
+// A column read again: its inputs' hash and counts.
+struct Column {
+  std::uint64_t hash = 0;
+  std::size_t points = 0;
+  std::size_t own = 0;
+};
+
+std::map<MeshTileKey, Column> read_columns(const MeshCloud& cloud,
+                                           const std::set<MeshTileKey>& keys,
+                                           const TileGeometry& at) {
+  std::map<MeshTileKey, Column> columns;
+  for (const MeshTileKey& key : keys) {
+    Column column;
+    const std::vector<ColoredPoint> inputs =
+        inputs_of(cloud, key, at.edge, at.margin, &column.own);
+    for (const ColoredPoint& p : inputs) column.hash += dense_point_hash(p);
+    column.points = inputs.size();
+    // A column with margin points alone has no cell of its own to mesh.
+    if (column.own > 0) columns[key] = column;
+  }
+  return columns;
+}
+
+// The changed columns' places in the queue (see Need).
+std::vector<Need> queue_of(
+    const std::map<MeshTileKey, Column>& columns,
+    const std::map<std::string, const MeshTileEntry*>& before) {
   std::vector<Need> queue;
   for (const auto& [key, column] : columns) {
     const auto was = before.find(name_of(key));
@@ -303,31 +368,100 @@ MeshBuild update_mesh_tiles(
     queue.push_back(need);
   }
   std::sort(queue.begin(), queue.end());
-  const std::map<MeshTileKey, MeshTileEntry> made =
-      make_queued(queue, cloud, grid, {edge, margin, voxel, cell}, views,
-                  put_blob, options, start);
-  MeshBuild build;
-  for (const auto& [key, column] : columns) {
-    MeshTileEntry entry;
-    if (const auto it = made.find(key); it != made.end()) {
-      entry = it->second;
-      entry.hash = column.hash;
-      ++build.remade;
-    } else if (const auto was = before.find(name_of(key));
-               was != before.end()) {
-      entry = *was->second;  // unchanged, or stale until a later call
-      build.left += entry.hash != column.hash;
-    } else {
-      ++build.left;  // never made: nothing to publish yet
-      ++build.left_new;
-      continue;
-    }
+  return queue;
+}
+
+StaleColumn stale(const MeshTileKey& key, const Column& column) {
+  return {key.first, key.second, column.hash, column.points};
+}
+
+// Each column's tile after a call: made now, kept, or left stale; a
+// column never made and left has none. Counts into `build`.
+void gather_tiles(const std::set<MeshTileKey>& held,
+                  const std::map<MeshTileKey, Column>& looked,
+                  const std::map<MeshTileKey, MeshTileEntry>& made,
+                  const std::map<std::string, const MeshTileEntry*>& before,
+                  const std::set<MeshTileKey>& looked_at, MeshBuild* build) {
+  const auto publish = [build](const MeshTileEntry& entry) {
     if (!entry.levels.empty())
-      build.triangles += entry.levels.front().triangles;
-    build.tiles.push_back(std::move(entry));
+      build->triangles += entry.levels.front().triangles;
+    build->tiles.push_back(entry);
+  };
+  for (const MeshTileKey& key : held) {
+    const auto was = before.find(name_of(key));
+    const auto column = looked.find(key);
+    if (column == looked.end()) {
+      // Not read again: unchanged since the cursor; gone if read and empty.
+      if (!looked_at.count(key) && was != before.end()) publish(*was->second);
+    } else if (const auto it = made.find(key); it != made.end()) {
+      MeshTileEntry entry = it->second;
+      entry.hash = column->second.hash;
+      publish(entry);
+      ++build->remade;
+    } else if (was != before.end()) {
+      publish(*was->second);  // unchanged, or stale until a later call
+      if (was->second->hash != column->second.hash) {
+        ++build->left;
+        build->cursor.left.push_back(stale(key, column->second));
+      }
+    } else {
+      ++build->left;  // never made: nothing to publish yet
+      ++build->left_new;
+      build->cursor.left.push_back(stale(key, column->second));
+    }
   }
+}
+
+}  // namespace
+
+MeshBuild update_mesh_tiles(
+    const MeshCloud& cloud, std::uint64_t now, double voxel,
+    const std::vector<MeshTileEntry>& published, const MeshCursor& since,
+    const std::vector<DenseReconstruction::KeyView>& views,
+    const std::function<std::string(const std::string& bytes)>& put_blob,
+    const MeshBuildOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  TileGeometry at;
+  at.voxel = voxel;
+  at.cell = grid_cell(published, voxel, options);
+  at.edge = options.tile_cells * at.cell;
+  at.margin = (options.surface.radius_cells + 2) * at.cell +
+              kIsolatedRadiusVoxels * voxel;
+  std::map<std::string, const MeshTileEntry*> before;
+  for (const MeshTileEntry& e : published)
+    if (e.cell == at.cell) before[e.tile] = &e;  // another grid's: dropped
+  const std::vector<CloudBlock> blocks = cloud.blocks();
+  // The columns a block may hold a point of.
+  const std::set<MeshTileKey> held = columns_of_blocks(
+      blocks, at.edge, 0, [](const CloudBlock& b) { return b.points > 0; });
+  const std::set<MeshTileKey> look =
+      columns_to_look_at(blocks, at, since, held);
+  std::map<MeshTileKey, Column> looked = read_columns(cloud, look, at);
+  // The columns left stale and unchanged since: as the cursor read them.
+  if (since.cell == at.cell)
+    for (const StaleColumn& c : since.left)
+      if (held.count({c.ix, c.iy}) && !look.count({c.ix, c.iy}))
+        looked[{c.ix, c.iy}] = Column{c.hash, c.points, 1};
+  const std::map<MeshTileKey, MeshTileEntry> made = make_queued(
+      queue_of(looked, before), cloud, at, views, put_blob, options, start);
+  MeshBuild build;
+  build.cursor.seen = now;
+  build.cursor.cell = at.cell;
+  build.looked_at = look.size();
+  gather_tiles(held, looked, made, before, look, &build);
   build.seconds = seconds_since(start);
   return build;
+}
+
+MeshBuild update_mesh_tiles(
+    const std::vector<ColoredPoint>& cloud, double voxel,
+    const std::vector<MeshTileEntry>& published,
+    const std::vector<DenseReconstruction::KeyView>& views,
+    const std::function<std::string(const std::string& bytes)>& put_blob,
+    const MeshBuildOptions& options) {
+  const WholeCloud whole(cloud, 16 * voxel);
+  return update_mesh_tiles(whole, 0, voxel, published, {}, views, put_blob,
+                           options);
 }
 
 }  // namespace arscout::engine::service

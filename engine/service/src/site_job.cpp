@@ -115,6 +115,7 @@ void SiteJob::restore() {
     dense_ = std::make_shared<DenseReconstruction>(lane_dense_options());
   dense_tiles_.clear();
   mesh_tiles_.clear();
+  mesh_cursor_ = {};  // a restored cloud: every column looked at again
   dense_points_ = 0;
   dense_views_.clear();
   if (auto model = store_.get(site_path(id_, "model"))) {
@@ -130,6 +131,7 @@ void SiteJob::restore() {
   }
   pending_dense_tiles_ = dense_tiles_;
   pending_mesh_tiles_ = mesh_tiles_;
+  pending_mesh_cursor_ = mesh_cursor_;
   auto state = store_.get(site_path(id_, "engine"));
   engine_version_ = state ? state->version : 0;
   const documents::EngineState header =
@@ -538,6 +540,7 @@ std::optional<DenseTask> SiteJob::begin_dense() {
   task.generation = generation_;
   task.published = dense_tiles_;
   task.published_mesh = mesh_tiles_;
+  task.mesh_cursor = mesh_cursor_;
   task.model = sparse_->model();
   task.added = std::move(dense_added_);
   task.withdrawn = std::move(dense_withdrawn_);
@@ -570,12 +573,10 @@ void SiteJob::compute_dense(DenseTask& task) {
   const auto put = [this](const std::string& bytes) {
     return store_.put_blob(bytes);
   };
-  std::vector<ColoredPoint> points;
-  if (!task.tiles_held || meshing) points = dense.points();
   if (!task.tiles_held) {
     task.tiles = store_dense_tiles(
-        points, dense_tile_size(dense.voxel_size()), task.published, put,
-        kIsolatedRadiusVoxels * dense.voxel_size(),
+        dense.points(), dense_tile_size(dense.voxel_size()), task.published,
+        put, kIsolatedRadiusVoxels * dense.voxel_size(),
         dense.voxel_size() > 0 ? kIsolatedMinNeighbours : 0);
     tiles_stored_at_ = Clock::now();
   }
@@ -590,10 +591,14 @@ void SiteJob::compute_dense(DenseTask& task) {
     // A cloud rebuilt from all its maps has moved as a whole (a new frame
     // or voxel): a surface made before it would be drawn out of place
     // until made again, so the mesh starts over, the new tiles first.
+    // It reads only the columns near the cloud's changes since the
+    // published surface was made (MeshCursor), not the whole cloud.
+    const std::uint64_t now = dense.mark_cloud();
     const std::vector<MeshTileEntry> none;
     task.mesh =
-        update_mesh_tiles(points, dense.voxel_size(),
+        update_mesh_tiles(DenseMeshCloud(dense), now, dense.voxel_size(),
                           task.update.refused ? none : task.published_mesh,
+                          task.update.refused ? MeshCursor{} : task.mesh_cursor,
                           dense.key_views(), put, mesh_options);
   }
   task.voxel_size = dense.voxel_size();
@@ -650,7 +655,7 @@ Increment SiteJob::finish_dense(DenseTask& task) {
     ops.push_back(model_op(model, sparse_->captures(), report,
                            task.tiles_held ? nullptr : &task.tiles,
                            task.tiles_held ? nullptr : &task.views,
-                           task.mesh ? &task.mesh->tiles : nullptr));
+                           task.mesh ? &*task.mesh : nullptr));
     increment.model_written = true;
   }
   // Fenced like the sparse phase: a patch on the version this job wrote.
@@ -739,6 +744,7 @@ std::string SiteJob::dense_summary(const DenseTask& task,
     summary << ", mesh " << task.mesh->triangles << " triangles ("
             << task.mesh->remade << " tiles made, " << task.mesh->left
             << " left, " << task.mesh->left_new << " of them new, "
+            << task.mesh->looked_at << " columns read, "
             << static_cast<int>(task.mesh->seconds * 1000) << " ms)";
   if (model_published) summary << ", model v" << pending_model_version_;
   summary << " (" << static_cast<int>(task.seconds * 1000) << " ms)";
@@ -750,7 +756,7 @@ db::WriteOp SiteJob::model_op(const Model& model,
                               const IncrementReport& report,
                               const DenseTiles* new_cloud,
                               const std::set<std::string>* new_views,
-                              const std::vector<MeshTileEntry>* new_mesh) {
+                              const MeshBuild* new_mesh) {
   if (dense_) pending_dense_views_ = new_views ? *new_views : dense_views_;
   documents::ModelDocument doc = model_document(
       id_, model, captures, report, dense_ ? &pending_dense_views_ : nullptr);
@@ -762,7 +768,10 @@ db::WriteOp SiteJob::model_op(const Model& model,
     // replaces it.
     pending_dense_tiles_ = new_cloud ? *new_cloud : dense_tiles_;
     doc.dense_tiles = dense_tiles_json(pending_dense_tiles_);
-    if (new_mesh) pending_mesh_tiles_ = *new_mesh;
+    if (new_mesh) {
+      pending_mesh_tiles_ = new_mesh->tiles;
+      pending_mesh_cursor_ = new_mesh->cursor;
+    }
     if (!pending_mesh_tiles_.empty())
       doc.mesh_tiles = mesh_tiles_json(pending_mesh_tiles_);
   }
@@ -782,6 +791,7 @@ void SiteJob::committed() {
   }
   dense_tiles_ = pending_dense_tiles_;
   mesh_tiles_ = pending_mesh_tiles_;
+  mesh_cursor_ = pending_mesh_cursor_;
   for (const auto& [c, s] : pending_statuses_) statuses_[c] = s;
   for (const std::string& m : pending_depth_maps_) depth_maps_.insert(m);
   for (const std::string& m : pending_removed_maps_) depth_maps_.erase(m);

@@ -78,6 +78,7 @@ struct DenseTask {
   // The surface (WorkerOptions::mesh) as published when it began, and as
   // made after the tiles; empty when not made this time.
   std::vector<MeshTileEntry> published_mesh;
+  MeshCursor mesh_cursor;  // the one published_mesh was made with
   std::optional<MeshBuild> mesh;
   double voxel_size = 0;
   double seconds = 0;
@@ -216,7 +217,7 @@ class SiteJob {
                        const IncrementReport& report,
                        const DenseTiles* new_cloud = nullptr,
                        const std::set<std::string>* new_views = nullptr,
-                       const std::vector<MeshTileEntry>* new_mesh = nullptr);
+                       const MeshBuild* new_mesh = nullptr);
   // `more_follow`: the increment adds more captures after this one
   // (CaptureInput::more_follow).
   void add(const std::string& capture, bool more_follow,
@@ -284,6 +285,7 @@ class SiteJob {
   std::vector<std::string> dense_added_, dense_withdrawn_;
   DenseTiles dense_tiles_, pending_dense_tiles_;  // the published cloud
   std::vector<MeshTileEntry> mesh_tiles_, pending_mesh_tiles_;  // surface
+  MeshCursor mesh_cursor_, pending_mesh_cursor_;  // with mesh_tiles_
   std::size_t dense_points_ = 0, pending_dense_points_ = 0;
   // The views the published cloud covers.
   std::set<std::string> dense_views_, pending_dense_views_;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Dense>
 
@@ -75,6 +76,23 @@ uint64_t voxel_key(const Eigen::Vector3d& xyz, double size) {
   };
   return axis(xyz.x()) << 42 | axis(xyz.y()) << 21 | axis(xyz.z());
 }
+
+// The voxel key's x and y fields (voxel_key), shifted down to its block's.
+constexpr int kBlockShift = 4;
+static_assert(1 << kBlockShift == VoxelCloud::kBlockVoxels);
+constexpr uint64_t kAxisMask = (uint64_t{1} << 21) - 1;
+// voxel_key's offset (1 << 20) in blocks: a multiple of the block, so a
+// block's field is its index plus this.
+constexpr long long kBlockOffset = 1LL << (20 - kBlockShift);
+
+uint64_t block_key(long long ix, long long iy) {
+  return static_cast<uint64_t>(ix + kBlockOffset) << 32 |
+         static_cast<uint64_t>(iy + kBlockOffset);
+}
+
+// One counter for every cloud of the process (VoxelCloud::blocks).
+std::atomic<uint64_t> last_stamp{0};
+uint64_t next_stamp() { return ++last_stamp; }
 
 }  // namespace
 
@@ -191,7 +209,8 @@ DepthAgreement compare_depth_maps(const DepthMap& a, const DepthMap& b) {
   return result;
 }
 
-VoxelCloud::VoxelCloud(double voxel_size) : voxel_size_(voxel_size) {
+VoxelCloud::VoxelCloud(double voxel_size)
+    : voxel_size_(voxel_size), stamp_(next_stamp()) {
   if (!(voxel_size > 0))
     throw std::invalid_argument("VoxelCloud: voxel size must be positive");
 }
@@ -200,8 +219,20 @@ void VoxelCloud::add(const CloudSample& sample) {
   const uint64_t key = voxel_key(sample.xyz, voxel_size_);
   auto [it, inserted] =
       index_.try_emplace(key, static_cast<uint32_t>(voxels_.size()));
-  if (inserted) voxels_.emplace_back();
+  if (inserted) {
+    voxels_.emplace_back().block = block_of(key);
+    blocks_[voxels_.back().block].voxels.push_back(it->second);
+  }
   Voxel& voxel = voxels_[it->second];
+  Block& block = blocks_[voxel.block];
+  const float x = static_cast<float>(sample.xyz.x());
+  const float y = static_cast<float>(sample.xyz.y());
+  block.min_x = std::min(block.min_x, x);
+  block.max_x = std::max(block.max_x, x);
+  block.min_y = std::min(block.min_y, y);
+  block.max_y = std::max(block.max_y, y);
+  if (voxel.count == 0) ++block.occupied;
+  touch(voxel);
   voxel.sum += sample.xyz;
   voxel.normal_sum += sample.normal;
   for (int c = 0; c < 3; ++c) voxel.rgb_sum[c] += sample.rgb[c];
@@ -218,9 +249,11 @@ VoxelCloud::Voxel* VoxelCloud::find(const Eigen::Vector3d& xyz) {
 bool VoxelCloud::remove(const CloudSample& sample) {
   Voxel* voxel = find(sample.xyz);
   if (!voxel) return false;
+  touch(*voxel);
   if (--voxel->count == 0) {
+    --blocks_[voxel->block].occupied;
     // Exactly empty, whatever rounding the sums carried.
-    *voxel = Voxel{};
+    *voxel = Voxel{.block = voxel->block};
     index_.erase(voxel_key(sample.xyz, voxel_size_));
     if (voxels_.size() > 1024 && index_.size() < voxels_.size() / 2) compact();
     return true;
@@ -238,6 +271,7 @@ bool VoxelCloud::remove(const CloudSample& sample) {
 bool VoxelCloud::change_support(const Eigen::Vector3d& xyz, int from, int to) {
   Voxel* voxel = find(xyz);
   if (!voxel) return false;
+  touch(*voxel);
   voxel->support_sum -=
       std::min<uint32_t>(std::max(0, from), voxel->support_sum);
   voxel->support_sum += static_cast<uint32_t>(std::max(0, to));
@@ -246,7 +280,8 @@ bool VoxelCloud::change_support(const Eigen::Vector3d& xyz, int from, int to) {
 
 // Drops the emptied slots, keeping the order of the others.
 void VoxelCloud::compact() {
-  std::vector<uint32_t> moved_to(voxels_.size(), 0);
+  constexpr uint32_t kDropped = std::numeric_limits<uint32_t>::max();
+  std::vector<uint32_t> moved_to(voxels_.size(), kDropped);
   size_t kept = 0;
   for (size_t i = 0; i < voxels_.size(); ++i) {
     if (voxels_[i].count == 0) continue;
@@ -255,37 +290,118 @@ void VoxelCloud::compact() {
   }
   voxels_.resize(kept);
   for (auto& [key, slot] : index_) slot = moved_to[slot];
+  for (Block& block : blocks_) {
+    std::erase_if(block.voxels,
+                  [&](uint32_t slot) { return moved_to[slot] == kDropped; });
+    for (uint32_t& slot : block.voxels) slot = moved_to[slot];
+  }
+}
+
+void VoxelCloud::clear() {
+  voxels_.clear();
+  index_.clear();
+  blocks_.clear();
+  block_index_.clear();
+  stamp_ = next_stamp();
+}
+
+uint32_t VoxelCloud::block_of(uint64_t voxel_key) {
+  const long long ix =
+      static_cast<long long>((voxel_key >> 42 & kAxisMask) >> kBlockShift) -
+      kBlockOffset;
+  const long long iy =
+      static_cast<long long>((voxel_key >> 21 & kAxisMask) >> kBlockShift) -
+      kBlockOffset;
+  auto [it, inserted] = block_index_.try_emplace(
+      block_key(ix, iy), static_cast<uint32_t>(blocks_.size()));
+  if (inserted) {
+    blocks_.emplace_back();
+    blocks_.back().ix = ix;
+    blocks_.back().iy = iy;
+  }
+  return it->second;
+}
+
+std::vector<CloudBlock> VoxelCloud::blocks() const {
+  std::vector<CloudBlock> out;
+  out.reserve(blocks_.size());
+  for (const Block& block : blocks_)
+    out.push_back({block.ix, block.iy, block.changed, block.occupied,
+                   block.min_x, block.min_y, block.max_x, block.max_y});
+  return out;
+}
+
+uint64_t VoxelCloud::mark() {
+  const uint64_t mark = stamp_;
+  stamp_ = next_stamp();
+  return mark;
+}
+
+std::vector<ColoredPoint> VoxelCloud::points_in(
+    const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) const {
+  // A block more on each side: a mean rounded to float may cross its edge.
+  const double edge = block_edge();
+  const double x0 = std::floor(lo.x() / edge) - 1,
+               x1 = std::floor(hi.x() / edge) + 1;
+  const double y0 = std::floor(lo.y() / edge) - 1,
+               y1 = std::floor(hi.y() / edge) + 1;
+  std::vector<uint32_t> slots;
+  const auto take = [&](const Block& block) {
+    if (block.ix >= x0 && block.ix <= x1 && block.iy >= y0 && block.iy <= y1)
+      slots.insert(slots.end(), block.voxels.begin(), block.voxels.end());
+  };
+  if (!((x1 - x0 + 1) * (y1 - y0 + 1) < static_cast<double>(blocks_.size()))) {
+    for (const Block& block : blocks_)
+      take(block);  // as cheap as a lookup each
+  } else {
+    for (auto ix = static_cast<long long>(x0); ix <= x1; ++ix)
+      for (auto iy = static_cast<long long>(y0); iy <= y1; ++iy)
+        if (const auto it = block_index_.find(block_key(ix, iy));
+            it != block_index_.end())
+          take(blocks_[it->second]);
+  }
+  std::sort(slots.begin(), slots.end());  // the cloud's order
+  std::vector<ColoredPoint> points;
+  for (const uint32_t slot : slots) {
+    if (voxels_[slot].count == 0) continue;
+    const ColoredPoint p = mean_of(voxels_[slot]);
+    if (p.x >= lo.x() && p.x < hi.x() && p.y >= lo.y() && p.y < hi.y())
+      points.push_back(p);
+  }
+  return points;
 }
 
 std::vector<ColoredPoint> VoxelCloud::points() const {
   std::vector<ColoredPoint> points;
   points.reserve(index_.size());
-  for (const Voxel& voxel : voxels_) {
-    if (voxel.count == 0) continue;
-    const Eigen::Vector3d mean = voxel.sum / voxel.count;
-    ColoredPoint p;
-    p.x = static_cast<float>(mean.x());
-    p.y = static_cast<float>(mean.y());
-    p.z = static_cast<float>(mean.z());
-    p.r = static_cast<uint8_t>((voxel.rgb_sum[0] + voxel.count / 2) /
-                               voxel.count);
-    p.g = static_cast<uint8_t>((voxel.rgb_sum[1] + voxel.count / 2) /
-                               voxel.count);
-    p.b = static_cast<uint8_t>((voxel.rgb_sum[2] + voxel.count / 2) /
-                               voxel.count);
-    const float length = voxel.normal_sum.norm();
-    if (length > 0) {
-      p.nx = voxel.normal_sum.x() / length;
-      p.ny = voxel.normal_sum.y() / length;
-      p.nz = voxel.normal_sum.z() / length;
-    }
-    p.support = static_cast<uint8_t>(std::min<uint32_t>(
-        255, (voxel.support_sum + voxel.count / 2) / voxel.count));
-    p.score = static_cast<uint8_t>(std::min<long>(
-        255, std::lround(255.0 * voxel.score_sum / (1000.0 * voxel.count))));
-    points.push_back(p);
-  }
+  for (const Voxel& voxel : voxels_)
+    if (voxel.count > 0) points.push_back(mean_of(voxel));
   return points;
+}
+
+ColoredPoint VoxelCloud::mean_of(const Voxel& voxel) const {
+  const Eigen::Vector3d mean = voxel.sum / voxel.count;
+  ColoredPoint p;
+  p.x = static_cast<float>(mean.x());
+  p.y = static_cast<float>(mean.y());
+  p.z = static_cast<float>(mean.z());
+  p.r =
+      static_cast<uint8_t>((voxel.rgb_sum[0] + voxel.count / 2) / voxel.count);
+  p.g =
+      static_cast<uint8_t>((voxel.rgb_sum[1] + voxel.count / 2) / voxel.count);
+  p.b =
+      static_cast<uint8_t>((voxel.rgb_sum[2] + voxel.count / 2) / voxel.count);
+  const float length = voxel.normal_sum.norm();
+  if (length > 0) {
+    p.nx = voxel.normal_sum.x() / length;
+    p.ny = voxel.normal_sum.y() / length;
+    p.nz = voxel.normal_sum.z() / length;
+  }
+  p.support = static_cast<uint8_t>(std::min<uint32_t>(
+      255, (voxel.support_sum + voxel.count / 2) / voxel.count));
+  p.score = static_cast<uint8_t>(std::min<long>(
+      255, std::lround(255.0 * voxel.score_sum / (1000.0 * voxel.count))));
+  return p;
 }
 
 }  // namespace arscout::engine

@@ -13,6 +13,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <unordered_map>
 #include <vector>
 
@@ -131,10 +132,25 @@ class VoxelCloud {
   std::vector<ColoredPoint> points() const;
   size_t size() const { return index_.size(); }
   double voxel_size() const { return voxel_size_; }
-  void clear() {
-    voxels_.clear();
-    index_.clear();
-  }
+  void clear();
+
+  // The ground cut into blocks of kBlockVoxels x kBlockVoxels voxel columns,
+  // aligned with the voxels: every block that has held a point since the
+  // cloud was made or cleared (one emptied since has 0 points: a reader
+  // sees that it changed), with the stamp of its last change (an add,
+  // remove or change_support there). Stamps come from one counter per
+  // process: a cloud made, or cleared, after mark() returned m changes
+  // only with stamps above m, so a reader that keeps m may follow a
+  // cloud that is replaced by another.
+  static constexpr int kBlockVoxels = 16;
+  double block_edge() const { return kBlockVoxels * voxel_size_; }
+  std::vector<CloudBlock> blocks() const;
+  // The stamp of the changes so far; later changes carry a larger one.
+  uint64_t mark();
+  // points() of the voxels whose means lie in [lo, hi) on the ground (x
+  // and y), in the same order; reads only the blocks there.
+  std::vector<ColoredPoint> points_in(const Eigen::Vector2d& lo,
+                                      const Eigen::Vector2d& hi) const;
 
  private:
   struct Voxel {
@@ -144,13 +160,30 @@ class VoxelCloud {
     uint32_t support_sum = 0;
     uint32_t score_sum = 0;  // thousandths: removal undoes add exactly
     uint32_t count = 0;      // 0: emptied by remove(), skipped
+    uint32_t block = 0;      // in blocks_
   };
+  struct Block {
+    long long ix = 0, iy = 0;
+    uint64_t changed = 0;
+    uint32_t occupied = 0;         // voxels with a sample
+    std::vector<uint32_t> voxels;  // slots in voxels_, ascending
+    // Of the samples' x and y as floats: a mean lies within them.
+    float min_x = kNone, min_y = kNone, max_x = -kNone, max_y = -kNone;
+  };
+  static constexpr float kNone = std::numeric_limits<float>::infinity();
   Voxel* find(const Eigen::Vector3d& xyz);
+  // The block of a voxel key, made when new.
+  uint32_t block_of(uint64_t voxel_key);
+  void touch(const Voxel& voxel) { blocks_[voxel.block].changed = stamp_; }
+  ColoredPoint mean_of(const Voxel& voxel) const;
   void compact();
 
   double voxel_size_;
   std::vector<Voxel> voxels_;  // in first-seen order: deterministic output
   std::unordered_map<uint64_t, uint32_t> index_;  // voxel key -> voxels_
+  std::vector<Block> blocks_;
+  std::unordered_map<uint64_t, uint32_t> block_index_;  // -> blocks_
+  uint64_t stamp_;
 };
 
 }  // namespace arscout::engine

@@ -877,6 +877,24 @@ std::vector<ColoredPoint> DenseReconstruction::points() const {
   return impl_->cloud ? impl_->cloud->points() : std::vector<ColoredPoint>{};
 }
 
+std::vector<CloudBlock> DenseReconstruction::cloud_blocks() const {
+  return impl_->cloud ? impl_->cloud->blocks() : std::vector<CloudBlock>{};
+}
+
+double DenseReconstruction::cloud_block_edge() const {
+  return impl_->cloud ? impl_->cloud->block_edge() : 0;
+}
+
+std::uint64_t DenseReconstruction::mark_cloud() {
+  return impl_->cloud ? impl_->cloud->mark() : 0;
+}
+
+std::vector<ColoredPoint> DenseReconstruction::points_in(
+    const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) const {
+  return impl_->cloud ? impl_->cloud->points_in(lo, hi)
+                      : std::vector<ColoredPoint>{};
+}
+
 std::vector<DepthMap> DenseReconstruction::filtered_depth_maps() const {
   std::vector<DepthMap> maps;
   for (const std::string& id : impl_->order) {

@@ -47,8 +47,13 @@ struct ColumnCubes {
 
 ColumnCubes column_cubes(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi,
                          double cell) {
+  // A bound meant on the grid is taken as on it: one column's upper bound
+  // and its neighbour's lower bound, computed apart, may differ in the
+  // last bit, and a cube would then belong to both or to neither (a seam).
   const auto first = [cell](double v) {
-    return static_cast<std::int64_t>(std::ceil(v / cell));
+    const double steps = v / cell, nearest = std::round(steps);
+    return static_cast<std::int64_t>(
+        std::abs(steps - nearest) < 1e-6 ? nearest : std::ceil(steps));
   };
   return {first(lo.x()), first(hi.x()) - 1, first(lo.y()), first(hi.y()) - 1};
 }
@@ -109,6 +114,13 @@ class ImplicitFunction {
     return static_cast<float>(sum / weights);
   }
 
+  // Whether a point lies within `radius` (at most the blending radius).
+  bool near_a_point(const Eigen::Vector3d& x, double radius) const {
+    bool near = false;
+    hash_.within(x, radius, [&](std::uint32_t, double) { near = true; });
+    return near;
+  }
+
   // The blended colour and normal at a surface vertex.
   void shade(const Eigen::Vector3d& x, std::array<std::uint8_t, 3>& color,
              Eigen::Vector3f& normal) const {
@@ -137,6 +149,25 @@ class ImplicitFunction {
   int min_points_;
 };
 
+// `indices` without the triangles whose centre is farther than `radius`
+// from every point.
+std::vector<std::uint32_t> near_the_points(
+    const std::vector<std::uint32_t>& indices,
+    const std::vector<Eigen::Vector3d>& positions,
+    const ImplicitFunction& function, double radius) {
+  std::vector<std::uint32_t> kept;
+  kept.reserve(indices.size());
+  for (std::size_t t = 0; t + 2 < indices.size(); t += 3) {
+    const Eigen::Vector3d centre =
+        (positions[indices[t]] + positions[indices[t + 1]] +
+         positions[indices[t + 2]]) /
+        3;
+    if (function.near_a_point(centre, radius))
+      kept.insert(kept.end(), indices.begin() + t, indices.begin() + t + 3);
+  }
+  return kept;
+}
+
 }  // namespace
 
 TexturedMesh mesh_surface(const std::vector<ColoredPoint>& points,
@@ -162,7 +193,10 @@ TexturedMesh mesh_surface(const std::vector<ColoredPoint>& points,
   const mesh::IsoSurface iso = mesh::polygonise(
       cubes_near_points(oriented_points, column, cell), cell, value, 2 * cell);
   TexturedMesh out;
-  out.indices = iso.indices;
+  const double trim = std::min(options.trim_cells, options.radius_cells) * cell;
+  out.indices =
+      trim > 0 ? near_the_points(iso.indices, iso.positions, function, trim)
+               : iso.indices;
   out.positions.reserve(iso.positions.size());
   out.colors.resize(iso.positions.size());
   out.normals.resize(iso.positions.size());

@@ -13,6 +13,8 @@
 // of the surface (not the distance along the ray), 0 where unknown.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -173,6 +175,22 @@ struct ConsistencyOptions {
   // needs one more agreeing map. 0 turns it off.
   double weak_triangulation_deg = 4.0;
   bool parallel = true;  // rows over OpenCV's threads (PlaneSweepOptions)
+};
+
+// A square of the ground (x, y in the site frame) holding fused points,
+// for readers that follow the cloud region by region (the service's mesh
+// tiles): block (ix, iy) spans [ix * edge, (ix + 1) * edge) in x and the
+// same in y, where edge is the cloud's block edge
+// (DenseReconstruction::cloud_block_edge). `changed` is the stamp of its
+// last change (DenseReconstruction::mark_cloud); `points` may be 0 (it lost
+// its last one). Every point it holds has min_x <= x <= max_x and
+// min_y <= y <= max_y (bounds of what it ever held: a removal does not
+// shrink them), with the points' own float rounding.
+struct CloudBlock {
+  long long ix = 0, iy = 0;
+  std::uint64_t changed = 0;
+  std::size_t points = 0;
+  float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
 };
 
 }  // namespace arscout::engine

@@ -13,6 +13,7 @@
 // (serialize_depth_map, restore_depth_maps).
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
@@ -175,6 +176,27 @@ class DenseReconstruction {
   void set_parallel_while(std::function<bool()> while_true);
 
   std::vector<ColoredPoint> points() const;
+  // The cloud region by region, for a reader that follows its changes
+  // without reading it whole each time (the service's mesh tiles):
+  //
+  //   const uint64_t seen = dense.mark_cloud();  // ... later updates ...
+  //   for (const CloudBlock& b : dense.cloud_blocks())
+  //     if (b.changed > seen) reread(dense.points_in(lo_of(b), hi_of(b)));
+  //
+  // The blocks that held points since the cloud was fused afresh
+  // (CloudBlock), cloud_block_edge() wide (16 voxels; 0 before the first
+  // fusion); one that lost its last point is listed with 0 points and the
+  // stamp of that change. A cloud fused afresh (a new voxel edge, a
+  // rebuild) is all new blocks, stamped above every mark made before.
+  std::vector<CloudBlock> cloud_blocks() const;
+  double cloud_block_edge() const;
+  // The stamp of the cloud's changes so far: later ones carry larger
+  // stamps. 0 before the first fusion.
+  std::uint64_t mark_cloud();
+  // points() whose x and y lie in [lo, hi), in points()'s order; reads
+  // only the blocks there.
+  std::vector<ColoredPoint> points_in(const Eigen::Vector2d& lo,
+                                      const Eigen::Vector2d& hi) const;
   // The stored maps, filtered: only pixels another map agrees with.
   std::vector<DepthMap> filtered_depth_maps() const;
   // As swept, before the consistency filter.

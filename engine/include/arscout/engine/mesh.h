@@ -78,6 +78,12 @@ struct SurfaceOptions {
   // dropped, unless they reach the column's border: a tight cluster of
   // stray points makes a closed blob about the blending radius across.
   double min_piece_area_cells = 64;
+  // Triangles whose centre lies farther than this many cells from every
+  // point are dropped: the blending carries the surface past the data (a
+  // rim where the points end, a bridge over a gap) up to about the cubes
+  // around the points, and that surface is guessed, not measured. At most
+  // radius_cells; 0: none is dropped.
+  double trim_cells = 1.0;
 };
 
 // The surface of the cells whose lowest corner lies in the column
