@@ -26,7 +26,7 @@ struct MeshBuildOptions {
   int max_views = 8;      // nearest key views that see a tile texture it
   int jpeg_quality = 85;  // of the atlases
   // A mesh tile is a column this many grid steps wide (96 dense voxels,
-  // 1.3 m at the block walk's 1.4 cm). Narrow enough that the first tile of
+  // 1.5 m at the block walk's 1.6 cm). Narrow enough that the first tile of
   // a phase, made whatever the budget, stays inside it (a tile's cost
   // follows its points: about 0.5 s for 120,000 on 2 cores).
   int tile_cells = 48;
