@@ -71,20 +71,21 @@ std::pair<Eigen::Vector2d, Eigen::Vector2d> column_box(const MeshTileKey& key,
 }
 
 // The points a column's surface reads (its own and its margin's), in the
-// cloud's order, and how many are its own.
+// cloud's order, and how many are its own (when `own_count` is given).
 std::vector<ColoredPoint> inputs_of(const MeshCloud& cloud,
                                     const MeshTileKey& key, double edge,
                                     double margin, std::size_t* own_count) {
   // A hair more: points_in tests the points, for_tiles_of divides them.
   const auto [lo, hi] = column_box(key, edge, margin + kHair * edge);
   std::vector<ColoredPoint> points = cloud.points_in(lo, hi);
-  *own_count = 0;
+  std::size_t own_points = 0;
   std::erase_if(points, [&](const ColoredPoint& p) {
     bool own = false;
     if (!reads(p, key, edge, margin, &own)) return true;
-    *own_count += own;
+    own_points += own;
     return false;
   });
+  if (own_count) *own_count = own_points;
   return points;
 }
 
@@ -305,10 +306,9 @@ std::map<MeshTileKey, MeshTileEntry> make_queued(
     if (options.budget_seconds > 0 && !made.empty() &&
         seconds_since(start) + estimate > options.budget_seconds)
       break;
-    std::size_t own = 0;
     made[need.key] = make_tile(
-        need.key, inputs_of(cloud, need.key, at.edge, at.margin, &own), at.edge,
-        at.voxel, at.cell, views, put_blob, options);
+        need.key, inputs_of(cloud, need.key, at.edge, at.margin, nullptr),
+        at.edge, at.voxel, at.cell, views, put_blob, options);
     points_made += need.points;
   }
   return made;
@@ -329,11 +329,10 @@ std::set<MeshTileKey> columns_to_look_at(const std::vector<CloudBlock>& blocks,
   return look;
 }
 
-// A column read again: its inputs' hash and counts.
+// A column's inputs as read: their hash and count.
 struct Column {
   std::uint64_t hash = 0;
   std::size_t points = 0;
-  std::size_t own = 0;
 };
 
 std::map<MeshTileKey, Column> read_columns(const MeshCloud& cloud,
@@ -341,13 +340,14 @@ std::map<MeshTileKey, Column> read_columns(const MeshCloud& cloud,
                                            const TileGeometry& at) {
   std::map<MeshTileKey, Column> columns;
   for (const MeshTileKey& key : keys) {
-    Column column;
+    std::size_t own = 0;
     const std::vector<ColoredPoint> inputs =
-        inputs_of(cloud, key, at.edge, at.margin, &column.own);
+        inputs_of(cloud, key, at.edge, at.margin, &own);
+    // A column with margin points alone has no cell of its own to mesh.
+    if (own == 0) continue;
+    Column& column = columns[key];
     for (const ColoredPoint& p : inputs) column.hash += dense_point_hash(p);
     column.points = inputs.size();
-    // A column with margin points alone has no cell of its own to mesh.
-    if (column.own > 0) columns[key] = column;
   }
   return columns;
 }
@@ -441,7 +441,7 @@ MeshBuild update_mesh_tiles(
   if (since.cell == at.cell)
     for (const StaleColumn& c : since.left)
       if (held.count({c.ix, c.iy}) && !look.count({c.ix, c.iy}))
-        looked[{c.ix, c.iy}] = Column{c.hash, c.points, 1};
+        looked[{c.ix, c.iy}] = Column{c.hash, c.points};
   const std::map<MeshTileKey, MeshTileEntry> made = make_queued(
       queue_of(looked, before), cloud, at, views, put_blob, options, start);
   MeshBuild build;
