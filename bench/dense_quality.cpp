@@ -424,6 +424,51 @@ void print_mesh_rows(const std::vector<Row>& rows) {
   std::cout << std::endl;
 }
 
+// Where the gaps are: the block walks' seen surface and its completeness
+// split by how many key views see it (ev::CompletenessFigures).
+void print_completeness_by_views(const std::vector<Row>& rows) {
+  struct Range {
+    const char* label;
+    int from, to;
+  };
+  const Range ranges[] = {{"2", 2, 2},
+                          {"3", 3, 3},
+                          {"4-5", 4, 5},
+                          {"6-7", 6, 7},
+                          {"8+", ev::kMostViewsCounted, ev::kMostViewsCounted}};
+  std::cout << "| scene | key views seeing the surface |";
+  for (const Range& range : ranges) std::cout << " " << range.label << " |";
+  std::cout << "\n|---|---|---|---|---|---|---|\n";
+  auto sum = [](const auto& counts, const Range& range) {
+    int64_t total = 0;
+    for (int k = range.from; k <= range.to; ++k) total += counts[k];
+    return static_cast<double>(total);
+  };
+  auto line = [&](const Row& r, const char* what, auto share_of) {
+    std::cout << "| " << r.label << " | " << what << " |";
+    for (const Range& range : ranges)
+      std::cout << " " << percent(share_of(range)) << " |";
+    std::cout << "\n";
+  };
+  for (const Row& r : rows) {
+    const auto& cloud = r.completeness;
+    if (!r.block || cloud.seen == 0) continue;
+    line(r, "share of the seen surface", [&](const Range& range) {
+      return sum(cloud.seen_by_views, range) / cloud.seen;
+    });
+    auto covered = [&](const ev::CompletenessFigures& f) {
+      return [&](const Range& range) {
+        const double seen = sum(f.seen_by_views, range);
+        return seen > 0 ? sum(f.covered_by_views, range) / seen : 0.0;
+      };
+    };
+    line(r, "cloud completeness", covered(cloud));
+    if (r.mesh_completeness.seen > 0)
+      line(r, "mesh completeness", covered(r.mesh_completeness));
+  }
+  std::cout << std::endl;
+}
+
 // The PASS/FAIL lines; true when every scene meets its targets.
 bool print_targets(const std::vector<Row>& rows) {
   bool all_met = true;
@@ -523,6 +568,7 @@ int main(int argc, char** argv) {
   }
   print_rows(rows);
   if (o.mesh) print_mesh_rows(rows);
+  print_completeness_by_views(rows);
   const bool met = print_targets(rows);
   return o.check && !met ? 1 : 0;
 }

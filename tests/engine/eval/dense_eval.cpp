@@ -202,12 +202,14 @@ void sample_surface(const Parallelogram& surface,
                                 (j + 0.5) / nv * surface.edge_v;
       int seeing = 0;
       for (const DepthView* view : candidates)
-        if (view_sees(*view, x, normal, options) &&
-            ++seeing == options.min_views)
-          break;
+        seeing += view_sees(*view, x, normal, options);
       if (seeing < options.min_views) continue;
+      const bool covered = grid.has_point_within(x);
+      const int bucket = std::min(seeing, kMostViewsCounted);
       ++figures.seen;
-      figures.covered += grid.has_point_within(x);
+      ++figures.seen_by_views[bucket];
+      figures.covered += covered;
+      figures.covered_by_views[bucket] += covered;
     }
 }
 

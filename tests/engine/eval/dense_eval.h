@@ -9,6 +9,7 @@
 // model_eval.h, compare_to_ground_truth).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -80,11 +81,21 @@ struct CompletenessOptions {
   double max_footprint_m = 0.05;
 };
 
+// Samples seen by this many views or more share the last count of
+// CompletenessFigures' by-views split.
+constexpr int kMostViewsCounted = 8;
+
 struct CompletenessFigures {
   int64_t samples = 0;  // on all surfaces
   int64_t seen = 0;     // seen by at least min_views views
   int64_t covered = 0;  // of those, with a point within tolerance_m
   double share = 0;     // covered / seen (0 when none is seen)
+  // The seen and covered samples split by how many views see them ([k]:
+  // k views, [kMostViewsCounted]: that many or more): where a cloud's gaps
+  // are, surface few views see or surface many do. Each sums to seen and
+  // covered.
+  std::array<int64_t, kMostViewsCounted + 1> seen_by_views{};
+  std::array<int64_t, kMostViewsCounted + 1> covered_by_views{};
 };
 
 // The share of the true surface seen by at least `min_views` of `views`

@@ -131,6 +131,35 @@ TEST(DenseEval, CompletenessIsTheSeenSurfaceThatHasAPointNearIt) {
   EXPECT_EQ(ev::measure_completeness(surfaces, views, points, options).seen, 0);
 }
 
+TEST(DenseEval, CompletenessIsSplitByHowManyViewsSeeEachSample) {
+  // Two views 5 m away see the whole wall; a third 2 m away sees about
+  // x in [1.9, 4], z in [0.3, 2.7]. Points cover the left half only.
+  std::vector<ev::DepthView> views = {north_view(Vector3d(1.5, 0, 1.5)),
+                                      north_view(Vector3d(2.5, 0, 1.5)),
+                                      north_view(Vector3d(3.5, 3, 1.5))};
+  fill_depths(views, {wall()});
+  std::vector<Vector3d> points;
+  for (double x = 0.01; x < 2; x += 0.02)
+    for (double z = 0.01; z < 3; z += 0.02) points.emplace_back(x, 5, z);
+  const auto f = ev::measure_completeness({wall()}, views, points);
+  int64_t seen = 0, covered = 0;
+  for (int k = 0; k <= ev::kMostViewsCounted; ++k) {
+    seen += f.seen_by_views[k];
+    covered += f.covered_by_views[k];
+    EXPECT_LE(f.covered_by_views[k], f.seen_by_views[k]);
+    if (k != 2 && k != 3) {
+      EXPECT_EQ(f.seen_by_views[k], 0) << k;
+    }
+  }
+  EXPECT_EQ(seen, f.seen);
+  EXPECT_EQ(covered, f.covered);
+  // The third view's part: about 2.1 x 2.4 m of the 12 m^2.
+  EXPECT_NEAR(static_cast<double>(f.seen_by_views[3]) / f.seen, 0.42, 0.05);
+  // The covered left half lies almost wholly in the two views' part.
+  EXPECT_LT(f.covered_by_views[3], 0.1 * f.seen_by_views[3]);
+  EXPECT_GT(f.covered_by_views[2], 0.75 * f.seen_by_views[2]);
+}
+
 TEST(DenseEval, CompletenessLeavesOutWhatIsHiddenOrSeenTooCoarsely) {
   // A screen 1 m in front of the wall's right half hides it from both views.
   const ev::Parallelogram screen{Vector3d(2, 4, 0), Vector3d(3, 0, 0),
