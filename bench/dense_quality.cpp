@@ -436,6 +436,10 @@ void print_completeness_by_views(const std::vector<Row>& rows) {
                           {"4-5", 4, 5},
                           {"6-7", 6, 7},
                           {"8+", ev::kMostViewsCounted, ev::kMostViewsCounted}};
+  if (std::none_of(rows.begin(), rows.end(), [](const Row& r) {
+        return r.block && r.completeness.seen > 0;
+      }))
+    return;
   std::cout << "| scene | key views seeing the surface |";
   for (const Range& range : ranges) std::cout << " " << range.label << " |";
   std::cout << "\n|---|---|---|---|---|---|---|\n";
