@@ -20,7 +20,9 @@
 //     counts when at least 2 key views (the captures that got a depth map,
 //     at their true poses) see it unhidden and resolve it (a pixel of the
 //     dense working resolution covers at most 5 cm of it there); the share
-//     of those with a point within 5 cm.
+//     of those with a point within 5 cm, and a table of it split by how
+//     many key views see the sample (2, 3, 4-5, 6-7, 8 or more): where the
+//     gaps are.
 //
 // Every scene (the real ones by default: ../shared/data/opensfm/lund and
 // strecha/fountain-P11) also gets the implausible share: points more than
