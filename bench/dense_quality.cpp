@@ -438,10 +438,10 @@ void print_completeness_by_views(const std::vector<Row>& rows) {
                           {"4-5", 4, 5},
                           {"6-7", 6, 7},
                           {"8+", ev::kMostViewsCounted, ev::kMostViewsCounted}};
-  if (std::none_of(rows.begin(), rows.end(), [](const Row& r) {
-        return r.block && r.completeness.seen > 0;
-      }))
-    return;
+  std::vector<const Row*> measured;
+  for (const Row& r : rows)
+    if (r.block && r.completeness.seen > 0) measured.push_back(&r);
+  if (measured.empty()) return;
   std::cout << "| scene | key views seeing the surface |";
   for (const Range& range : ranges) std::cout << " " << range.label << " |";
   std::cout << "\n|---|---|---|---|---|---|---|\n";
@@ -456,21 +456,21 @@ void print_completeness_by_views(const std::vector<Row>& rows) {
       std::cout << " " << percent(share_of(range)) << " |";
     std::cout << "\n";
   };
-  for (const Row& r : rows) {
-    const auto& cloud = r.completeness;
-    if (!r.block || cloud.seen == 0) continue;
-    line(r, "share of the seen surface", [&](const Range& range) {
+  // Per range, the share of its seen samples that `f` covers.
+  auto covered = [&](const ev::CompletenessFigures& f) {
+    return [&](const Range& range) {
+      const double seen = sum(f.seen_by_views, range);
+      return seen > 0 ? sum(f.covered_by_views, range) / seen : 0.0;
+    };
+  };
+  for (const Row* r : measured) {
+    const auto& cloud = r->completeness;
+    line(*r, "share of the seen surface", [&](const Range& range) {
       return sum(cloud.seen_by_views, range) / cloud.seen;
     });
-    auto covered = [&](const ev::CompletenessFigures& f) {
-      return [&](const Range& range) {
-        const double seen = sum(f.seen_by_views, range);
-        return seen > 0 ? sum(f.covered_by_views, range) / seen : 0.0;
-      };
-    };
-    line(r, "cloud completeness", covered(cloud));
-    if (r.mesh_completeness.seen > 0)
-      line(r, "mesh completeness", covered(r.mesh_completeness));
+    line(*r, "cloud completeness", covered(cloud));
+    if (r->mesh_completeness.seen > 0)
+      line(*r, "mesh completeness", covered(r->mesh_completeness));
   }
   std::cout << std::endl;
 }
